@@ -1,0 +1,1 @@
+//! `raytracer`: see ARCHITECTURE.md.

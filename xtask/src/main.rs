@@ -1,0 +1,104 @@
+//! Project automation, run as `cargo xtask <command>` (alias in `.cargo/config.toml`).
+//!
+//! - `cargo xtask test`: the whole test suite, exactly what CI runs. It first makes sure the
+//!   system packages the GPU and window tests need are installed (a software Vulkan driver and a
+//!   virtual X server), so the viewer's GPU code really runs on a machine without a GPU.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+/// Debian packages the test suite needs: lavapipe (software Vulkan) and its loader, so wgpu finds
+/// a Vulkan adapter that can copy depth textures; Xvfb, so window tests have a display.
+const TEST_PACKAGES: &[&str] = &["mesa-vulkan-drivers", "libvulkan1", "xvfb", "xauth"];
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("test") => test(&args[1..]),
+        Some("install-test-deps") => install_test_packages(),
+        _ => {
+            eprintln!(
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need"
+            );
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("xtask: error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask lives in the workspace").to_path_buf()
+}
+
+fn cargo() -> Command {
+    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cmd.current_dir(workspace_root());
+    cmd
+}
+
+fn run(cmd: &mut Command) -> Result<(), String> {
+    eprintln!("xtask: running {cmd:?}");
+    let status = cmd.status().map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+    if status.success() { Ok(()) } else { Err(format!("{cmd:?} failed with {status}")) }
+}
+
+fn have_program(name: &str) -> bool {
+    std::env::var_os("PATH")
+        .map(|paths| std::env::split_paths(&paths).any(|dir| dir.join(name).is_file()))
+        .unwrap_or(false)
+}
+
+fn package_installed(name: &str) -> bool {
+    Command::new("dpkg-query")
+        .args(["-W", "-f=${Status}", name])
+        .output()
+        .map(|o| o.status.success() && String::from_utf8_lossy(&o.stdout).contains("install ok installed"))
+        .unwrap_or(false)
+}
+
+/// Installs [`TEST_PACKAGES`] with apt when any is missing. Fails loudly rather than letting GPU
+/// tests silently skip: a test must never pass because no adapter was found.
+fn install_test_packages() -> Result<(), String> {
+    if !have_program("dpkg-query") {
+        return Err("this machine has no dpkg; install a Vulkan driver (lavapipe) and Xvfb by hand".into());
+    }
+    let missing: Vec<&str> = TEST_PACKAGES.iter().copied().filter(|p| !package_installed(p)).collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let as_root = Command::new("id").arg("-u").output().map(|o| o.stdout.starts_with(b"0")).unwrap_or(false);
+    let apt = |args: &[&str]| {
+        let mut cmd = if as_root {
+            Command::new("apt-get")
+        } else {
+            let mut c = Command::new("sudo");
+            c.arg("apt-get");
+            c
+        };
+        cmd.args(args).env("DEBIAN_FRONTEND", "noninteractive");
+        cmd
+    };
+    run(&mut apt(&["update", "-q"]))?;
+    let mut install = apt(&["install", "-y", "-q", "--no-install-recommends"]);
+    install.args(&missing);
+    run(&mut install)
+}
+
+fn test(extra: &[String]) -> Result<(), String> {
+    install_test_packages()?;
+    run(cargo().args(["fmt", "--all", "--", "--check"]))?;
+    // Window tests need a display: run the suite under a virtual X server.
+    let mut cmd = Command::new("xvfb-run");
+    cmd.current_dir(workspace_root())
+        .args(["-a", "-s", "-screen 0 1280x1024x24"])
+        .arg(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .args(["test", "--workspace"])
+        .args(extra);
+    run(&mut cmd)
+}
