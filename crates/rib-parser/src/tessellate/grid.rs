@@ -195,16 +195,16 @@ impl Grid {
         }
     }
 
-    /// Adds a triangle unless two of its corners are the same vertex.
+    /// Adds a triangle unless two of its corners are the same vertex or it has no area.
     pub fn push_triangle(&mut self, [a, b, c]: [u32; 3], face: u32) {
-        if a != b && b != c && a != c {
+        let (pa, pb, pc) = (self.position(a), self.position(b), self.position(c));
+        if a != b && b != c && a != c && (pb - pa).cross(pc - pa) != DVec3::ZERO {
             self.mesh.indices.push([a, b, c]);
             self.mesh.face_index.push(face);
         }
     }
 
     /// Adds a vertex that is not a grid point (trimming), with its sample normal.
-    #[allow(dead_code)] // Used by the patch and NURBS tessellators, landing next.
     pub fn push_vertex(&mut self, p: DVec3, n: DVec3, st: Vec2) -> u32 {
         self.mesh.positions.push(p.as_vec3());
         self.normal_sums.push(if n.is_finite() { n.normalize_or_zero() } else { DVec3::ZERO });
@@ -298,7 +298,6 @@ pub(crate) fn compact(mesh: &mut TriangleMesh) {
 /// (Filip, Magedson and Markot's bound `(h_u^2 M_uu + 2 h_u h_v M_uv + h_v^2 M_vv) / 8`); then
 /// every cell is checked at its edge midpoints and centre against the surface, and spans whose
 /// cells miss the bound are refined, until all pass (or the budget is exhausted).
-#[allow(dead_code)] // Used by the patch and NURBS tessellators, landing next.
 pub(crate) fn choose_span_counts(
     kind: &'static str,
     u_breaks: &[f64],
@@ -410,7 +409,6 @@ pub(crate) fn choose_span_counts(
 }
 
 /// Parameter values of spans `breaks` split into `counts` equal segments each.
-#[allow(dead_code)] // Used by the patch and NURBS tessellators, landing next.
 pub(crate) fn span_values(breaks: &[f64], counts: &[usize]) -> Vec<f64> {
     let mut out = Vec::with_capacity(counts.iter().sum::<usize>() + 1);
     for (s, &n) in counts.iter().enumerate() {
@@ -424,7 +422,6 @@ pub(crate) fn span_values(breaks: &[f64], counts: &[usize]) -> Vec<f64> {
 }
 
 /// For every segment of `span_values(_, counts)`, the span it lies in.
-#[allow(dead_code)] // Used by the patch and NURBS tessellators, landing next.
 pub(crate) fn span_of(counts: &[usize]) -> Vec<usize> {
     counts.iter().enumerate().flat_map(|(s, &n)| std::iter::repeat_n(s, n)).collect()
 }

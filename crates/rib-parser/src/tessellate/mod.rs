@@ -49,10 +49,13 @@
 
 mod grid;
 mod mesh;
+mod nurbs;
+mod patch;
 mod placed;
 mod polygon;
 mod primvar;
 mod quadric;
+mod trim;
 
 pub use mesh::TriangleMesh;
 pub use placed::{
@@ -268,7 +271,9 @@ pub(crate) fn tessellate_scaled(
         Shape::Points(_) => return Err(TessellateError::NotASurface { kind: "Points" }),
         Shape::Curves(_) => return Err(TessellateError::NotASurface { kind: "Curves" }),
         Shape::Polygons(polygons) => polygon::tessellate_polygons(polygons, tol)?,
-        Shape::Patches(_) | Shape::NuPatch(_) | Shape::SubdivisionMesh(_) => {
+        Shape::Patches(patches) => patch::tessellate_patches(patches, tol, scale)?,
+        Shape::NuPatch(nupatch) => nurbs::tessellate_nupatch(nupatch, tol, scale, options)?,
+        Shape::SubdivisionMesh(_) => {
             let _ = options;
             return Err(TessellateError::Unsupported { kind: shape_kind(shape) });
         }
@@ -292,7 +297,6 @@ pub(crate) fn check_budget(
 }
 
 /// Bounding-box diagonal of a set of points (0 for none); non-finite points are reported.
-#[allow(dead_code)] // Used by the patch and NURBS tessellators, landing next.
 pub(crate) fn diagonal_of(
     kind: &'static str,
     points: impl Iterator<Item = DVec3>,

@@ -1,5 +1,7 @@
 //! Tests of the tessellators against closed-form surfaces.
 
+mod nurbs;
+mod patch;
 mod placed;
 mod polygon;
 mod quadric;
