@@ -12,6 +12,7 @@
 //!   the camera ([`depth_remap::CameraSettings`]), lights in world space, attribute states,
 //!   shapes in object space with `f64` transforms, object instances, and the `file:line:col`
 //!   of every entity.
+//! - [`tessellate`] turns every surface shape into world-space triangles with a stated tolerance.
 //! - [`summary`] describes a scene in a few lines.
 //! - [`diagnostics`]: warnings and errors rendered as `PATH:LINE:COL: error: message` with the
 //!   source line and a caret.
@@ -49,6 +50,7 @@ pub mod scene;
 pub mod source;
 pub mod summary;
 pub mod target;
+pub mod tessellate;
 
 pub use builder::{BuildOptions, Built, FrameInfo, SceneBuilder};
 pub use diagnostics::{Diagnostic, DiagnosticKind, Diagnostics, RibError, Severity};
