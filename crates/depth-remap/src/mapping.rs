@@ -286,6 +286,13 @@ impl DepthMapping {
         self.convention.ndc_to_window(self.ndc_depth(eye_depth))
     }
 
+    /// The same projection applied to RenderMan's left-handed camera space (`+z` forward):
+    /// `projection(frustum) * diag(1, 1, -1, 1)`, so `clip_from_camera * camera_from_world`
+    /// equals `projection * Camera::eye_from_world`.
+    pub fn clip_from_camera(&self, frustum: &Frustum) -> DMat4 {
+        self.projection(frustum) * DMat4::from_scale(glam::DVec3::new(1.0, 1.0, -1.0))
+    }
+
     /// The projection matrix (right-handed eye space to clip space) for `frustum` with this
     /// depth mapping. Its depth row is [`DepthMapping::z_row`]. Round it with `as_mat4()`.
     pub fn projection(&self, frustum: &Frustum) -> DMat4 {

@@ -232,7 +232,6 @@ pub struct ParseOptions {
     pub threads: usize,
 }
 
-
 impl DepthTable {
     /// A table from row-major values (top row first). Fails unless there are exactly
     /// `width * height` values, each non-negative or `+inf`.
