@@ -37,6 +37,10 @@ pub struct ThreadConfig {
     /// The loop sleeps until this long before each deadline, then spins: sleeping alone wakes
     /// tens of microseconds late, spinning alone burns a core.
     pub spin: Duration,
+    /// Ask for real-time scheduling (Linux `SCHED_FIFO`), as haptic SDKs do, so other work
+    /// cannot delay ticks. Without the privilege the loop runs at normal priority and the
+    /// report says so.
+    pub realtime: bool,
 }
 
 impl Default for ThreadConfig {
@@ -46,6 +50,7 @@ impl Default for ThreadConfig {
             watchdog_timeout: Duration::from_millis(5),
             device_timeout: Duration::from_millis(100),
             spin: Duration::from_micros(50),
+            realtime: true,
         }
     }
 }
@@ -105,6 +110,8 @@ pub struct ThreadReport {
     pub watchdog_trips: u64,
     /// Whether the device's own hardware watchdog was armed.
     pub hardware_watchdog: bool,
+    /// The real-time priority the loop ran at, when it got one.
+    pub realtime_priority: Option<i32>,
     pub safety: SafetyCounters,
 }
 
@@ -114,7 +121,7 @@ impl std::fmt::Display for ThreadReport {
         write!(
             f,
             "{} ticks in {:.3} s ({:.1} Hz); period p50 {:.1} us, p99 {:.1} us, max {:.1} us; \
-             tick work p50 {:.1} us, p99 {:.1} us, max {:.1} us; late ticks {}, watchdog trips {}",
+             tick work p50 {:.1} us, p99 {:.1} us, max {:.1} us; late ticks {}, watchdog trips {}; {}",
             self.ticks,
             self.elapsed.as_secs_f64(),
             self.rate_hz,
@@ -125,7 +132,11 @@ impl std::fmt::Display for ThreadReport {
             us(self.compute.p99),
             us(self.compute.max),
             self.late_ticks,
-            self.watchdog_trips
+            self.watchdog_trips,
+            match self.realtime_priority {
+                Some(p) => format!("real-time priority {p}"),
+                None => "normal priority".to_string(),
+            }
         )
     }
 }
@@ -241,6 +252,9 @@ fn run_loop(
         Err(HapticError::Device(error))
     };
 
+    if config.realtime {
+        report.realtime_priority = raise_priority();
+    }
     report.hardware_watchdog = match device.arm_watchdog(config.watchdog_timeout) {
         Ok(armed) => armed,
         Err(e) => return fail(&mut device, &mut state, published, e),
@@ -332,6 +346,23 @@ fn run_loop(
     report.compute = compute_hist.summary();
     report.safety = renderer.counters();
     Ok(report)
+}
+
+/// Real-time priority for the calling thread (the haptic loop): `SCHED_FIFO` at 80, below the
+/// kernel's own threads. `None` when not permitted or not on Linux.
+#[cfg(target_os = "linux")]
+fn raise_priority() -> Option<i32> {
+    const PRIORITY: i32 = 80;
+    let param = libc::sched_param { sched_priority: PRIORITY };
+    // SAFETY: `sched_setscheduler` with pid 0 changes only the calling thread and reads only
+    // the valid `param` passed by reference.
+    let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+    (rc == 0).then_some(PRIORITY)
+}
+
+#[cfg(not(target_os = "linux"))]
+fn raise_priority() -> Option<i32> {
+    None
 }
 
 fn wait_until(deadline: Instant, spin: Duration) {
