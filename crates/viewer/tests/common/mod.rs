@@ -141,3 +141,28 @@ pub fn iou(a: &[bool], b: &[bool]) -> f64 {
     let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
     if union == 0 { 1.0 } else { inter as f64 / union as f64 }
 }
+
+/// Raster position (pixels, y down) of a world point.
+pub fn raster_of(camera: &depth_remap::Camera, world: DVec3) -> glam::DVec2 {
+    let p = camera.camera_from_world().transform_point3(world);
+    let t = camera.tan_half_fov().unwrap();
+    let s = glam::DVec2::new(p.x / (p.z * t), p.y / (p.z * t));
+    let sw = camera.screen_window();
+    let (w, h) = camera.resolution();
+    glam::DVec2::new(
+        (s.x - sw.left) / (sw.right - sw.left) * f64::from(w),
+        (sw.top - s.y) / (sw.top - sw.bottom) * f64::from(h),
+    )
+}
+
+/// The Cornell camera and depth with a flat grey image.
+pub fn grey_cornell(lights: Vec<LiveLight>, grey: u8) -> ViewerScene {
+    ViewerScene::new(
+        cornell_camera(),
+        Rgba8Image::filled(512, 512, [grey, grey, grey, 255]),
+        cornell_depth(),
+        lights,
+        ToneMap::default(),
+    )
+    .unwrap()
+}
