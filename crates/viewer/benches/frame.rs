@@ -93,6 +93,26 @@ fn frame_time(c: &mut Criterion) {
             });
         }
     }
+    // Where the time goes (full-screen mode): the backdrop alone, then with the sphere but
+    // without its shadow pass.
+    let no_sphere = LiveObjects::default();
+    for size in [512u32, 2048] {
+        let scene = room(size);
+        for (what, live, shadows) in [("backdrop-only", &no_sphere, true), ("sphere-no-shadow", &live, false)]
+        {
+            let settings = CompositorSettings {
+                shadows: if shadows { CompositorSettings::default().shadows } else { None },
+                ..CompositorSettings::default()
+            };
+            let mut compositor = Compositor::new(&gpu, &scene, settings).expect("compositor");
+            group.bench_function(format!("fullscreen-{what}/{size}"), |b| {
+                b.iter(|| {
+                    compositor.render(live).expect("render");
+                    compositor.wait_idle().expect("wait");
+                })
+            });
+        }
+    }
     group.finish();
 }
 
