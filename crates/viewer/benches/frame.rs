@@ -9,8 +9,8 @@ use depth_remap::{Camera, CameraSettings, Projection};
 use glam::{DMat4, DVec3, Vec3};
 use std::time::Duration;
 use viewer::{
-    Backends, CompositeMode, Compositor, CompositorSettings, Gpu, LiveLight, LiveObjects, Material,
-    RadialDepth, Rgba8Image, Sphere, ToneMap, ViewerScene,
+    Backends, CompositeMode, Compositor, CompositorSettings, DepthTable, Gpu, LiveLight, LiveObjects,
+    Material, Rgba8Image, Sphere, ToneMap, ViewerScene,
 };
 
 /// The Cornell room without its boxes (five walls, the eye 3.9 in front of the back wall) at
@@ -50,7 +50,7 @@ fn room(size: u32) -> ViewerScene {
             pixels.extend_from_slice(&[(i % 256) as u8, (j % 256) as u8, ((i ^ j) % 256) as u8, 255]);
         }
     }
-    let depth = RadialDepth { width: size, height: size, values };
+    let depth = DepthTable::new(size, size, values).expect("depths");
     let image = Rgba8Image { width: size, height: size, pixels };
     let light = LiveLight::Area {
         centroid: DVec3::new(0.0, 0.99, 0.0),

@@ -5,9 +5,10 @@ use crate::backdrop::Rgba8Image;
 use crate::error::ViewerError;
 use crate::gpu::Gpu;
 use crate::live::{LiveLight, LiveObjects, Material, Mesh, ShadowSource};
-use crate::projection::{DepthConvention, DepthRange, Projection};
+use crate::projection::{Projection, nearer};
 use crate::scene::ViewerScene;
 use bytemuck::{Pod, Zeroable};
+use depth_remap::{DepthConvention, NearFar};
 use glam::{DMat3, DMat4, DVec3, Mat4};
 use std::sync::Arc;
 
@@ -49,7 +50,7 @@ pub struct DepthSettings {
 impl Default for DepthSettings {
     /// Reversed-Z in a 32-bit float buffer: nearly constant relative precision in eye depth.
     fn default() -> Self {
-        DepthSettings { format: wgpu::TextureFormat::Depth32Float, convention: DepthConvention::Reversed }
+        DepthSettings { format: wgpu::TextureFormat::Depth32Float, convention: DepthConvention::WgpuReversed }
     }
 }
 
@@ -74,8 +75,9 @@ impl Default for ShadowSettings {
 pub struct CompositorSettings {
     pub mode: CompositeMode,
     pub depth: DepthSettings,
-    /// Near/far planes; `None` derives them from the depth table.
-    pub depth_range: Option<DepthRange>,
+    /// Near/far planes; `None` derives them from the depth table
+    /// ([`crate::projection::near_far_policy`]).
+    pub depth_range: Option<NearFar>,
     /// `None` disables shadows.
     pub shadows: Option<ShadowSettings>,
 }
@@ -280,19 +282,14 @@ impl Compositor {
         ) {
             return Err(ViewerError::Unsupported(format!("depth format {depth_format:?}")));
         }
-        let camera = scene.camera().clone();
-        let range = settings.depth_range.unwrap_or_else(|| {
-            DepthRange::from_radial_depths(&camera, &scene.depth().values, settings.depth.convention)
-        });
-        if !(range.near.is_finite()
-            && range.near > 0.0
-            && range.far.is_none_or(|f| f.is_finite() && f > range.near))
-        {
-            return Err(ViewerError::Camera(format!("bad depth range {range:?}")));
-        }
-        let projection = Projection::new(camera, range, settings.depth.convention);
-        let window_depths = projection.window_depths(&scene.depth().values);
-        let surface_bounds = camera_space_bounds(&projection, &scene.depth().values);
+        let projection = Projection::new(
+            scene.camera().clone(),
+            scene.depth(),
+            settings.depth.convention,
+            settings.depth_range,
+        )?;
+        let window_depths = projection.window_depths(scene.depth())?;
+        let surface_bounds = camera_space_bounds(&projection, scene.depth().values());
         let device = &gpu.device;
 
         // Error scopes catch validation and memory errors of resource creation as values.
@@ -343,7 +340,7 @@ impl Compositor {
         upload(&window_depth_texture, bytemuck::cast_slice(&window_depths), 4);
         // The GPU sees `inf` as a huge finite number on some backends; store misses as f32::MAX.
         let radial: Vec<f32> =
-            scene.depth().values.iter().map(|&r| if r.is_finite() { r } else { f32::MAX }).collect();
+            scene.depth().values().iter().map(|&r| if r.is_finite() { r } else { f32::MAX }).collect();
         upload(&radial_texture, bytemuck::cast_slice(&radial), 4);
 
         let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
@@ -436,7 +433,7 @@ impl Compositor {
             bind_group_layouts: &[Some(&frame_layout), Some(&mesh_layout)],
             immediate_size: 0,
         });
-        let nearer = settings.depth.convention.nearer();
+        let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
             depth_write_enabled: Some(write),
@@ -1068,7 +1065,7 @@ impl Compositor {
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         {
-            let far = self.settings.depth.convention.far_value();
+            let far = self.settings.depth.convention.far_window_depth();
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("composite"),
                 color_attachments: &[

@@ -193,7 +193,7 @@ fn live_mesh_is_occluded_by_the_wall() {
             let near = t1.min(t2).max_element();
             let far = t1.max(t2).min_element();
             let k = (j * 512 + i) as usize;
-            let depth = f64::from(scene.depth().values[k]);
+            let depth = f64::from(scene.depth().values()[k]);
             let truth = near <= far && far > 0.0 && near < depth;
             let got = frame.mask[k] == 255;
             both += usize::from(truth && got);

@@ -1,10 +1,11 @@
 //! Shared test scenes and analytic ground truth.
 #![allow(dead_code)]
 
+use depth_remap::DepthTable;
 use depth_remap::{Camera, CameraSettings, Clipping, Projection as RibProjection};
 use glam::{DMat4, DVec3, Vec3};
 use std::path::PathBuf;
-use viewer::{Backends, Gpu, LiveLight, RadialDepth, Rgba8Image, ToneMap, ViewerScene};
+use viewer::{Backends, Gpu, LiveLight, Rgba8Image, ToneMap, ViewerScene};
 
 /// A GPU device. Fails, never skips, when there is no adapter: `cargo xtask test` installs
 /// lavapipe (mesa-vulkan-drivers) so there always is one.
@@ -36,8 +37,8 @@ pub fn cornell_camera() -> Camera {
 }
 
 /// The exact depth table of the Cornell RIB.
-pub fn cornell_depth() -> RadialDepth {
-    RadialDepth::read(&shared().join("reference/cornell/depth-analytic.depth"))
+pub fn cornell_depth() -> DepthTable {
+    DepthTable::read(shared().join("reference/cornell/depth-analytic.depth"))
         .expect("the Cornell analytic depth")
 }
 
@@ -114,7 +115,7 @@ pub fn sphere_truth(scene: &ViewerScene, centre_world: DVec3, radius: f64) -> Tr
     for j in 0..h {
         for i in 0..w {
             let ray = camera.pixel_centre_ray(i, j);
-            let d = f64::from(scene.depth().values[(j * w + i) as usize]);
+            let d = f64::from(scene.depth().values()[(j * w + i) as usize]);
             let hit = ray_sphere(ray.origin, ray.direction, c, radius);
             let to_c = c - ray.origin;
             let perp = (to_c - to_c.dot(ray.direction) * ray.direction).length();
