@@ -11,7 +11,6 @@ pub mod integrators;
 pub mod lights;
 pub mod materials;
 pub mod math;
-pub mod mesh;
 pub mod render;
 pub mod sampling;
 pub mod shapes;

@@ -15,12 +15,13 @@ use crate::diagnostics::Diagnostics;
 use crate::lights::{EmitterShape, Light, LightSet, RENDERMAN_LIGHT_SCALE, quadric_area};
 use crate::materials::{Material, MaterialNote};
 use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
-use crate::mesh::{TriangleMesh, triangulate_convex_polygons};
+
 use crate::sampling::Distribution1D;
 use crate::shapes::{Quadric, QuadricHit, RayShear, barycentric_point, intersect_triangle};
 use crate::texture::Texture;
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use rib_parser::scene::{AttributesId, LightKind, Scene, Shape, ShapeEntity};
+use rib_parser::tessellate::{Tolerance, TriangleMesh, is_quadric, shape_kind, tessellate_placed};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -203,47 +204,28 @@ struct BlasBuilder {
     meshes: Vec<MeshShading>,
 }
 
-/// A shape's triangles or quadric, from the scene's shape description.
+/// A placed shape: triangles already in BLAS space, or a quadric in its object space.
 enum Geometry {
     Mesh(TriangleMesh),
     Quadric(Quadric),
 }
 
-/// Turns a scene shape into renderable geometry, or says why it is skipped.
-fn geometry_of(shape: &Shape) -> Result<Geometry, String> {
-    match shape {
-        Shape::Sphere { .. }
-        | Shape::Cylinder { .. }
-        | Shape::Cone { .. }
-        | Shape::Disk { .. }
-        | Shape::Paraboloid { .. }
-        | Shape::Hyperboloid { .. }
-        | Shape::Torus { .. } => Quadric::new(shape).map(Geometry::Quadric).map_err(|e| e.0.to_string()),
-        Shape::Polygons(mesh) => triangulate_convex_polygons(mesh).map(Geometry::Mesh).map_err(|e| e.0),
-        Shape::Patches(_) => Err("patch meshes are not tessellated yet".into()),
-        Shape::NuPatch(_) => Err("NURBS patches are not tessellated yet".into()),
-        Shape::SubdivisionMesh(_) => Err("subdivision meshes are not tessellated yet".into()),
-        Shape::Points(_) => Err("Points primitives are not rendered".into()),
-        Shape::Curves(_) => Err("Curves primitives are not rendered".into()),
-    }
-}
+/// Tessellation accuracy for everything that is not a quadric: the chord error stays below
+/// 2e-4 of each shape's size (a fifth of a pixel for a shape filling a 1000-pixel frame).
+pub const TESSELLATION: f64 = 2e-4;
 
-fn shape_kind(shape: &Shape) -> &'static str {
-    match shape {
-        Shape::Sphere { .. } => "Sphere",
-        Shape::Cylinder { .. } => "Cylinder",
-        Shape::Cone { .. } => "Cone",
-        Shape::Disk { .. } => "Disk",
-        Shape::Paraboloid { .. } => "Paraboloid",
-        Shape::Hyperboloid { .. } => "Hyperboloid",
-        Shape::Torus { .. } => "Torus",
-        Shape::Polygons(_) => "Polygon",
-        Shape::Patches(_) => "PatchMesh",
-        Shape::NuPatch(_) => "NuPatch",
-        Shape::SubdivisionMesh(_) => "SubdivisionMesh",
-        Shape::Points(_) => "Points",
-        Shape::Curves(_) => "Curves",
+/// Turns a scene shape into renderable geometry placed with `blas_from_object`, or says why it
+/// is skipped. Quadrics are kept exact; everything else goes through rib-parser's tessellator.
+fn place_geometry(shape: &Shape, blas_from_object: &DMat4) -> Result<Geometry, String> {
+    if is_quadric(shape) {
+        return Quadric::new(shape).map(Geometry::Quadric).map_err(|e| e.0.to_string());
     }
+    let tolerance = Tolerance::relative(TESSELLATION);
+    let mesh = tessellate_placed(shape, blas_from_object, false, &tolerance).map_err(|e| e.to_string())?;
+    if mesh.is_empty() {
+        return Err("it has no area".into());
+    }
+    Ok(Geometry::Mesh(mesh))
 }
 
 /// Emission parameters of an area light: radiance and two-sidedness.
@@ -266,7 +248,8 @@ impl BlasBuilder {
         BlasBuilder { triangles: Vec::new(), quadrics: Vec::new(), shapes: Vec::new(), meshes: Vec::new() }
     }
 
-    /// Adds a shape with `blas_from_object`; returns the BLAS shape index.
+    /// Adds a placed shape (`blas_from_object` places quadrics; meshes are placed already);
+    /// returns the BLAS shape index.
     fn add(
         &mut self,
         geometry: &Geometry,
@@ -278,25 +261,17 @@ impl BlasBuilder {
         let shape_index = self.shapes.len() as u32;
         match geometry {
             Geometry::Mesh(mesh) => {
-                let positions: Vec<Vec3> = mesh
-                    .positions
-                    .iter()
-                    .map(|p| blas_from_object.transform_point3(p.as_dvec3()).as_vec3())
-                    .collect();
-                if positions.iter().any(|p| !p.is_finite()) {
-                    return None;
-                }
-                let normal_matrix = blas_from_object.inverse();
-                let normals = mesh.normals.as_ref().map(|ns| {
-                    ns.iter()
-                        .map(|n| transform_normal(&normal_matrix, n.as_dvec3()).normalize_or_zero().as_vec3())
-                        .collect()
-                });
                 let first = self.triangles.len();
-                for (i, t) in mesh.triangles.iter().enumerate() {
-                    let p = [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]];
-                    // Zero-area triangles can never be hit: leave them out of the BVH.
-                    if (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO {
+                for (i, t) in mesh.indices.iter().enumerate() {
+                    let p = [
+                        mesh.positions[t[0] as usize],
+                        mesh.positions[t[1] as usize],
+                        mesh.positions[t[2] as usize],
+                    ];
+                    // Zero-area and non-finite triangles can never be hit: leave them out.
+                    if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite())
+                        || (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO
+                    {
                         continue;
                     }
                     self.triangles.push(TrianglePrim { p, shape: shape_index, index: i as u32 });
@@ -305,8 +280,8 @@ impl BlasBuilder {
                     return None;
                 }
                 self.meshes.push(MeshShading {
-                    triangles: mesh.triangles.clone(),
-                    normals,
+                    triangles: mesh.indices.clone(),
+                    normals: mesh.normals.clone(),
                     st: mesh.st.clone(),
                 });
                 self.shapes.push(BlasShape {
@@ -462,24 +437,17 @@ impl World {
             materials.push(m);
         }
 
-        // Geometry.
-        let mut geometry_cache: HashMap<*const Shape, Option<Arc<Geometry>>> = HashMap::new();
-        let mut geometry = |shape: &Arc<Shape>,
-                            entity: &ShapeEntity,
-                            diagnostics: &mut Diagnostics|
-         -> Option<Arc<Geometry>> {
-            geometry_cache
-                .entry(Arc::as_ptr(shape))
-                .or_insert_with(|| match geometry_of(shape) {
-                    Ok(g) => Some(Arc::new(g)),
-                    Err(why) => {
-                        diagnostics
-                            .warn_once(Some(&entity.loc), format!("{} skipped: {why}", shape_kind(shape)));
-                        diagnostics.skip(&format!("{} ({why})", shape_kind(shape)));
-                        None
-                    }
-                })
-                .clone()
+        // Geometry, placed (and for meshes tessellated) per placement.
+        let geometry = |entity: &ShapeEntity, blas_from_object: &DMat4, diagnostics: &mut Diagnostics| {
+            match place_geometry(&entity.shape, blas_from_object) {
+                Ok(g) => Some(g),
+                Err(why) => {
+                    let kind = shape_kind(&entity.shape);
+                    diagnostics.warn_once(Some(&entity.loc), format!("{kind} skipped: {why}"));
+                    diagnostics.skip(&format!("{kind} ({why})"));
+                    None
+                }
+            }
         };
 
         let mut lights: Vec<Light> = Vec::new();
@@ -553,7 +521,6 @@ impl World {
         let mut world_blas = BlasBuilder::new();
         let mut world_emitters: Vec<u32> = Vec::new();
         for entity in &scene.shapes {
-            let Some(g) = geometry(&entity.shape, entity, diagnostics) else { continue };
             let render_from_object = render_from_world * entity.world_from_object;
             if !render_from_object.is_finite() || render_from_object.determinant() == 0.0 {
                 diagnostics
@@ -561,13 +528,15 @@ impl World {
                 diagnostics.skip("shapes (singular transform)");
                 continue;
             }
+            let Some(g) = geometry(entity, &render_from_object, diagnostics) else { continue };
             let Some(shape_index) = world_blas.add(&g, &render_from_object, entity.attributes, scene) else {
                 diagnostics.skip("shapes (degenerate geometry)");
                 continue;
             };
             let attrs = scene.attributes_of(entity.attributes);
             let emitter = attrs.area_light.and_then(|id| {
-                let shape = emitter_shape(&g, &render_from_object, attrs.reverse_orientation)?;
+                let shape =
+                    emitter_shape(&g, &DMat4::IDENTITY, &render_from_object, attrs.reverse_orientation)?;
                 emitters.push((id.0, shape));
                 Some(emitters.len() as u32 - 1)
             });
@@ -595,7 +564,7 @@ impl World {
 
         // Object definitions, each its own BLAS, built only when instanced.
         let mut definition_blas: HashMap<u32, Option<u32>> = HashMap::new();
-        let mut definition_geometry: HashMap<u32, Vec<(Arc<Geometry>, DMat4, bool)>> = HashMap::new();
+        let mut definition_geometry: HashMap<u32, Vec<(Geometry, DMat4, bool)>> = HashMap::new();
         for inst in &scene.instances {
             let object = inst.object.0;
             let Some(def) = scene.objects.get(object as usize) else { continue };
@@ -603,7 +572,7 @@ impl World {
                 let mut builder = BlasBuilder::new();
                 let mut placed = Vec::new();
                 for entity in &def.shapes {
-                    let Some(g) = geometry(&entity.shape, entity, diagnostics) else { continue };
+                    let Some(g) = geometry(entity, &entity.world_from_object, diagnostics) else { continue };
                     if builder.add(&g, &entity.world_from_object, entity.attributes, scene).is_some() {
                         let reverse = scene.attributes_of(entity.attributes).reverse_orientation;
                         placed.push((g, entity.world_from_object, reverse));
@@ -631,7 +600,8 @@ impl World {
             if let Some(id) = attrs.area_light {
                 for (g, def_from_object, reverse) in definition_geometry.get(&object).into_iter().flatten() {
                     let reverse = *reverse ^ attrs.reverse_orientation;
-                    let shape = emitter_shape(g, &(render_from_blas * *def_from_object), reverse);
+                    let shape =
+                        emitter_shape(g, &render_from_blas, &(render_from_blas * *def_from_object), reverse);
                     match shape {
                         Some(s) => {
                             emitters.push((id.0, s));
@@ -1095,27 +1065,40 @@ impl World {
     }
 }
 
-/// The render-space emitter shape of a placed shape. `reverse` flips its front side.
-fn emitter_shape(g: &Geometry, render_from_object: &DMat4, reverse: bool) -> Option<EmitterShape> {
+/// The render-space emitter shape of a placed shape: meshes are in BLAS space (placed in
+/// render space by `render_from_blas`), quadrics in object space (`render_from_object`).
+/// `reverse` flips the front side.
+fn emitter_shape(
+    g: &Geometry,
+    render_from_blas: &DMat4,
+    render_from_object: &DMat4,
+    reverse: bool,
+) -> Option<EmitterShape> {
     match g {
         Geometry::Mesh(mesh) => {
-            let positions: Vec<Vec3> = mesh
-                .positions
-                .iter()
-                .map(|p| render_from_object.transform_point3(p.as_dvec3()).as_vec3())
-                .collect();
+            let identity = *render_from_blas == DMat4::IDENTITY;
+            let positions: Vec<Vec3> = if identity {
+                mesh.positions.clone()
+            } else {
+                mesh.positions
+                    .iter()
+                    .map(|p| render_from_blas.transform_point3(p.as_dvec3()).as_vec3())
+                    .collect()
+            };
+            // A mirroring placement reverses the winding relative to the normal.
+            let mirrored = render_from_blas.determinant() < 0.0;
             let mut triangles = Vec::new();
             let mut normals = Vec::new();
             let mut areas = Vec::new();
-            for t in &mesh.triangles {
+            for t in &mesh.indices {
                 let p = [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]];
                 let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                let area = 0.5 * n.length();
+                let area: f32 = 0.5 * n.length();
                 if !(area > 0.0) || !area.is_finite() {
                     continue;
                 }
                 triangles.push(p);
-                normals.push(if reverse { -n.normalize() } else { n.normalize() });
+                normals.push(if reverse != mirrored { -n.normalize() } else { n.normalize() });
                 areas.push(area);
             }
             if triangles.is_empty() {

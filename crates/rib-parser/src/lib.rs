@@ -4,3 +4,4 @@
 //! shapes with their transforms, every entity carrying the [`scene::FileLoc`] it came from.
 
 pub mod scene;
+pub mod tessellate;

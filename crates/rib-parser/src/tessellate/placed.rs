@@ -1,0 +1,255 @@
+//! Placing tessellations in the world: transforms in `f64`, RenderMan orientation, and the
+//! scene-level walk over shapes and object instances.
+
+use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, tessellate_scaled};
+use crate::scene::{Attributes, AttributesId, FileLoc, ObjectId, Scene, Shape, ShapeEntity};
+use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
+
+/// Where a world-space mesh came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MeshOrigin {
+    /// `scene.shapes[index]`.
+    Shape { index: usize },
+    /// Shape `shape` of `scene.objects[object]`, placed by `scene.instances[instance]`.
+    Instance { instance: usize, object: ObjectId, shape: usize },
+}
+
+/// One shape's triangles in world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorldMesh {
+    /// Positions and normals in world space; winding and normals follow the orientation rules
+    /// of the [module docs](super).
+    pub mesh: TriangleMesh,
+    pub origin: MeshOrigin,
+    /// The attribute state the shape was made under (for an instanced shape: the one recorded
+    /// with its definition).
+    pub attributes: AttributesId,
+    /// For an instanced shape, the attribute state current at its `ObjectInstance`.
+    pub instance_attributes: Option<AttributesId>,
+    /// The full transform applied (`world_from_instance * world_from_object` for instances).
+    pub world_from_object: DMat4,
+    /// Whether the normals were flipped from `world_from_object^-T * n_object`: the shape's
+    /// `reverse_orientation`, exclusive-or the instance's for instanced shapes.
+    pub reverse_orientation: bool,
+    pub loc: FileLoc,
+}
+
+/// A shape that gave no triangles, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkippedShape {
+    pub origin: MeshOrigin,
+    pub attributes: AttributesId,
+    pub loc: FileLoc,
+    pub error: TessellateError,
+}
+
+/// Everything [`tessellate_scene`] produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneMeshes {
+    pub meshes: Vec<WorldMesh>,
+    /// Shapes left out: `Points` and `Curves` ([`TessellateError::is_not_a_surface`]), invalid
+    /// shapes, shapes over the triangle budget, shapes the filter excluded are not listed.
+    pub skipped: Vec<SkippedShape>,
+}
+
+impl SceneMeshes {
+    pub fn triangle_count(&self) -> u64 {
+        self.meshes.iter().map(|m| m.mesh.triangle_count() as u64).sum()
+    }
+}
+
+/// Tessellates `shape` and places it with `world_from_object` (in `f64`). The absolute
+/// tolerance is in world units: the shape is tessellated in object space with
+/// `max_deviation / s`, where `s` is the largest stretch (spectral norm) of the transform's
+/// linear part. Normals become `world_from_object^-T * n`, flipped when
+/// `reverse_orientation`; triangles are re-wound to stay counter-clockwise around them.
+///
+/// A singular transform (zero scale) gives flattened triangles and no normals. A projective
+/// transform (a `Perspective` in the object's transform) is applied exactly to positions and
+/// through its Jacobian to normals; its tolerance scale uses the linear part only.
+pub fn tessellate_placed(
+    shape: &Shape,
+    world_from_object: &DMat4,
+    reverse_orientation: bool,
+    tol: &Tolerance,
+) -> Result<TriangleMesh, TessellateError> {
+    place(shape, world_from_object, reverse_orientation, tol, ShapeOptions::default())
+}
+
+fn place(
+    shape: &Shape,
+    world_from_object: &DMat4,
+    reverse_orientation: bool,
+    tol: &Tolerance,
+    options: ShapeOptions,
+) -> Result<TriangleMesh, TessellateError> {
+    let kind = super::shape_kind(shape);
+    if !world_from_object.is_finite() {
+        return Err(TessellateError::NonFinite { kind, reason: "the transform is not finite".into() });
+    }
+    let linear = DMat3::from_mat4(*world_from_object);
+    let scale = spectral_norm(&linear);
+    let mut mesh = tessellate_scaled(shape, tol, scale, options)?;
+    transform_mesh(&mut mesh, world_from_object, reverse_orientation);
+    mesh.check_finite(kind)?;
+    Ok(mesh)
+}
+
+/// Applies `m` to positions and normals and fixes winding and normal sides.
+pub(crate) fn transform_mesh(mesh: &mut TriangleMesh, m: &DMat4, reverse_orientation: bool) {
+    let linear = DMat3::from_mat4(*m);
+    let row3 = m.row(3);
+    let affine = row3 == DVec4::new(0.0, 0.0, 0.0, 1.0);
+    let object_positions: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+    // The Jacobian of the transform at an object-space point.
+    let jacobian = |p: DVec3| -> DMat3 {
+        if affine {
+            return linear;
+        }
+        let h = row3.truncate().dot(p) + row3.w;
+        let projected = m.project_point3(p);
+        let w = row3.truncate();
+        // d/dp of (A p + t) / h = (A - p' w^T) / h.
+        let outer = DMat3::from_cols(projected * w.x, projected * w.y, projected * w.z);
+        (linear - outer) * (1.0 / h)
+    };
+    let singular = |j: &DMat3| !(j.determinant().abs() > 1e-300);
+
+    for (out, &p) in mesh.positions.iter_mut().zip(&object_positions) {
+        *out = if affine { m.transform_point3(p) } else { m.project_point3(p) }.as_vec3();
+    }
+    let mut any_singular = false;
+    if let Some(normals) = mesh.normals.as_mut() {
+        for (n, &p) in normals.iter_mut().zip(&object_positions) {
+            let j = jacobian(p);
+            if singular(&j) {
+                any_singular = true;
+                break;
+            }
+            let world = cofactor(&j) * n.as_dvec3() * j.determinant().signum();
+            let world = if reverse_orientation { -world } else { world };
+            *n = world.normalize_or_zero().as_vec3();
+            if *n == Vec3::ZERO {
+                any_singular = true;
+                break;
+            }
+        }
+    }
+    if any_singular || (affine && singular(&linear)) {
+        mesh.normals = None;
+    }
+    for tri in &mut mesh.indices {
+        let det = jacobian(object_positions[tri[0] as usize]).determinant();
+        if (det < 0.0) != reverse_orientation {
+            tri.swap(1, 2);
+        }
+    }
+}
+
+/// `det(a) * a^-T`, defined for singular matrices too.
+fn cofactor(a: &DMat3) -> DMat3 {
+    DMat3::from_cols(a.y_axis.cross(a.z_axis), a.z_axis.cross(a.x_axis), a.x_axis.cross(a.y_axis))
+}
+
+/// The largest singular value of `a`: the most it stretches any vector.
+pub(crate) fn spectral_norm(a: &DMat3) -> f64 {
+    // Largest eigenvalue of the symmetric a^T a, in closed form (trigonometric method).
+    let s = a.transpose() * *a;
+    let (a00, a11, a22) = (s.x_axis.x, s.y_axis.y, s.z_axis.z);
+    let (a01, a02, a12) = (s.y_axis.x, s.z_axis.x, s.z_axis.y);
+    let p1 = a01 * a01 + a02 * a02 + a12 * a12;
+    let q = (a00 + a11 + a22) / 3.0;
+    let largest = if p1 == 0.0 {
+        a00.max(a11).max(a22)
+    } else {
+        let p2 = (a00 - q).powi(2) + (a11 - q).powi(2) + (a22 - q).powi(2) + 2.0 * p1;
+        let p = (p2 / 6.0).sqrt();
+        let b = (s - DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
+        let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+        q + 2.0 * p * (r.acos() / 3.0).cos()
+    };
+    largest.max(0.0).sqrt()
+}
+
+/// Tessellates every [`ShapeEntity`] of the scene and every shape of every object instance,
+/// in world space (see [`tessellate_placed`] for the transform and tolerance rules).
+pub fn tessellate_scene(scene: &Scene, tol: &Tolerance) -> SceneMeshes {
+    tessellate_scene_filtered(scene, tol, |_| true)
+}
+
+/// [`tessellate_scene`] for the shapes `keep` accepts; e.g. a ray tracer that intersects
+/// quadrics exactly passes `|s| !rib_parser::tessellate::is_quadric(s)`.
+pub fn tessellate_scene_filtered(
+    scene: &Scene,
+    tol: &Tolerance,
+    keep: impl Fn(&Shape) -> bool,
+) -> SceneMeshes {
+    let mut out = SceneMeshes::default();
+    let mut total: u64 = 0;
+    let attributes = |id: AttributesId| scene.attributes.get(id.0 as usize);
+    let mut visit = |origin: MeshOrigin,
+                     entity: &ShapeEntity,
+                     world_from_object: DMat4,
+                     instance_attributes: Option<AttributesId>| {
+        if !keep(&entity.shape) {
+            return;
+        }
+        let own = attributes(entity.attributes);
+        let reverse = own.is_some_and(|a| a.reverse_orientation)
+            != instance_attributes.and_then(attributes).is_some_and(|a| a.reverse_orientation);
+        let options = ShapeOptions { trim_keeps_outside: own.is_some_and(trim_keeps_outside) };
+        let skip =
+            |error| SkippedShape { origin, attributes: entity.attributes, loc: entity.loc.clone(), error };
+        if total >= tol.max_scene_triangles {
+            out.skipped.push(skip(TessellateError::TooManyTriangles {
+                kind: super::shape_kind(&entity.shape),
+                estimated: total,
+                limit: tol.max_scene_triangles,
+            }));
+            return;
+        }
+        // Leave the scene budget's remainder as this shape's limit.
+        let local = tol.with_max_triangles(tol.max_triangles.min(tol.max_scene_triangles - total));
+        match place(&entity.shape, &world_from_object, reverse, &local, options) {
+            Ok(mesh) => {
+                total += mesh.triangle_count() as u64;
+                out.meshes.push(WorldMesh {
+                    mesh,
+                    origin,
+                    attributes: entity.attributes,
+                    instance_attributes,
+                    world_from_object,
+                    reverse_orientation: reverse,
+                    loc: entity.loc.clone(),
+                });
+            }
+            Err(error) => out.skipped.push(skip(error)),
+        }
+    };
+    for (index, entity) in scene.shapes.iter().enumerate() {
+        visit(MeshOrigin::Shape { index }, entity, entity.world_from_object, None);
+    }
+    for (instance, inst) in scene.instances.iter().enumerate() {
+        let Some(def) = scene.objects.get(inst.object.0 as usize) else { continue };
+        for (shape, entity) in def.shapes.iter().enumerate() {
+            let m = inst.world_from_instance * entity.world_from_object;
+            visit(
+                MeshOrigin::Instance { instance, object: inst.object, shape },
+                entity,
+                m,
+                Some(inst.attributes),
+            );
+        }
+    }
+    out
+}
+
+/// `Attribute "trimcurve" "sense" "outside"` in effect.
+fn trim_keeps_outside(a: &Attributes) -> bool {
+    a.user
+        .iter()
+        .rev()
+        .filter(|call| call.namespace == "trimcurve")
+        .find_map(|call| call.params.string("sense"))
+        .is_some_and(|s| s.eq_ignore_ascii_case("outside"))
+}

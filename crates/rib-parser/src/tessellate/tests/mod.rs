@@ -1,0 +1,70 @@
+//! Tests of the tessellators against closed-form surfaces.
+
+mod nurbs;
+mod patch;
+mod placed;
+mod polygon;
+mod quadric;
+
+use super::TriangleMesh;
+use glam::DVec3;
+
+/// Asserts the invariants every mesh keeps: finite data, indices in range, unit normals, one
+/// face index per triangle, no triangle with a repeated vertex.
+pub(super) fn assert_well_formed(mesh: &TriangleMesh) {
+    assert_eq!(mesh.indices.len(), mesh.face_index.len());
+    for p in &mesh.positions {
+        assert!(p.is_finite(), "position {p}");
+    }
+    for tri in &mesh.indices {
+        for &i in tri {
+            assert!((i as usize) < mesh.positions.len(), "index {i} of {}", mesh.positions.len());
+        }
+        assert!(tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2], "degenerate {tri:?}");
+    }
+    if let Some(n) = &mesh.normals {
+        assert_eq!(n.len(), mesh.positions.len());
+        for v in n {
+            assert!((v.length() - 1.0).abs() < 1e-4, "normal {v}");
+        }
+    }
+    if let Some(st) = &mesh.st {
+        assert_eq!(st.len(), mesh.positions.len());
+        assert!(st.iter().all(|v| v.is_finite()));
+    }
+}
+
+/// Asserts every triangle's winding agrees with its vertex normals (the cross product of the
+/// triangle points to the same side as each normal, up to `slack` in cosine).
+pub(super) fn assert_normals_follow_winding(mesh: &TriangleMesh, slack: f64) {
+    let normals = mesh.normals.as_ref().expect("normals");
+    for t in 0..mesh.triangle_count() {
+        let cross = mesh.face_cross(t);
+        if cross.length() == 0.0 {
+            continue;
+        }
+        let face = cross.normalize();
+        for &i in &mesh.indices[t] {
+            let n = normals[i as usize].as_dvec3();
+            assert!(face.dot(n) > -slack, "triangle {t}: face normal {face} against vertex normal {n}");
+        }
+    }
+}
+
+/// The largest of `distance(x)` over every vertex, edge midpoint and triangle centroid.
+pub(super) fn max_deviation(mesh: &TriangleMesh, distance: impl Fn(DVec3) -> f64) -> (f64, f64) {
+    let vertex_max = mesh
+        .indices
+        .iter()
+        .flatten()
+        .map(|&i| distance(mesh.positions[i as usize].as_dvec3()))
+        .fold(0.0, f64::max);
+    let mut inner_max = 0.0f64;
+    for t in 0..mesh.triangle_count() {
+        let [a, b, c] = mesh.triangle(t).map(|p| p.as_dvec3());
+        for q in [(a + b + c) / 3.0, (a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0] {
+            inner_max = inner_max.max(distance(q));
+        }
+    }
+    (vertex_max, inner_max)
+}

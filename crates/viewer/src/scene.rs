@@ -1,0 +1,126 @@
+//! The viewer's input: the camera, the pre-rendered image and depth table, and the lights.
+
+use crate::backdrop::{RadialDepth, Rgba8Image, ToneMap};
+use crate::error::ViewerError;
+use crate::live::LiveLight;
+use depth_remap::Camera;
+use glam::DVec3;
+
+/// Everything the viewer needs from the offline side, checked for consistency.
+#[derive(Clone, Debug)]
+pub struct ViewerScene {
+    camera: Camera,
+    image: Rgba8Image,
+    depth: RadialDepth,
+    lights: Vec<LiveLight>,
+    tone_map: ToneMap,
+}
+
+impl ViewerScene {
+    /// Checks that the image, the depth table and the camera's `Format` have the same size, and
+    /// that the camera's crop window is the whole image (the viewer shows whole frames).
+    pub fn new(
+        camera: Camera,
+        image: Rgba8Image,
+        depth: RadialDepth,
+        lights: Vec<LiveLight>,
+        tone_map: ToneMap,
+    ) -> Result<ViewerScene, ViewerError> {
+        let image_size = (image.width, image.height);
+        let depth_size = (depth.width, depth.height);
+        if image_size != depth_size {
+            return Err(ViewerError::SizeMismatch {
+                first_what: "the image".into(),
+                first: image_size,
+                second_what: "the depth table".into(),
+                second: depth_size,
+            });
+        }
+        if image.pixels.len() != image.width as usize * image.height as usize * 4
+            || depth.values.len() != depth.width as usize * depth.height as usize
+        {
+            return Err(ViewerError::Camera("image or depth buffer length does not match its size".into()));
+        }
+        if camera.resolution() != image_size {
+            return Err(ViewerError::SizeMismatch {
+                first_what: "the image".into(),
+                first: image_size,
+                second_what: "the scene's Format".into(),
+                second: camera.resolution(),
+            });
+        }
+        if let Some(v) = depth.values.iter().find(|v| v.is_nan() || **v < 0.0) {
+            return Err(ViewerError::Camera(format!("the depth table holds {v}, not a distance")));
+        }
+        Ok(ViewerScene { camera, image, depth, lights, tone_map })
+    }
+
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    pub fn image(&self) -> &Rgba8Image {
+        &self.image
+    }
+
+    pub fn depth(&self) -> &RadialDepth {
+        &self.depth
+    }
+
+    pub fn lights(&self) -> &[LiveLight] {
+        &self.lights
+    }
+
+    pub fn tone_map(&self) -> ToneMap {
+        self.tone_map
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.image.width, self.image.height)
+    }
+
+    /// The world-space point of pixel `(i, j)`'s surface, `None` for a miss.
+    pub fn surface_point(&self, i: u32, j: u32) -> Option<DVec3> {
+        let r = *self.depth.values.get((j * self.depth.width + i) as usize)?;
+        if !r.is_finite() {
+            return None;
+        }
+        let ray = self.camera.pixel_centre_ray(i, j);
+        let p = ray.origin + ray.direction * f64::from(r);
+        Some(self.camera.world_from_camera().transform_point3(p))
+    }
+
+    /// The centroid of every visible surface point (world space), `None` when every pixel is
+    /// a miss. Used to pick the dominant light.
+    pub fn visible_centroid(&self) -> Option<DVec3> {
+        let (w, h) = self.size();
+        let mut sum = DVec3::ZERO;
+        let mut n = 0u64;
+        // A 64x64 grid of samples is plenty for a centroid.
+        let step_i = (w / 64).max(1);
+        let step_j = (h / 64).max(1);
+        for j in (0..h).step_by(step_j as usize) {
+            for i in (0..w).step_by(step_i as usize) {
+                if let Some(p) = self.surface_point(i, j) {
+                    sum += p;
+                    n += 1;
+                }
+            }
+        }
+        (n > 0).then(|| sum / n as f64)
+    }
+
+    /// The light that dominates the direct illumination of the visible scene (largest
+    /// irradiance at the centroid of the visible surfaces): it casts the live objects' shadows.
+    pub fn dominant_light(&self) -> Option<usize> {
+        let at = self.visible_centroid().unwrap_or(DVec3::ZERO);
+        self.lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.shadow_source().is_some())
+            .map(|(k, l)| (k, l.irradiance_at(at)))
+            .filter(|(_, e)| *e > 0.0 && e.is_finite())
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k)
+    }
+}

@@ -1,0 +1,430 @@
+// Compositing of the pre-rendered image with live objects.
+//
+// Spaces: raster (pixels, origin top-left, y down; a fragment's position.xy is its pixel
+// centre), camera (RenderMan's left-handed camera space, +z forward) and wgpu clip space. All
+// live geometry arrives in camera space (moved there on the CPU in f64), lights too.
+
+const MAX_LIGHTS: u32 = 16u;
+const PI: f32 = 3.14159265358979;
+
+const LIGHT_AMBIENT: u32 = 0u;
+const LIGHT_DISTANT: u32 = 1u;
+const LIGHT_POINT: u32 = 2u;
+const LIGHT_SPOT: u32 = 3u;
+const LIGHT_AREA: u32 = 4u;
+
+struct Light {
+    // xyz: camera-space position; w: kind.
+    position: vec4<f32>,
+    // xyz: distant: direction of travel; spot: axis; area: emitter normal. w: area two-sided.
+    direction: vec4<f32>,
+    // rgb: intensity * colour (area: radiance * area); w: area light has a normal (1) or not.
+    colour: vec4<f32>,
+    // spot: cos(cone), cos(cone - delta), beam distribution.
+    params: vec4<f32>,
+}
+
+struct Material {
+    // rgb: Cs; w: 1 when unlit.
+    colour: vec4<f32>,
+    // Ka, Kd, Ks, roughness.
+    coefficients: vec4<f32>,
+    specular_colour: vec4<f32>,
+}
+
+struct Frame {
+    clip_from_camera: mat4x4<f32>,
+    // The paper's point-cloud matrix: raster x, y to clip space, z passed through.
+    clip_from_raster: mat4x4<f32>,
+    // left, right, bottom, top.
+    screen_window: vec4<f32>,
+    // width, height, tan(fov / 2) (0 when orthographic), 1 when perspective.
+    raster: vec4<f32>,
+    // Exposure gain, 1 / gamma.
+    tone: vec4<f32>,
+    // light count, shadow on, sphere on.
+    counts: vec4<u32>,
+    // Shadow light: xyz camera-space position (w = 1) or direction of travel (w = 0).
+    shadow_light: vec4<f32>,
+    // Shadow light radius, shadow strength.
+    shadow_params: vec4<f32>,
+    // Sphere: camera-space centre, radius.
+    sphere: vec4<f32>,
+    sphere_material: Material,
+    lights: array<Light, MAX_LIGHTS>,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var backdrop_colour: texture_2d<f32>;
+@group(0) @binding(2) var backdrop_window_depth: texture_2d<f32>;
+@group(0) @binding(3) var backdrop_radial_depth: texture_2d<f32>;
+
+struct MeshUniform {
+    camera_from_object: mat4x4<f32>,
+    normal_from_object: mat4x4<f32>,
+    material: Material,
+}
+
+@group(1) @binding(0) var<uniform> mesh: MeshUniform;
+
+struct BackdropOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) mask: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+struct LiveOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) mask: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+// ---------------------------------------------------------------------------------------------
+// The camera: the same ray as depth_remap::Camera::ray_through_raster.
+
+struct Ray {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+}
+
+fn ray_through_raster(raster: vec2<f32>) -> Ray {
+    let sw = frame.screen_window;
+    let ndc = raster / frame.raster.xy;
+    let s = vec2<f32>(sw.x + ndc.x * (sw.y - sw.x), sw.w - ndc.y * (sw.w - sw.z));
+    if frame.raster.w > 0.5 {
+        let t = frame.raster.z;
+        return Ray(vec3<f32>(0.0), normalize(vec3<f32>(s.x * t, s.y * t, 1.0)));
+    }
+    return Ray(vec3<f32>(s, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+}
+
+fn window_depth(p_camera: vec3<f32>) -> f32 {
+    let clip = frame.clip_from_camera * vec4<f32>(p_camera, 1.0);
+    return clip.z / clip.w;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Full-screen triangle.
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
+    let x = f32(i32(index & 1u) * 4 - 1);
+    let y = f32(i32(index >> 1u) * 4 - 1);
+    return vec4<f32>(x, y, 0.5, 1.0);
+}
+
+// Backdrop, Lawlor's way: one fragment per pixel, its depth taken from the converted table.
+@fragment
+fn fs_backdrop_fullscreen(@builtin(position) position: vec4<f32>) -> BackdropOut {
+    let pixel = vec2<i32>(position.xy);
+    var out: BackdropOut;
+    out.colour = textureLoad(backdrop_colour, pixel, 0);
+    out.mask = vec4<f32>(0.0);
+    out.depth = textureLoad(backdrop_window_depth, pixel, 0).r;
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Backdrop, the paper's way: one point per pixel at (i + 0.5, j + 0.5, window depth), through
+// the orthographic matrix that passes z through. The point's depth also travels as a flat
+// varying written as the fragment depth: GL backends remap clip z to [-1, 1] and back, which
+// loses up to 16 ulps; the varying keeps the table's value bit for bit on every backend.
+
+struct PointOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) @interpolate(flat) colour: vec4<f32>,
+    @location(1) @interpolate(flat) depth: f32,
+}
+
+@vertex
+fn vs_backdrop_points(@location(0) raster_depth: vec3<f32>, @location(1) colour: vec4<f32>) -> PointOut {
+    var out: PointOut;
+    out.position = frame.clip_from_raster * vec4<f32>(raster_depth, 1.0);
+    out.colour = colour;
+    out.depth = out.position.z / out.position.w;
+    return out;
+}
+
+@fragment
+fn fs_backdrop_points(in: PointOut) -> BackdropOut {
+    return BackdropOut(in.colour, vec4<f32>(0.0), in.depth);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lighting (physical units: irradiance E per light; Lambert albedo / pi; normalised Blinn-Phong).
+
+fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    if material.colour.w > 0.5 {
+        return material.colour.rgb;
+    }
+    // Two-sided: the normal facing the viewer.
+    let v = -view_dir;
+    let n = select(n_in, -n_in, dot(n_in, v) < 0.0);
+    let ka = material.coefficients.x;
+    let kd = material.coefficients.y;
+    let ks = material.coefficients.z;
+    let exponent = 1.0 / max(material.coefficients.w, 1e-4);
+    var ambient = vec3<f32>(0.0);
+    var diffuse = vec3<f32>(0.0);
+    var specular = vec3<f32>(0.0);
+    let count = min(frame.counts.x, MAX_LIGHTS);
+    for (var k = 0u; k < count; k++) {
+        let light = frame.lights[k];
+        let kind = u32(light.position.w + 0.5);
+        if kind == LIGHT_AMBIENT {
+            ambient += light.colour.rgb;
+            continue;
+        }
+        var l: vec3<f32>;
+        var e: vec3<f32>;
+        if kind == LIGHT_DISTANT {
+            l = -light.direction.xyz;
+            e = light.colour.rgb;
+        } else {
+            let to_light = light.position.xyz - p;
+            let dist2 = max(dot(to_light, to_light), 1e-30);
+            l = to_light * inverseSqrt(dist2);
+            var intensity = light.colour.rgb;
+            if kind == LIGHT_SPOT {
+                let cos_angle = dot(-l, light.direction.xyz);
+                intensity *= pow(max(cos_angle, 0.0), light.params.z)
+                    * smoothstep(light.params.x, light.params.y, cos_angle);
+            } else if kind == LIGHT_AREA {
+                var lobe = 0.25;
+                if light.colour.w > 0.5 {
+                    let c = dot(light.direction.xyz, -l);
+                    lobe = select(max(c, 0.0), abs(c), light.direction.w > 0.5);
+                }
+                intensity *= lobe;
+            }
+            e = intensity / dist2;
+        }
+        let n_dot_l = dot(n, l);
+        if n_dot_l <= 0.0 {
+            continue;
+        }
+        let irradiance = e * n_dot_l;
+        diffuse += irradiance;
+        let h = normalize(l + v);
+        specular += irradiance * pow(max(dot(n, h), 0.0), exponent);
+    }
+    let cs = material.colour.rgb;
+    return cs * (ka * ambient + kd / PI * diffuse)
+        + material.specular_colour.rgb * ks * (exponent + 8.0) / (8.0 * PI) * specular;
+}
+
+// Exposure as lrt-depth applies it to 8-bit outputs; the unorm target rounds.
+fn tone_map(radiance: vec3<f32>) -> vec4<f32> {
+    let scaled = max(radiance * frame.tone.x, vec3<f32>(0.0));
+    return vec4<f32>(clamp(pow(scaled, vec3<f32>(frame.tone.y)), vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The cursor sphere: a ray-cast impostor inside its camera-space bounding cube. Back faces are
+// drawn so the cube still covers the sphere when the eye is inside the cube; the cube's clip z
+// is held mid-range so only the eye plane (w > 0) clips it, never the near or far planes.
+
+struct SphereVertexOut {
+    @builtin(position) position: vec4<f32>,
+}
+
+@vertex
+fn vs_sphere(@builtin(vertex_index) index: u32) -> SphereVertexOut {
+    // 12 triangles of a unit cube, wound so that the outside is the front in raster space.
+    var corners = array<vec3<f32>, 8>(
+        vec3<f32>(-1.0, -1.0, -1.0), vec3<f32>(1.0, -1.0, -1.0), vec3<f32>(1.0, 1.0, -1.0), vec3<f32>(-1.0, 1.0, -1.0),
+        vec3<f32>(-1.0, -1.0, 1.0), vec3<f32>(1.0, -1.0, 1.0), vec3<f32>(1.0, 1.0, 1.0), vec3<f32>(-1.0, 1.0, 1.0),
+    );
+    var indices = array<u32, 36>(
+        0u, 1u, 2u, 0u, 2u, 3u, // z = -1
+        5u, 4u, 7u, 5u, 7u, 6u, // z = +1
+        4u, 0u, 3u, 4u, 3u, 7u, // x = -1
+        1u, 5u, 6u, 1u, 6u, 2u, // x = +1
+        3u, 2u, 6u, 3u, 6u, 7u, // y = +1
+        4u, 5u, 1u, 4u, 1u, 0u, // y = -1
+    );
+    let corner = corners[indices[index]];
+    // A slightly larger cube so that rounding never trims the silhouette.
+    let p = frame.sphere.xyz + corner * frame.sphere.w * 1.001;
+    var clip = frame.clip_from_camera * vec4<f32>(p, 1.0);
+    clip.z = 0.5 * clip.w;
+    var out: SphereVertexOut;
+    out.position = clip;
+    return out;
+}
+
+@fragment
+fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
+    let ray = ray_through_raster(position.xy);
+    let c = frame.sphere.xyz;
+    let r = frame.sphere.w;
+    // Numerically robust ray-sphere intersection (Haines et al., Ray Tracing Gems, ch. 7).
+    let f = ray.origin - c;
+    let b = dot(f, ray.direction);
+    let q_perp = f - b * ray.direction;
+    let disc = r * r - dot(q_perp, q_perp);
+    if disc < 0.0 {
+        discard;
+    }
+    let root = sqrt(disc);
+    let q = -b - select(-root, root, b >= 0.0);
+    let c_term = dot(f, f) - r * r;
+    var t0 = q;
+    var t1 = q;
+    if q != 0.0 {
+        t0 = c_term / q;
+    }
+    let t_near = min(t0, t1);
+    let t_far = max(t0, t1);
+    // The nearest hit in front of the eye whose depth is inside the depth range.
+    var t = t_near;
+    var p = ray.origin + t * ray.direction;
+    var depth = window_depth(p);
+    if t <= 0.0 || !(depth >= 0.0 && depth <= 1.0) {
+        t = t_far;
+        p = ray.origin + t * ray.direction;
+        depth = window_depth(p);
+        if t <= 0.0 || !(depth >= 0.0 && depth <= 1.0) {
+            discard;
+        }
+    }
+    let n = (p - c) / r;
+    var out: LiveOut;
+    out.colour = tone_map(shade(frame.sphere_material, p, n, ray.direction));
+    out.mask = vec4<f32>(1.0);
+    out.depth = depth;
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Live meshes, with the RIB camera's projection.
+
+struct MeshVertexOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) p_camera: vec3<f32>,
+    @location(1) n_camera: vec3<f32>,
+}
+
+@vertex
+fn vs_mesh(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> MeshVertexOut {
+    let p = mesh.camera_from_object * vec4<f32>(position, 1.0);
+    var out: MeshVertexOut;
+    out.position = frame.clip_from_camera * p;
+    out.p_camera = p.xyz;
+    out.n_camera = (mesh.normal_from_object * vec4<f32>(normal, 0.0)).xyz;
+    return out;
+}
+
+struct MeshFragmentOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) mask: vec4<f32>,
+}
+
+@fragment
+fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
+    let ray = ray_through_raster(in.position.xy);
+    let n = normalize(in.n_camera);
+    return MeshFragmentOut(tone_map(shade(mesh.material, in.p_camera, n, ray.direction)), vec4<f32>(1.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shadows of the sphere on the pre-rendered scene: each pixel's surface point is rebuilt from
+// the radial depth along its pixel-centre ray; the fraction of the shadow light hidden by the
+// sphere (disc overlap of their angular extents) darkens the pixel by a multiplicative blend.
+// Unshadowed pixels are discarded, so they keep their exact input value.
+
+fn surface_point(pixel: vec2<i32>) -> vec4<f32> {
+    let size = vec2<i32>(frame.raster.xy);
+    let q = clamp(pixel, vec2<i32>(0), size - vec2<i32>(1));
+    let r = textureLoad(backdrop_radial_depth, q, 0).r;
+    let ray = ray_through_raster(vec2<f32>(q) + vec2<f32>(0.5));
+    // A miss (inf) has no surface.
+    let hit = r < 3.0e38;
+    return vec4<f32>(ray.origin + r * ray.direction, select(0.0, 1.0, hit));
+}
+
+// Area of the intersection of two discs of radii a and b whose centres are d apart.
+fn disc_overlap(a: f32, b: f32, d: f32) -> f32 {
+    if d >= a + b {
+        return 0.0;
+    }
+    let small = min(a, b);
+    if d <= abs(a - b) {
+        return PI * small * small;
+    }
+    let a2 = a * a;
+    let b2 = b * b;
+    let alpha = acos(clamp((d * d + a2 - b2) / (2.0 * d * a), -1.0, 1.0));
+    let beta = acos(clamp((d * d + b2 - a2) / (2.0 * d * b), -1.0, 1.0));
+    return a2 * alpha + b2 * beta - 0.5 * sqrt(max((-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b), 0.0));
+}
+
+@fragment
+fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let centre = surface_point(pixel);
+    if centre.w < 0.5 {
+        discard;
+    }
+    let p = centre.xyz;
+    // Direction and distance to the light.
+    var to_light: vec3<f32>;
+    var light_distance: f32;
+    if frame.shadow_light.w > 0.5 {
+        let v = frame.shadow_light.xyz - p;
+        light_distance = length(v);
+        to_light = v / light_distance;
+    } else {
+        to_light = -frame.shadow_light.xyz;
+        light_distance = 3.0e38;
+    }
+    // Only surfaces facing the light receive its direct light. The normal comes from the
+    // rebuilt neighbours, taking on each axis the neighbour nearer in depth so edges do not
+    // bend it.
+    let right = surface_point(pixel + vec2<i32>(1, 0));
+    let left = surface_point(pixel - vec2<i32>(1, 0));
+    let down = surface_point(pixel + vec2<i32>(0, 1));
+    let up = surface_point(pixel - vec2<i32>(0, 1));
+    var dx = right.xyz - p;
+    if right.w < 0.5 || (left.w > 0.5 && abs(p.z - left.z) < abs(right.z - p.z)) {
+        dx = p - left.xyz;
+    }
+    var dy = down.xyz - p;
+    if down.w < 0.5 || (up.w > 0.5 && abs(p.z - up.z) < abs(down.z - p.z)) {
+        dy = p - up.xyz;
+    }
+    var n = cross(dx, dy);
+    let len = length(n);
+    if len > 0.0 {
+        n = n / len;
+        let toward_eye = normalize(ray_through_raster(position.xy).origin - p);
+        if dot(n, toward_eye) < 0.0 {
+            n = -n;
+        }
+        if dot(n, to_light) <= 0.0 {
+            discard;
+        }
+    }
+    // The sphere as seen from p.
+    let to_sphere = frame.sphere.xyz - p;
+    let sphere_distance = length(to_sphere);
+    let r = frame.sphere.w;
+    if sphere_distance <= r || sphere_distance - r >= light_distance {
+        discard;
+    }
+    let sphere_angle = asin(r / sphere_distance);
+    let separation = acos(clamp(dot(to_sphere / sphere_distance, to_light), -1.0, 1.0));
+    var hidden = 0.0;
+    let light_angle = atan(frame.shadow_params.x / light_distance);
+    if light_angle > 1e-4 {
+        hidden = disc_overlap(light_angle, sphere_angle, separation) / (PI * light_angle * light_angle);
+    } else if separation < sphere_angle {
+        hidden = 1.0;
+    }
+    hidden = clamp(hidden, 0.0, 1.0);
+    if hidden <= 0.0 {
+        discard;
+    }
+    let keep = 1.0 - frame.shadow_params.y * hidden;
+    return vec4<f32>(keep, keep, keep, 1.0);
+}

@@ -1,0 +1,143 @@
+//! Shared test scenes and analytic ground truth.
+#![allow(dead_code)]
+
+use depth_remap::{Camera, CameraSettings, Clipping, Projection as RibProjection};
+use glam::{DMat4, DVec3, Vec3};
+use std::path::PathBuf;
+use viewer::{Backends, Gpu, LiveLight, RadialDepth, Rgba8Image, ToneMap, ViewerScene};
+
+/// A GPU device. Fails, never skips, when there is no adapter: `cargo xtask test` installs
+/// lavapipe (mesa-vulkan-drivers) so there always is one.
+pub fn gpu() -> Gpu {
+    let gpu = Gpu::new(Backends::default())
+        .expect("no GPU adapter: run `cargo xtask install-test-deps` (lavapipe) or use a machine with a GPU");
+    eprintln!("adapter: {}", gpu.describe());
+    gpu
+}
+
+pub fn shared() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared"))
+}
+
+/// The Cornell reference camera (../shared/reference/cornell/cornell.rib): 512x512, fov 39.3077,
+/// `Scale 1 1 -1; Translate 0 0 -3.9`.
+pub fn cornell_camera() -> Camera {
+    let camera_from_world =
+        DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9));
+    Camera::new(CameraSettings {
+        x_resolution: 512,
+        y_resolution: 512,
+        projection: RibProjection::Perspective { fov_degrees: 39.3077 },
+        clipping: Clipping { near: 0.001, far: 100.0 },
+        camera_from_world,
+        ..CameraSettings::default()
+    })
+    .unwrap()
+}
+
+/// The exact depth table of the Cornell RIB.
+pub fn cornell_depth() -> RadialDepth {
+    RadialDepth::read(&shared().join("reference/cornell/depth-analytic.depth"))
+        .expect("the Cornell analytic depth")
+}
+
+/// The Cornell area light as the viewer sees it: a representative point at the emitter's
+/// centroid, facing down.
+pub fn cornell_light() -> LiveLight {
+    LiveLight::Area {
+        centroid: DVec3::new(0.0, 0.99, 0.01),
+        normal: Some(DVec3::NEG_Y),
+        two_sided: false,
+        radiance: Vec3::new(18.387, 13.9873, 6.75357),
+        area: 0.46 * 0.38,
+        radius: (0.46f64 * 0.38 / std::f64::consts::PI).sqrt(),
+    }
+}
+
+/// A deterministic image in which neighbouring pixels differ and every byte value occurs.
+pub fn noise_image(width: u32, height: u32) -> Rgba8Image {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut pixels = Vec::with_capacity(width as usize * height as usize * 4);
+    for _ in 0..width * height {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let b = state.to_le_bytes();
+        pixels.extend_from_slice(&[b[0], b[1], b[2], 255]);
+    }
+    Rgba8Image { width, height, pixels }
+}
+
+pub fn cornell_scene(lights: Vec<LiveLight>) -> ViewerScene {
+    ViewerScene::new(cornell_camera(), noise_image(512, 512), cornell_depth(), lights, ToneMap::default())
+        .unwrap()
+}
+
+/// Ray-sphere hit distance along a unit ray in f64 (nearest hit in front of the origin).
+pub fn ray_sphere(origin: DVec3, direction: DVec3, centre: DVec3, radius: f64) -> Option<f64> {
+    let f = origin - centre;
+    let b = f.dot(direction);
+    let q = f - b * direction;
+    let disc = radius * radius - q.dot(q);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let (t0, t1) = (-b - s, -b + s);
+    if t0 > 0.0 {
+        Some(t0)
+    } else if t1 > 0.0 {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+/// Ground truth of where a sphere (world space) is visible in front of the pre-rendered
+/// surfaces, per pixel, and which pixels are too close to call in f32 (silhouette within
+/// `1e-3` pixels' worth of the ray, or sphere and surface within `1e-6` relative distance).
+pub struct Truth {
+    pub visible: Vec<bool>,
+    pub ambiguous: Vec<bool>,
+    /// Pixels whose ray hits the sphere behind a pre-rendered surface.
+    pub occluded: usize,
+}
+
+pub fn sphere_truth(scene: &ViewerScene, centre_world: DVec3, radius: f64) -> Truth {
+    let camera = scene.camera();
+    let (w, h) = scene.size();
+    let c = camera.camera_from_world().transform_point3(centre_world);
+    let mut visible = Vec::new();
+    let mut ambiguous = Vec::new();
+    let mut occluded = 0;
+    let pixel_angle = 2.0 * camera.tan_half_fov().unwrap() / f64::from(h.min(w));
+    for j in 0..h {
+        for i in 0..w {
+            let ray = camera.pixel_centre_ray(i, j);
+            let d = f64::from(scene.depth().values[(j * w + i) as usize]);
+            let hit = ray_sphere(ray.origin, ray.direction, c, radius);
+            let to_c = c - ray.origin;
+            let perp = (to_c - to_c.dot(ray.direction) * ray.direction).length();
+            let silhouette = ((perp - radius) / (to_c.length() * pixel_angle)).abs() < 1e-3;
+            match hit {
+                Some(t) => {
+                    visible.push(t < d);
+                    occluded += usize::from(t >= d);
+                    ambiguous.push(silhouette || (d.is_finite() && ((t - d) / d).abs() < 1e-6));
+                }
+                None => {
+                    visible.push(false);
+                    ambiguous.push(silhouette);
+                }
+            }
+        }
+    }
+    Truth { visible, ambiguous, occluded }
+}
+
+/// Intersection over union of two masks.
+pub fn iou(a: &[bool], b: &[bool]) -> f64 {
+    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
+    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
+    if union == 0 { 1.0 } else { inter as f64 / union as f64 }
+}
