@@ -55,6 +55,7 @@ mod placed;
 mod polygon;
 mod primvar;
 mod quadric;
+mod subdiv;
 mod trim;
 
 pub use mesh::TriangleMesh;
@@ -188,9 +189,6 @@ pub enum TessellateError {
     /// A `SubdivisionMesh` scheme other than `"catmull-clark"`.
     #[error("unsupported subdivision scheme {0:?} (only \"catmull-clark\" is supported)")]
     UnsupportedScheme(String),
-    /// This build cannot tessellate this kind of shape yet.
-    #[error("tessellation of {kind} is not implemented yet")]
-    Unsupported { kind: &'static str },
     /// The [`Tolerance`] itself is unusable.
     #[error("invalid tolerance: {0}")]
     InvalidTolerance(String),
@@ -273,10 +271,7 @@ pub(crate) fn tessellate_scaled(
         Shape::Polygons(polygons) => polygon::tessellate_polygons(polygons, tol)?,
         Shape::Patches(patches) => patch::tessellate_patches(patches, tol, scale)?,
         Shape::NuPatch(nupatch) => nurbs::tessellate_nupatch(nupatch, tol, scale, options)?,
-        Shape::SubdivisionMesh(_) => {
-            let _ = options;
-            return Err(TessellateError::Unsupported { kind: shape_kind(shape) });
-        }
+        Shape::SubdivisionMesh(subdiv) => subdiv::tessellate_subdivision(subdiv, tol, scale)?,
         quadric => quadric::tessellate_quadric(quadric, tol, scale)?,
     };
     mesh.check_finite(shape_kind(shape))?;

@@ -5,6 +5,7 @@ mod patch;
 mod placed;
 mod polygon;
 mod quadric;
+mod subdiv;
 
 use super::TriangleMesh;
 use glam::DVec3;

@@ -1,0 +1,698 @@
+//! `SubdivisionMesh "catmull-clark"`: arbitrary polygons, boundaries, and the tags
+//! `interpolateboundary`, `crease`, `corner` and `hole`.
+//!
+//! Rules (DeRose, Kass and Truong, "Subdivision surfaces in character animation", 1998, as
+//! OpenSubdiv implements them with its default uniform sharpness decrement):
+//! - Face points are face centroids; smooth edge points average the edge's ends and the two
+//!   face points; edges with sharpness >= 1, boundary and non-manifold edges take the midpoint;
+//!   sharpness in (0, 1) blends the two.
+//! - A vertex with no or one sharp edge takes the smooth rule `(F + 2R + (n - 3) v) / n`, with
+//!   two the crease rule `(a + 6v + b) / 8`, with three or more (or a sharp vertex) stays put.
+//!   When the rule changes between a level and the next because sharpness runs out, the two
+//!   rules are blended by the fractional sharpness of the edges that run out.
+//! - Every level lowers every sharpness by one; `sharpness >= 10` is infinite.
+//! - Without `interpolateboundary` the faces around boundary vertices are not drawn (as in
+//!   RenderMan and OpenSubdiv's "boundary none"); with it, boundary edges are sharp creases and
+//!   (for `interpolateboundary [1]`, the default) corners with one face are sharp vertices.
+//! - `hole` faces (and their children) are subdivided but not drawn.
+//!
+//! The level comes from the tolerance: after each level the displacement of the next level's
+//! edge and face points (on the limit surface) from the flat quads is measured; it shrinks
+//! about fourfold per level, so the first level within the tolerance (measured or predicted)
+//! is drawn (faces around sharp corners, where uniform refinement converges only linearly, do
+//! not take part in the measure). Its vertices are then pushed to the limit surface: the smooth limit stencil
+//! `(n^2 v + 4 sum e + sum f) / (n (n + 5))` with the exact limit normal from Halstead et al.'s
+//! tangent stencils at smooth vertices, the cubic B-spline limit `(a + 4v + b) / 6` on creases,
+//! the vertex itself at corners; normals elsewhere are averaged from the limit faces. Edges
+//! still semi-sharp at the drawn level are taken as sharp there.
+//!
+//! `st` of any class is carried per face corner and interpolated bilinearly (face-varying
+//! linear); vertices are split only where the values differ.
+
+use super::primvar::st_var;
+use super::{TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
+use crate::scene::SubdivisionMesh;
+use glam::{DVec2, DVec3, Vec2};
+use std::collections::HashMap;
+use std::f64::consts::PI;
+
+const KIND: &str = "SubdivisionMesh";
+/// OpenSubdiv's infinite sharpness.
+const INFINITE_SHARPNESS: f64 = 10.0;
+const MAX_LEVEL: u32 = 12;
+
+fn invalid(reason: String) -> TessellateError {
+    TessellateError::InvalidShape { kind: KIND, reason }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Boundary {
+    /// No `interpolateboundary`: faces around boundary vertices are not drawn.
+    None,
+    /// `interpolateboundary [1]`: boundary edges and one-face corners are sharp.
+    EdgeAndCorner,
+    /// `interpolateboundary [2]`: boundary edges are sharp, corners follow the crease rule.
+    EdgeOnly,
+}
+
+#[derive(Clone, Debug)]
+struct Edge {
+    v: [u32; 2],
+    /// Incident faces (two for an interior manifold edge).
+    faces: u32,
+    /// First two incident faces.
+    face: [u32; 2],
+    sharpness: f64,
+}
+
+/// One level of the mesh: polygons at level 0, quads after.
+#[derive(Clone, Debug, Default)]
+struct Level {
+    positions: Vec<DVec3>,
+    face_start: Vec<u32>,
+    face_verts: Vec<u32>,
+    /// The edge from each face corner to the next corner.
+    face_edges: Vec<u32>,
+    /// The control-mesh face every face descends from.
+    face_origin: Vec<u32>,
+    face_hidden: Vec<bool>,
+    edges: Vec<Edge>,
+    vertex_sharpness: Vec<f64>,
+    /// Edges of each vertex (CSR).
+    vertex_edge_start: Vec<u32>,
+    vertex_edges: Vec<u32>,
+    /// Faces of each vertex with the corner index in that face (CSR).
+    vertex_face_start: Vec<u32>,
+    vertex_faces: Vec<(u32, u32)>,
+    /// `st` per face corner.
+    st: Option<Vec<DVec2>>,
+}
+
+impl Level {
+    fn face_count(&self) -> usize {
+        self.face_start.len() - 1
+    }
+
+    fn face(&self, f: usize) -> std::ops::Range<usize> {
+        self.face_start[f] as usize..self.face_start[f + 1] as usize
+    }
+
+    /// Builds edges and adjacency from the faces, keeping the sharpness of `sharp` edges.
+    fn build_topology(&mut self, sharp: &HashMap<(u32, u32), f64>) {
+        let mut ids: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.face_verts.len());
+        self.edges.clear();
+        self.face_edges = vec![0; self.face_verts.len()];
+        for f in 0..self.face_count() {
+            let r = self.face(f);
+            let n = r.len();
+            for k in 0..n {
+                let (a, b) = (self.face_verts[r.start + k], self.face_verts[r.start + (k + 1) % n]);
+                let key = (a.min(b), a.max(b));
+                let edges = &mut self.edges;
+                let id = *ids.entry(key).or_insert_with(|| {
+                    edges.push(Edge {
+                        v: [key.0, key.1],
+                        faces: 0,
+                        face: [u32::MAX; 2],
+                        sharpness: sharp.get(&key).copied().unwrap_or(0.0),
+                    });
+                    (edges.len() - 1) as u32
+                });
+                let e = &mut self.edges[id as usize];
+                if (e.faces as usize) < 2 {
+                    e.face[e.faces as usize] = f as u32;
+                }
+                e.faces += 1;
+                self.face_edges[r.start + k] = id;
+            }
+        }
+        let nv = self.positions.len();
+        let mut count = vec![0u32; nv + 1];
+        for e in &self.edges {
+            count[e.v[0] as usize + 1] += 1;
+            count[e.v[1] as usize + 1] += 1;
+        }
+        for i in 0..nv {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        self.vertex_edges = vec![0; 2 * self.edges.len()];
+        for (id, e) in self.edges.iter().enumerate() {
+            for &v in &e.v {
+                self.vertex_edges[fill[v as usize] as usize] = id as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        self.vertex_edge_start = count;
+        let mut count = vec![0u32; nv + 1];
+        for &v in &self.face_verts {
+            count[v as usize + 1] += 1;
+        }
+        for i in 0..nv {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        self.vertex_faces = vec![(0, 0); self.face_verts.len()];
+        for f in 0..self.face_count() {
+            for (k, c) in self.face(f).enumerate() {
+                let v = self.face_verts[c] as usize;
+                self.vertex_faces[fill[v] as usize] = (f as u32, k as u32);
+                fill[v] += 1;
+            }
+        }
+        self.vertex_face_start = count;
+    }
+
+    fn edges_of(&self, v: usize) -> &[u32] {
+        &self.vertex_edges[self.vertex_edge_start[v] as usize..self.vertex_edge_start[v + 1] as usize]
+    }
+
+    fn faces_of(&self, v: usize) -> &[(u32, u32)] {
+        &self.vertex_faces[self.vertex_face_start[v] as usize..self.vertex_face_start[v + 1] as usize]
+    }
+
+    fn other_end(&self, e: u32, v: usize) -> usize {
+        let e = &self.edges[e as usize];
+        if e.v[0] as usize == v { e.v[1] as usize } else { e.v[0] as usize }
+    }
+
+    fn is_boundary_vertex(&self, v: usize) -> bool {
+        self.edges_of(v).iter().any(|&e| self.edges[e as usize].faces != 2)
+    }
+}
+
+/// How a vertex moves: its rule and the ends of its sharp edges.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Rule {
+    Smooth,
+    Crease(usize, usize),
+    Corner,
+}
+
+/// The rule of vertex `v` with edge sharpness lowered by `lowered` (0: this level, 1: next).
+fn vertex_rule(level: &Level, v: usize, lowered: f64, boundary: Boundary) -> Rule {
+    let mut ends = [0usize; 2];
+    let mut sharp = 0usize;
+    let mut faces_boundary = 0usize;
+    for &e in level.edges_of(v) {
+        let edge = &level.edges[e as usize];
+        let is_sharp = edge.faces != 2 || edge.sharpness - lowered > 0.0;
+        if edge.faces != 2 {
+            faces_boundary += 1;
+        }
+        if is_sharp {
+            if sharp < 2 {
+                ends[sharp] = level.other_end(e, v);
+            }
+            sharp += 1;
+        }
+    }
+    let corner_vertex =
+        boundary == Boundary::EdgeAndCorner && faces_boundary == 2 && level.faces_of(v).len() == 1;
+    if level.vertex_sharpness[v] - lowered > 0.0 || sharp > 2 || corner_vertex {
+        Rule::Corner
+    } else if sharp == 2 {
+        Rule::Crease(ends[0], ends[1])
+    } else {
+        Rule::Smooth
+    }
+}
+
+fn lowered_sharpness(s: f64) -> f64 {
+    if s.is_infinite() { s } else { (s - 1.0).max(0.0) }
+}
+
+/// One Catmull-Clark step.
+fn subdivide(level: &Level, boundary: Boundary) -> Level {
+    let (nv, ne, nf) = (level.positions.len(), level.edges.len(), level.face_count());
+    let mut positions = vec![DVec3::ZERO; nv + ne + nf];
+
+    // Face points.
+    for f in 0..nf {
+        let r = level.face(f);
+        let n = r.len() as f64;
+        positions[nv + ne + f] = r.map(|c| level.positions[level.face_verts[c] as usize]).sum::<DVec3>() / n;
+    }
+    // Edge points.
+    for (e, edge) in level.edges.iter().enumerate() {
+        let (a, b) = (level.positions[edge.v[0] as usize], level.positions[edge.v[1] as usize]);
+        let mid = 0.5 * (a + b);
+        positions[nv + e] = if edge.faces != 2 || edge.sharpness >= 1.0 {
+            mid
+        } else {
+            let smooth = 0.25
+                * (a + b
+                    + positions[nv + ne + edge.face[0] as usize]
+                    + positions[nv + ne + edge.face[1] as usize]);
+            if edge.sharpness > 0.0 { smooth.lerp(mid, edge.sharpness) } else { smooth }
+        };
+    }
+    // Vertex points.
+    for v in 0..nv {
+        let p = level.positions[v];
+        let apply = |rule: Rule| -> DVec3 {
+            match rule {
+                Rule::Corner => p,
+                Rule::Crease(a, b) => (level.positions[a] + 6.0 * p + level.positions[b]) / 8.0,
+                Rule::Smooth => {
+                    let faces = level.faces_of(v);
+                    let edges = level.edges_of(v);
+                    if faces.is_empty() || edges.is_empty() {
+                        return p;
+                    }
+                    let n = edges.len() as f64;
+                    let f_avg = faces.iter().map(|&(f, _)| positions[nv + ne + f as usize]).sum::<DVec3>()
+                        / faces.len() as f64;
+                    let r_avg = edges
+                        .iter()
+                        .map(|&e| 0.5 * (p + level.positions[level.other_end(e, v)]))
+                        .sum::<DVec3>()
+                        / n;
+                    (f_avg + 2.0 * r_avg + (n - 3.0) * p) / n
+                }
+            }
+        };
+        let parent = vertex_rule(level, v, 0.0, boundary);
+        let child = vertex_rule(level, v, 1.0, boundary);
+        positions[v] = if parent == child || matches!(parent, Rule::Smooth) {
+            apply(parent)
+        } else {
+            // Sharpness runs out here: blend by the fractional sharpness that runs out.
+            let mut weights = Vec::new();
+            for &e in level.edges_of(v) {
+                let s = level.edges[e as usize].sharpness;
+                if level.edges[e as usize].faces == 2 && s > 0.0 && s <= 1.0 {
+                    weights.push(s);
+                }
+            }
+            let vs = level.vertex_sharpness[v];
+            if vs > 0.0 && vs <= 1.0 {
+                weights.push(vs);
+            }
+            let alpha =
+                if weights.is_empty() { 1.0 } else { weights.iter().sum::<f64>() / weights.len() as f64 };
+            apply(child).lerp(apply(parent), alpha.clamp(0.0, 1.0))
+        };
+    }
+
+    // Children: one quad per face corner, counter-clockwise like the parent.
+    let corners = level.face_verts.len();
+    let mut child = Level {
+        positions,
+        face_start: (0..=corners as u32).map(|i| 4 * i).collect(),
+        face_verts: Vec::with_capacity(4 * corners),
+        face_origin: Vec::with_capacity(corners),
+        face_hidden: Vec::with_capacity(corners),
+        vertex_sharpness: Vec::with_capacity(nv + ne + nf),
+        st: level.st.as_ref().map(|_| Vec::with_capacity(4 * corners)),
+        ..Default::default()
+    };
+    for f in 0..nf {
+        let r = level.face(f);
+        let n = r.len();
+        let fp = (nv + ne + f) as u32;
+        let st_centre = level.st.as_ref().map(|st| r.clone().map(|c| st[c]).sum::<DVec2>() / n as f64);
+        for k in 0..n {
+            let c = r.start + k;
+            let prev = r.start + (k + n - 1) % n;
+            child.face_verts.extend_from_slice(&[
+                level.face_verts[c],
+                nv as u32 + level.face_edges[c],
+                fp,
+                nv as u32 + level.face_edges[prev],
+            ]);
+            child.face_origin.push(level.face_origin[f]);
+            child.face_hidden.push(level.face_hidden[f]);
+            if let (Some(out), Some(st), Some(centre)) = (child.st.as_mut(), level.st.as_ref(), st_centre) {
+                let next = r.start + (k + 1) % n;
+                out.extend_from_slice(&[st[c], 0.5 * (st[c] + st[next]), centre, 0.5 * (st[prev] + st[c])]);
+            }
+        }
+    }
+    child.vertex_sharpness.extend(level.vertex_sharpness.iter().map(|&s| lowered_sharpness(s)));
+    child.vertex_sharpness.resize(nv + ne + nf, 0.0);
+    let mut sharp = HashMap::new();
+    for (e, edge) in level.edges.iter().enumerate() {
+        let s = lowered_sharpness(edge.sharpness);
+        if s > 0.0 {
+            let ep = (nv + e) as u32;
+            for &v in &edge.v {
+                sharp.insert((v.min(ep), v.max(ep)), s);
+            }
+        }
+    }
+    child.build_topology(&sharp);
+    child
+}
+
+/// Limit positions of every vertex of a quad level, and the exact limit normal where the
+/// vertex is smooth (zero elsewhere).
+fn limit(level: &Level, boundary: Boundary) -> (Vec<DVec3>, Vec<DVec3>) {
+    let nv = level.positions.len();
+    let mut positions = vec![DVec3::ZERO; nv];
+    let mut normals = vec![DVec3::ZERO; nv];
+    for v in 0..nv {
+        let p = level.positions[v];
+        // Remaining semi-sharpness counts as sharp at the drawn level.
+        positions[v] = match vertex_rule(level, v, 0.0, boundary) {
+            Rule::Corner => p,
+            Rule::Crease(a, b) => (level.positions[a] + 4.0 * p + level.positions[b]) / 6.0,
+            Rule::Smooth => match smooth_ring(level, v) {
+                Some((ring_e, ring_f)) => {
+                    let n = ring_e.len() as f64;
+                    let sum_e: DVec3 = ring_e.iter().map(|&i| level.positions[i]).sum();
+                    let sum_f: DVec3 = ring_f.iter().map(|&i| level.positions[i]).sum();
+                    normals[v] = limit_normal(level, &ring_e, &ring_f);
+                    (n * n * p + 4.0 * sum_e + sum_f) / (n * (n + 5.0))
+                }
+                // A boundary vertex with a smooth rule (it has no sharp edges) cannot happen;
+                // non-manifold fans keep their position.
+                None => p,
+            },
+        };
+    }
+    (positions, normals)
+}
+
+/// The one-ring of an interior vertex of a quad level in counter-clockwise order: edge
+/// neighbours `e_i` and the opposite corners `f_i` of the quads between `e_i` and `e_{i+1}`.
+fn smooth_ring(level: &Level, v: usize) -> Option<(Vec<usize>, Vec<usize>)> {
+    let faces = level.faces_of(v);
+    if faces.is_empty() || level.is_boundary_vertex(v) || faces.len() != level.edges_of(v).len() {
+        return None;
+    }
+    let corner = |f: u32, k: u32, offset: u32| {
+        let r = level.face(f as usize);
+        let n = r.len() as u32;
+        level.face_verts[r.start + ((k + offset) % n) as usize] as usize
+    };
+    let (mut ring_e, mut ring_f) = (Vec::with_capacity(faces.len()), Vec::with_capacity(faces.len()));
+    let (mut f, mut k) = faces[0];
+    for _ in 0..faces.len() {
+        if level.face(f as usize).len() != 4 {
+            return None;
+        }
+        ring_e.push(corner(f, k, 1));
+        ring_f.push(corner(f, k, 2));
+        // The next face counter-clockwise has the current face's previous corner as its next.
+        let prev = corner(f, k, 3);
+        let (nf, nk) = *faces.iter().find(|&&(g, j)| g != f && corner(g, j, 1) == prev)?;
+        f = nf;
+        k = nk;
+    }
+    (f == faces[0].0).then_some((ring_e, ring_f))
+}
+
+/// Halstead, Kass and DeRose's limit tangents; their cross product is the limit normal.
+fn limit_normal(level: &Level, ring_e: &[usize], ring_f: &[usize]) -> DVec3 {
+    let n = ring_e.len();
+    let nf = n as f64;
+    let a_n = 1.0 + (2.0 * PI / nf).cos() + (PI / nf).cos() * (2.0 * (9.0 + (2.0 * PI / nf).cos())).sqrt();
+    let (mut t1, mut t2) = (DVec3::ZERO, DVec3::ZERO);
+    for i in 0..n {
+        let (c0, s0) = ((2.0 * PI * i as f64 / nf).cos(), (2.0 * PI * i as f64 / nf).sin());
+        let (c1, s1) = ((2.0 * PI * (i + 1) as f64 / nf).cos(), (2.0 * PI * (i + 1) as f64 / nf).sin());
+        let (e, f) = (level.positions[ring_e[i]], level.positions[ring_f[i]]);
+        t1 += a_n * c0 * e + (c0 + c1) * f;
+        t2 += a_n * s0 * e + (s0 + s1) * f;
+    }
+    t1.cross(t2)
+}
+
+/// The control mesh with its tags, checked.
+fn control_level(sm: &SubdivisionMesh) -> Result<(Level, Boundary, u32), TessellateError> {
+    if !sm.scheme.eq_ignore_ascii_case("catmull-clark") {
+        return Err(TessellateError::UnsupportedScheme(sm.scheme.clone()));
+    }
+    let total: u64 = sm.vertices_per_face.iter().map(|&n| n as u64).sum();
+    if total != sm.vertex_indices.len() as u64 {
+        return Err(invalid(format!(
+            "the faces have {total} vertices in all but {} indices are given",
+            sm.vertex_indices.len()
+        )));
+    }
+    let nv = sm.positions.len();
+    if let Some(&bad) = sm.vertex_indices.iter().find(|&&i| i as usize >= nv) {
+        return Err(invalid(format!("vertex index {bad} but only {nv} positions")));
+    }
+    if let Some(p) = sm.positions.iter().find(|p| !p.is_finite()) {
+        return Err(TessellateError::NonFinite { kind: KIND, reason: format!("position {p}") });
+    }
+    let faces = sm.vertices_per_face.len();
+    let corners = sm.vertex_indices.len();
+    let st_in = st_var(&sm.primvars).filter(|v| v.fits(faces, nv, corners));
+
+    let mut level = Level {
+        positions: sm.positions.iter().map(|p| p.as_dvec3()).collect(),
+        face_start: vec![0],
+        vertex_sharpness: vec![0.0; nv],
+        st: st_in.as_ref().map(|_| Vec::new()),
+        ..Default::default()
+    };
+    let mut degenerate = 0u32;
+    let mut start = 0usize;
+    let mut kept_face_of_input = vec![u32::MAX; faces];
+    for (f, &n) in sm.vertices_per_face.iter().enumerate() {
+        let range = start..start + n as usize;
+        start += n as usize;
+        // Drop repeated consecutive vertices; fewer than three left is no face.
+        let mut verts: Vec<(u32, usize)> = Vec::with_capacity(n as usize);
+        for c in range {
+            let v = sm.vertex_indices[c];
+            if verts.last().map(|&(w, _)| w) != Some(v) {
+                verts.push((v, c));
+            }
+        }
+        while verts.len() > 1 && verts.first().map(|x| x.0) == verts.last().map(|x| x.0) {
+            verts.pop();
+        }
+        if verts.len() < 3 {
+            degenerate += 1;
+            continue;
+        }
+        kept_face_of_input[f] = level.face_origin.len() as u32;
+        for &(v, c) in &verts {
+            level.face_verts.push(v);
+            if let (Some(out), Some(var)) = (level.st.as_mut(), st_in.as_ref()) {
+                out.push(var.at(f, v as usize, c).filter(|s| s.is_finite()).unwrap_or(Vec2::ZERO).as_dvec2());
+            }
+        }
+        level.face_start.push(level.face_verts.len() as u32);
+        level.face_origin.push(f as u32);
+        level.face_hidden.push(false);
+    }
+
+    let mut boundary = Boundary::None;
+    let mut sharp: HashMap<(u32, u32), f64> = HashMap::new();
+    let sharpness = |s: f32| -> f64 {
+        let s = s as f64;
+        if s >= INFINITE_SHARPNESS {
+            f64::INFINITY
+        } else if s.is_finite() {
+            s.max(0.0)
+        } else {
+            0.0
+        }
+    };
+    for tag in &sm.tags {
+        match tag.name.as_str() {
+            "interpolateboundary" => {
+                boundary = match tag.int_args.first() {
+                    Some(0) => Boundary::None,
+                    Some(2) => Boundary::EdgeOnly,
+                    _ => Boundary::EdgeAndCorner,
+                };
+            }
+            "crease" => {
+                let s = tag.float_args.first().copied().map(sharpness).unwrap_or(f64::INFINITY);
+                for w in tag.int_args.windows(2) {
+                    let (a, b) = (w[0], w[1]);
+                    if a < 0 || b < 0 || a as usize >= nv || b as usize >= nv || a == b {
+                        continue;
+                    }
+                    let key = ((a as u32).min(b as u32), (a as u32).max(b as u32));
+                    let entry = sharp.entry(key).or_insert(0.0);
+                    *entry = entry.max(s);
+                }
+            }
+            "corner" => {
+                for (k, &v) in tag.int_args.iter().enumerate() {
+                    let s = tag.float_args.get(k).or(tag.float_args.first()).copied().map(sharpness);
+                    if v >= 0 && (v as usize) < nv {
+                        let slot = &mut level.vertex_sharpness[v as usize];
+                        *slot = slot.max(s.unwrap_or(f64::INFINITY));
+                    }
+                }
+            }
+            "hole" => {
+                for &f in &tag.int_args {
+                    if f >= 0 && (f as usize) < faces && kept_face_of_input[f as usize] != u32::MAX {
+                        level.face_hidden[kept_face_of_input[f as usize] as usize] = true;
+                    }
+                }
+            }
+            // Other tags ("facevaryinginterpolateboundary", "smoothtriangles", "stitch", ...)
+            // do not change the surface's shape.
+            _ => {}
+        }
+    }
+    level.build_topology(&sharp);
+    if boundary == Boundary::None {
+        for f in 0..level.face_count() {
+            if level.face(f).any(|c| level.is_boundary_vertex(level.face_verts[c] as usize)) {
+                level.face_hidden[f] = true;
+            }
+        }
+    }
+    Ok((level, boundary, degenerate))
+}
+
+/// How far a level's flat quads are from the limit surface, measured with the next level's
+/// edge and face points pushed to the limit.
+///
+/// Faces around sharp corners (cone points: three or more sharp edges or a sharp vertex) are
+/// left out: there uniform refinement converges only linearly, and the faces concerned shrink
+/// fourfold per level, so they do not decide the level.
+fn deviation(level: &Level, level_limit: &[DVec3], next_limit: &[DVec3], boundary: Boundary) -> f64 {
+    let (nv, ne) = (level.positions.len(), level.edges.len());
+    let corner: Vec<bool> = (0..nv).map(|v| vertex_rule(level, v, 0.0, boundary) == Rule::Corner).collect();
+    let mut worst = 0.0f64;
+    for f in 0..level.face_count() {
+        if level.face_hidden[f] || level.face(f).any(|c| corner[level.face_verts[c] as usize]) {
+            continue;
+        }
+        let r = level.face(f);
+        let q: Vec<DVec3> = r.clone().map(|c| level_limit[level.face_verts[c] as usize]).collect();
+        let centre = next_limit[nv + ne + f];
+        if q.len() == 4 {
+            worst = worst.max(centre.distance(0.5 * (q[0] + q[2]))).max(centre.distance(0.5 * (q[1] + q[3])));
+        }
+        for c in r {
+            let e = level.face_edges[c] as usize;
+            let [a, b] = level.edges[e].v.map(|v| level_limit[v as usize]);
+            worst = worst.max(next_limit[nv + e].distance(0.5 * (a + b)));
+        }
+    }
+    worst
+}
+
+pub(crate) fn tessellate_subdivision(
+    sm: &SubdivisionMesh,
+    tol: &Tolerance,
+    scale: f64,
+) -> Result<TriangleMesh, TessellateError> {
+    let (control, boundary, degenerate) = control_level(sm)?;
+    let size = diagonal_of(KIND, control.positions.iter().copied())?;
+    let eps = tol.effective(size, scale)?;
+    if control.face_count() == 0 {
+        return Ok(TriangleMesh { degenerate_faces: degenerate, ..Default::default() });
+    }
+    // Triangles of level k: 2 * corners * 4^(k - 1).
+    let corners = control.face_verts.len() as f64;
+    let triangles_at = |k: u32| 2.0 * corners * 4f64.powi(k as i32 - 1);
+    check_budget(KIND, triangles_at(1), tol)?;
+
+    let mut current = subdivide(&control, boundary);
+    let mut k = 1u32;
+    let drawn = loop {
+        let current_limit = limit(&current, boundary);
+        // Measuring needs the next level; it is only built while it is affordable.
+        if k >= MAX_LEVEL || triangles_at(k + 1) > 4.0 * tol.max_triangles as f64 {
+            break (current, current_limit);
+        }
+        let next = subdivide(&current, boundary);
+        let next_limit = limit(&next, boundary);
+        let d = deviation(&current, &current_limit.0, &next_limit.0, boundary);
+        if !d.is_finite() {
+            return Err(TessellateError::NonFinite { kind: KIND, reason: "subdivision diverged".into() });
+        }
+        if d <= eps {
+            break (current, current_limit);
+        }
+        if d / 4.0 <= eps {
+            check_budget(KIND, triangles_at(k + 1), tol)?;
+            break (next, next_limit);
+        }
+        // Two more levels at least: the one after next must fit the budget.
+        check_budget(KIND, triangles_at(k + 2), tol)?;
+        current = next;
+        k += 1;
+    };
+    let (level, (positions, smooth_normals)) = drawn;
+    check_budget(KIND, 2.0 * level.face_count() as f64, tol)?;
+    Ok(emit(&level, &positions, &smooth_normals, degenerate))
+}
+
+/// Triangles of the drawn level on the limit surface, with normals and `st`.
+fn emit(level: &Level, positions: &[DVec3], smooth_normals: &[DVec3], degenerate: u32) -> TriangleMesh {
+    let mut mesh = TriangleMesh { degenerate_faces: degenerate, ..Default::default() };
+    // Output vertex per (level vertex, st): shared unless st differs.
+    let mut out_of: HashMap<(u32, u64, u64), u32> = HashMap::with_capacity(level.positions.len());
+    let mut st_out: Vec<Vec2> = Vec::new();
+    let mut source: Vec<u32> = Vec::new();
+    let mut vertex = |v: u32, st: Option<DVec2>, mesh: &mut TriangleMesh| -> u32 {
+        let key = st.map_or((v, 0, 0), |s| (v, s.x.to_bits(), s.y.to_bits()));
+        *out_of.entry(key).or_insert_with(|| {
+            mesh.positions.push(positions[v as usize].as_vec3());
+            source.push(v);
+            if let Some(s) = st {
+                st_out.push(s.as_vec2());
+            }
+            (mesh.positions.len() - 1) as u32
+        })
+    };
+    for f in 0..level.face_count() {
+        if level.face_hidden[f] {
+            continue;
+        }
+        let r = level.face(f);
+        let ids: Vec<u32> = r
+            .clone()
+            .map(|c| vertex(level.face_verts[c], level.st.as_ref().map(|s| s[c]), &mut mesh))
+            .collect();
+        let p = |i: usize| positions[level.face_verts[r.start + i] as usize];
+        let tris = if p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3)) {
+            [[ids[0], ids[1], ids[2]], [ids[0], ids[2], ids[3]]]
+        } else {
+            [[ids[0], ids[1], ids[3]], [ids[1], ids[2], ids[3]]]
+        };
+        for t in tris {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+            if (b - a).cross(c - a) != DVec3::ZERO {
+                mesh.indices.push(t);
+                mesh.face_index.push(level.face_origin[f]);
+            }
+        }
+    }
+    // Normals: exact at smooth vertices, else the area-weighted normal of the limit faces.
+    let mut face_sums = vec![DVec3::ZERO; level.positions.len()];
+    for t in 0..mesh.indices.len() {
+        let cross = mesh.face_cross(t);
+        for &i in &mesh.indices[t] {
+            face_sums[source[i as usize] as usize] += cross;
+        }
+    }
+    mesh.normals = Some(
+        source
+            .iter()
+            .map(|&v| {
+                let around = face_sums[v as usize];
+                let exact = smooth_normals[v as usize];
+                // The exact normal, on the side the winding says.
+                let n = if exact.length_squared() > 0.0 && exact.dot(around) >= 0.0 {
+                    exact
+                } else if exact.length_squared() > 0.0 && around.length_squared() > 0.0 {
+                    -exact
+                } else {
+                    around
+                };
+                n.normalize_or(DVec3::Z).as_vec3()
+            })
+            .collect(),
+    );
+    if level.st.is_some() {
+        mesh.st = Some(st_out);
+    }
+    super::grid::compact(&mut mesh);
+    mesh
+}
