@@ -147,6 +147,13 @@ pub struct DepthImage {
     pub values: Vec<f32>,
 }
 
+impl DepthImage {
+    /// The depth table of this region (CONTRACTS.md §2), for depth_remap's writers.
+    pub fn to_table(&self) -> Result<depth_remap::DepthTable, depth_remap::DepthTableError> {
+        depth_remap::DepthTable::new(self.width, self.height, self.values.clone())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

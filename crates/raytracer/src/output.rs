@@ -127,16 +127,26 @@ fn quantize(v: f32, q: Quantize, noise: f32) -> f32 {
 }
 
 /// Encodes and writes `image` (a crop window's region is written as the whole image).
-pub fn write_image(path: &Path, driver: &str, image: &Image, settings: &OutputSettings) -> Result<OutputNotes, OutputError> {
+pub fn write_image(
+    path: &Path,
+    driver: &str,
+    image: &Image,
+    settings: &OutputSettings,
+) -> Result<OutputNotes, OutputError> {
     let format = Format::for_output(path, driver)
         .ok_or_else(|| OutputError::UnknownFormat { path: path.to_path_buf(), driver: driver.to_string() })?;
-    let (bytes, notes) = encode(format, image, settings).map_err(|message| OutputError::Encode { path: path.to_path_buf(), message })?;
+    let (bytes, notes) = encode(format, image, settings)
+        .map_err(|message| OutputError::Encode { path: path.to_path_buf(), message })?;
     write_atomically(path, &bytes)?;
     Ok(notes)
 }
 
 /// Encodes `image` in `format` into memory.
-pub fn encode(format: Format, image: &Image, settings: &OutputSettings) -> Result<(Vec<u8>, OutputNotes), String> {
+pub fn encode(
+    format: Format,
+    image: &Image,
+    settings: &OutputSettings,
+) -> Result<(Vec<u8>, OutputNotes), String> {
     let mut notes = OutputNotes::default();
     let q = settings.quantize;
     let float = q.one == 0;
@@ -151,7 +161,9 @@ pub fn encode(format: Format, image: &Image, settings: &OutputSettings) -> Resul
         _ => {
             let mut bits16 = float || q.max > 255;
             if float {
-                notes.notes.push(format!("{format:?} cannot hold floating-point values: written as 16-bit integers"));
+                notes.notes.push(format!(
+                    "{format:?} cannot hold floating-point values: written as 16-bit integers"
+                ));
             }
             if format == Format::Jpeg && bits16 {
                 notes.notes.push("JPEG holds 8 bits per channel: written as 8-bit".into());
@@ -183,9 +195,13 @@ pub fn encode(format: Format, image: &Image, settings: &OutputSettings) -> Resul
                     }
                 }
                 if channels == 4 {
-                    DynamicImage::ImageRgba16(ImageBuffer::<Rgba<u16>, _>::from_raw(w, h, data).ok_or("buffer size")?)
+                    DynamicImage::ImageRgba16(
+                        ImageBuffer::<Rgba<u16>, _>::from_raw(w, h, data).ok_or("buffer size")?,
+                    )
                 } else {
-                    DynamicImage::ImageRgb16(ImageBuffer::<Rgb<u16>, _>::from_raw(w, h, data).ok_or("buffer size")?)
+                    DynamicImage::ImageRgb16(
+                        ImageBuffer::<Rgb<u16>, _>::from_raw(w, h, data).ok_or("buffer size")?,
+                    )
                 }
             } else {
                 let mut data = Vec::with_capacity((w * h) as usize * channels);
@@ -197,9 +213,13 @@ pub fn encode(format: Format, image: &Image, settings: &OutputSettings) -> Resul
                     }
                 }
                 if channels == 4 {
-                    DynamicImage::ImageRgba8(ImageBuffer::<Rgba<u8>, _>::from_raw(w, h, data).ok_or("buffer size")?)
+                    DynamicImage::ImageRgba8(
+                        ImageBuffer::<Rgba<u8>, _>::from_raw(w, h, data).ok_or("buffer size")?,
+                    )
                 } else {
-                    DynamicImage::ImageRgb8(ImageBuffer::<Rgb<u8>, _>::from_raw(w, h, data).ok_or("buffer size")?)
+                    DynamicImage::ImageRgb8(
+                        ImageBuffer::<Rgb<u8>, _>::from_raw(w, h, data).ok_or("buffer size")?,
+                    )
                 }
             }
         }
@@ -218,10 +238,15 @@ pub fn encode(format: Format, image: &Image, settings: &OutputSettings) -> Resul
 fn float_image(image: &Image, alpha: bool, linear: impl Fn(&[f32; 4], usize) -> f32) -> DynamicImage {
     let (w, h) = (image.width, image.height);
     if alpha {
-        let data: Vec<f32> = image.pixels.iter().flat_map(|p| [linear(p, 0), linear(p, 1), linear(p, 2), linear(p, 3)]).collect();
+        let data: Vec<f32> = image
+            .pixels
+            .iter()
+            .flat_map(|p| [linear(p, 0), linear(p, 1), linear(p, 2), linear(p, 3)])
+            .collect();
         DynamicImage::ImageRgba32F(ImageBuffer::<Rgba<f32>, _>::from_raw(w, h, data).unwrap_or_default())
     } else {
-        let data: Vec<f32> = image.pixels.iter().flat_map(|p| [linear(p, 0), linear(p, 1), linear(p, 2)]).collect();
+        let data: Vec<f32> =
+            image.pixels.iter().flat_map(|p| [linear(p, 0), linear(p, 1), linear(p, 2)]).collect();
         DynamicImage::ImageRgb32F(ImageBuffer::<Rgb<f32>, _>::from_raw(w, h, data).unwrap_or_default())
     }
 }
@@ -280,7 +305,11 @@ mod tests {
             }
         }
         // No temporary files are left behind.
-        let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().contains(".tmp-")).collect();
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
+            .collect();
         assert!(leftovers.is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -11,6 +11,7 @@ use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{IntegratorKind, RayCounters, li};
 use crate::sampling::Rng;
 use crate::world::{Ray, World, WorldError, WorldStats};
+use depth_remap::camera::WorldRay;
 use depth_remap::{Camera, CameraError};
 use glam::{DMat4, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -105,57 +106,56 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// Pixels per tile side.
 const TILE: u32 = 32;
 
-/// Camera rays in render space, clipped to `Clipping`.
+/// Camera rays in render space, clipped to `Clipping`: depth_remap's world rays (unit length
+/// in world units, so `t` is a distance in scene units) moved to render space.
 #[derive(Clone, Debug)]
 pub struct CameraRays {
     pub camera: Camera,
-    render_from_camera: DMat4,
+    render_from_world: DMat4,
     near: f64,
     far: f64,
 }
 
 impl CameraRays {
     pub fn new(camera: Camera, render_from_world: &DMat4) -> CameraRays {
-        let render_from_camera = *render_from_world * camera.world_from_camera();
-        let c = camera.settings().clipping;
+        let c = camera.clipping();
         let near = if c.near.is_finite() && c.near > 0.0 { c.near } else { 0.0 };
         let far = if c.far.is_finite() && c.far > near { c.far } else { f64::INFINITY };
-        CameraRays { camera, render_from_camera, near, far }
+        CameraRays { camera, render_from_world: *render_from_world, near, far }
     }
 
-    /// The eye (camera-space origin) in world space.
-    pub fn eye_world(camera: &Camera) -> DVec3 {
-        camera.world_from_camera().transform_point3(DVec3::ZERO)
+    /// The ray through a raster position, in render space, with its `f64` origin.
+    pub fn ray(&self, raster: DVec2) -> Option<(Ray, DVec3)> {
+        let wr = self.camera.world_ray_through_raster(raster);
+        self.to_render(wr, raster)
     }
 
-    /// The render-space ray through a raster position, with `t` in world units.
-    pub fn ray(&self, raster: DVec2) -> Option<Ray> {
-        let cr = self.camera.ray_through_raster(raster);
-        self.to_render(cr.origin, cr.direction)
+    /// *The* ray through the centre of pixel `(i, j)` (depth_remap's definition), in render space.
+    pub fn pixel_centre_ray(&self, i: u32, j: u32) -> Option<(Ray, DVec3)> {
+        let wr = self.camera.pixel_centre_world_ray(i, j);
+        self.to_render(wr, depth_remap::camera::pixel_centre(i, j))
     }
 
-    /// The pixel-centre ray of pixel `(i, j)` (depth_remap's definition).
-    pub fn pixel_centre_ray(&self, i: u32, j: u32) -> Option<Ray> {
-        let cr = self.camera.pixel_centre_ray(i, j);
-        self.to_render(cr.origin, cr.direction)
-    }
-
-    fn to_render(&self, origin_c: DVec3, direction_c: DVec3) -> Option<Ray> {
-        let o = self.render_from_camera.transform_point3(origin_c);
-        let d = self.render_from_camera.transform_vector3(direction_c);
-        let len = d.length();
-        if !(len > 0.0) || !len.is_finite() || !o.is_finite() || direction_c.z <= 0.0 {
+    fn to_render(&self, wr: WorldRay, raster: DVec2) -> Option<(Ray, DVec3)> {
+        let o = self.render_from_world.transform_point3(wr.origin);
+        if !o.is_finite() || !wr.direction.is_finite() {
             return None;
         }
-        // Clipping planes are camera-space z; convert to distances along the world ray.
-        let t_near = ((self.near - origin_c.z) / direction_c.z).max(0.0) * len;
-        let t_far = (self.far - origin_c.z) / direction_c.z * len;
-        Some(Ray {
+        // Clipping planes are camera-space z; z grows by `dz_dt` per unit of world distance.
+        let s = self.camera.raster_to_screen(raster);
+        let dz_dt = self.camera.eye_depth_per_radial_at_screen(s.x, s.y);
+        if !(dz_dt > 0.0) || !dz_dt.is_finite() {
+            return None;
+        }
+        let t_near = self.near / dz_dt;
+        let t_far = self.far / dz_dt;
+        let ray = Ray {
             origin: o.as_vec3(),
-            direction: (d / len).as_vec3(),
+            direction: wr.direction.as_vec3(),
             t_min: t_near as f32,
             t_max: if t_far.is_finite() { t_far as f32 } else { f32::INFINITY },
-        })
+        };
+        Some((ray, o))
     }
 }
 
@@ -218,7 +218,7 @@ fn render_in_pool(
     }
 
     let build_start = Instant::now();
-    let world = World::build(scene, CameraRays::eye_world(&camera), &mut diagnostics)?;
+    let world = World::build(scene, camera.eye_position(), &mut diagnostics)?;
     let time_build = build_start.elapsed();
     let rays = CameraRays::new(camera, &world.render_from_world);
 
@@ -322,14 +322,15 @@ fn render_in_pool(
 }
 
 /// Distance along the pixel-centre ray of pixel `(i, j)` to the first surface it stops at
-/// (fully transparent surfaces, `Opacity 0`, are passed), `inf` for a miss.
+/// (fully transparent surfaces, `Opacity 0`, are passed), `inf` for a miss. The distance is
+/// measured in `f64` from the ray's origin to the hit point.
 pub fn depth_of(world: &World, rays: &CameraRays, i: u32, j: u32) -> f32 {
-    let Some(mut ray) = rays.pixel_centre_ray(i, j) else { return f32::INFINITY };
+    let Some((mut ray, origin)) = rays.pixel_centre_ray(i, j) else { return f32::INFINITY };
     for _ in 0..256 {
         let Some(hit) = world.intersect(&ray) else { return f32::INFINITY };
         let si = world.interaction(&ray, &hit);
         if world.material(si.attributes).opacity != Vec3::ZERO {
-            return hit.t;
+            return (si.p64 - origin).length() as f32;
         }
         ray.t_min = hit.t;
     }
@@ -372,7 +373,7 @@ fn render_tile(
                 let x = px as f64 + (f64::from(ix) + f64::from(jitter.x)) / f64::from(nx);
                 let y = py as f64 + (f64::from(iy) + f64::from(jitter.y)) / f64::from(ny);
                 let r = match rays.ray(DVec2::new(x, y)) {
-                    Some(ray) => li(world, integrator, ray, &mut rng, &mut counters),
+                    Some((ray, _)) => li(world, integrator, ray, &mut rng, &mut counters),
                     None => Default::default(),
                 };
                 samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });
