@@ -366,7 +366,12 @@ fn gain_and_centre_map_device_to_scene() {
 
 /// Press a mass-damper device held by a hand `hand_depth` into a plane (past the proxy's first
 /// contact) and back out; return its energy ledger.
-fn press_cycle(stiffness: f64, device_damping: f64, press_time: f64, hand_depth: f64) -> haptics::device::EnergyLedger {
+fn press_cycle(
+    stiffness: f64,
+    device_damping: f64,
+    press_time: f64,
+    hand_depth: f64,
+) -> haptics::device::EnergyLedger {
     let world = world(&floor(0.1, 0.0), DVec3::ZERO);
     let above = DVec3::new(0.0, 0.0, 0.02);
     let below = DVec3::new(0.0, 0.0, RADIUS - hand_depth);
@@ -384,7 +389,8 @@ fn press_cycle(stiffness: f64, device_damping: f64, press_time: f64, hand_depth:
     let mut device = SimulatedDevice::replay(trajectory).with_dynamics(dynamics);
     let mut specs = SimulatedDevice::default_specs();
     specs.max_stiffness = stiffness;
-    let mut renderer = HapticRenderer::new(world, frictionless(stiffness), &specs, identity(), settings(RADIUS));
+    let mut renderer =
+        HapticRenderer::new(world, frictionless(stiffness), &specs, identity(), settings(RADIUS));
     let config = ReplayConfig { rate_hz: 1000.0, start: 0.0, end };
     let mut contact = 0;
     replay(&mut device, &mut renderer, &config, |t| {
