@@ -366,8 +366,11 @@ pub struct Attributes {
     pub sides: u8,
     /// True when the geometric normal of the shapes is the opposite of the one computed from
     /// their parametrisation (RenderMan's `Orientation`/`ReverseOrientation` against the
-    /// handedness of the current coordinate system). Consumers flip [`Shape`] normals when set.
-    /// It never changes which side of a closed quadric is inside.
+    /// handedness of the current coordinate system). The geometric normal of a shape is
+    /// `world_from_object^-T * n_object`, where `n_object` is computed in object space
+    /// (`(P1 - P0) x (P2 - P0)` for a polygon, `dP/du x dP/dv` for a parametric surface),
+    /// negated when this flag is set. See [`crate::builder`] for the rule. It never changes
+    /// which side of a closed quadric is inside.
     pub reverse_orientation: bool,
     /// `AreaLightSource` current when the shapes were made: they emit as that light.
     pub area_light: Option<LightId>,
@@ -650,7 +653,9 @@ pub struct ShapeEntity {
 pub struct ObjectId(pub u32);
 
 /// An `ObjectBegin` ... `ObjectEnd` definition. Its shapes' `world_from_object` transforms are
-/// relative to the object's own space (the instance transform applies on top).
+/// relative to the object's own space (the instance transform applies on top), and their
+/// `attributes` are the state while the definition was read. An instance's own attributes are
+/// in [`ObjectInstanceEntity::shape_attributes`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObjectDefinition {
     pub handle: Handle,
@@ -660,11 +665,19 @@ pub struct ObjectDefinition {
 
 /// An `ObjectInstance`: the definition's shapes placed with `world_from_instance * their own
 /// transform`, without copying their geometry.
+///
+/// Attributes follow the RenderMan Interface: an instance inherits the graphics state current
+/// at `ObjectInstance` (surface, colour, lights, orientation, ...), and attribute requests made
+/// inside the definition apply on top of it, as if the definition's requests were replayed
+/// there. `attributes` is the state at `ObjectInstance`; `shape_attributes[i]` is the resolved
+/// state of the definition's shape `i` in this instance: use it to shade and orient the shapes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObjectInstanceEntity {
     pub object: ObjectId,
     pub world_from_instance: DMat4,
     pub attributes: AttributesId,
+    /// One entry per shape of the definition, in the definition's order.
+    pub shape_attributes: Vec<AttributesId>,
     pub loc: FileLoc,
 }
 

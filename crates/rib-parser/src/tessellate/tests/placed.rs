@@ -187,12 +187,14 @@ fn test_scene() -> Scene {
                 object: ObjectId(0),
                 world_from_instance: DMat4::from_translation(DVec3::Z * 10.0),
                 attributes: AttributesId(0),
+                shape_attributes: vec![AttributesId(0)],
                 loc: FileLoc::new("scene.rib", 30, 1),
             },
             ObjectInstanceEntity {
                 object: ObjectId(0),
                 world_from_instance: DMat4::from_scale(DVec3::new(-2.0, 2.0, 2.0)),
                 attributes: AttributesId(1),
+                shape_attributes: vec![AttributesId(1)],
                 loc: FileLoc::new("scene.rib", 31, 1),
             },
             // A dangling object id is skipped, not a panic.
@@ -200,6 +202,7 @@ fn test_scene() -> Scene {
                 object: ObjectId(7),
                 world_from_instance: DMat4::IDENTITY,
                 attributes: AttributesId(0),
+                shape_attributes: vec![AttributesId(0)],
                 loc: FileLoc::new("scene.rib", 32, 1),
             },
         ],

@@ -1,0 +1,726 @@
+//! The RIB tokenizer: ASCII and binary encodings (RISpec 3.2 Appendix C), freely intermixed.
+//!
+//! Bytes below 0200 (octal) are ASCII RIB: barewords (request names), numbers, quoted strings,
+//! `[` `]`, whitespace and `#` comments. Bytes 0200 and above start a binary token: integers and
+//! fixed-point numbers, strings, IEEE floats, float arrays, encoded requests and defined string
+//! tokens. Every token carries the byte offset it starts at; the parser turns offsets into
+//! `file:line:col` only when it needs a location.
+//!
+//! Numbers are scanned once into a decimal mantissa and exponent and converted on demand into the
+//! type the request expects (`f32` for geometry, `f64` for transforms and camera values, `i32`
+//! for counts and indices), each conversion correctly rounded.
+
+use std::sync::Arc;
+
+/// Bytes of a string or request name: a span of the source, or bytes the lexer made (escapes,
+/// defined binary strings).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Text {
+    Span(usize, usize),
+    Shared(Arc<[u8]>),
+    Owned(Vec<u8>),
+}
+
+impl Text {
+    pub(crate) fn bytes<'a>(&'a self, src: &'a [u8]) -> &'a [u8] {
+        match self {
+            Text::Span(a, b) => &src[*a..*b],
+            Text::Shared(s) => s,
+            Text::Owned(v) => v,
+        }
+    }
+}
+
+/// A number as written. ASCII numbers keep their decimal mantissa and exponent (and their text
+/// for the rare conversions that need a full parse); binary numbers are already decoded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Num {
+    Decimal {
+        negative: bool,
+        mantissa: u64,
+        exp10: i32,
+        /// Written without `.` or exponent.
+        integer: bool,
+        /// `mantissa * 10^exp10` is the exact value (no digits were dropped).
+        exact: bool,
+        start: usize,
+        end: usize,
+    },
+    Int(i32),
+    F32(f32),
+    F64(f64),
+}
+
+const POW10_F32: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+const POW10_F64: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18,
+    1e19, 1e20, 1e21, 1e22,
+];
+
+impl Num {
+    /// The value rounded once to `f32`.
+    pub(crate) fn to_f32(self, src: &[u8]) -> f32 {
+        match self {
+            Num::Decimal { negative, mantissa, exp10, exact, start, end, .. } => {
+                // Clinger's fast path: the mantissa and the power of ten are exact in f32, so one
+                // correctly rounded operation gives the correctly rounded result.
+                if exact && mantissa <= 1 << 24 && (-10..=10).contains(&exp10) {
+                    let m = mantissa as f32;
+                    let v = if exp10 >= 0 {
+                        m * POW10_F32[exp10 as usize]
+                    } else {
+                        m / POW10_F32[(-exp10) as usize]
+                    };
+                    if negative { -v } else { v }
+                } else {
+                    parse_text(&src[start..end]).unwrap_or(f32::NAN)
+                }
+            }
+            Num::Int(i) => i as f32,
+            Num::F32(f) => f,
+            Num::F64(f) => f as f32,
+        }
+    }
+
+    /// The value rounded once to `f64`.
+    pub(crate) fn to_f64(self, src: &[u8]) -> f64 {
+        match self {
+            Num::Decimal { negative, mantissa, exp10, exact, start, end, .. } => {
+                if exact && mantissa <= 1 << 53 && (-22..=22).contains(&exp10) {
+                    let m = mantissa as f64;
+                    let v = if exp10 >= 0 {
+                        m * POW10_F64[exp10 as usize]
+                    } else {
+                        m / POW10_F64[(-exp10) as usize]
+                    };
+                    if negative { -v } else { v }
+                } else {
+                    parse_text(&src[start..end]).unwrap_or(f64::NAN)
+                }
+            }
+            Num::Int(i) => f64::from(i),
+            Num::F32(f) => f64::from(f),
+            Num::F64(f) => f,
+        }
+    }
+
+    /// The value as an integer: integers as written, and floats with an integral value (binary
+    /// writers sometimes encode counts as floats).
+    pub(crate) fn to_i32(self, src: &[u8]) -> Option<i32> {
+        match self {
+            Num::Decimal { negative, mantissa, integer: true, exact: true, .. } => {
+                let v = i64::try_from(mantissa).ok()?;
+                i32::try_from(if negative { -v } else { v }).ok()
+            }
+            Num::Int(i) => Some(i),
+            other => {
+                let f = other.to_f64(src);
+                (f.fract() == 0.0 && f >= f64::from(i32::MIN) && f <= f64::from(i32::MAX)).then_some(f as i32)
+            }
+        }
+    }
+}
+
+fn parse_text<T: std::str::FromStr>(text: &[u8]) -> Option<T> {
+    std::str::from_utf8(text).ok()?.parse().ok()
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum TokenKind {
+    Request(Text),
+    String(Text),
+    Number(Num),
+    ArrayBegin,
+    ArrayEnd,
+    Eof,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Token {
+    pub kind: TokenKind,
+    /// Byte offset of the first byte of the token.
+    pub start: usize,
+}
+
+/// A byte sequence that is not a token. The lexer has already skipped past it.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct LexError {
+    pub offset: usize,
+    pub message: String,
+}
+
+/// The binary-encoding state of a stream: requests and strings defined so far (RISpec C.2).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct BinaryTables {
+    requests: Vec<Option<Arc<[u8]>>>,
+    strings: std::collections::HashMap<u32, Arc<[u8]>>,
+}
+
+/// Most string tokens a stream may define, so a hostile stream cannot grow the table without
+/// bound (each definition also needs input bytes, so this is generous).
+const MAX_DEFINED_STRINGS: usize = 1 << 20;
+
+pub(crate) struct Lexer {
+    bytes: Arc<[u8]>,
+    pos: usize,
+    end: usize,
+    tables: BinaryTables,
+    /// Elements left in a binary float array being delivered one token at a time.
+    array_remaining: Option<usize>,
+    peeked: std::collections::VecDeque<Result<Token, LexError>>,
+}
+
+fn is_delimiter(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c | b'[' | b']' | b'"' | b'#') || b >= 0x80
+}
+
+impl Lexer {
+    pub(crate) fn new(bytes: Arc<[u8]>) -> Lexer {
+        let end = bytes.len();
+        Lexer::with_range(bytes, 0, end, BinaryTables::default())
+    }
+
+    /// A lexer over `bytes[start..end]` (an inline archive) with the binary definitions that were
+    /// in effect where the range starts.
+    pub(crate) fn with_range(bytes: Arc<[u8]>, start: usize, end: usize, tables: BinaryTables) -> Lexer {
+        let end = end.min(bytes.len());
+        Lexer { bytes, pos: start.min(end), end, tables, array_remaining: None, peeked: Default::default() }
+    }
+
+    pub(crate) fn bytes(&self) -> &Arc<[u8]> {
+        &self.bytes
+    }
+
+    pub(crate) fn tables(&self) -> &BinaryTables {
+        &self.tables
+    }
+
+    pub(crate) fn next(&mut self) -> Result<Token, LexError> {
+        match self.peeked.pop_front() {
+            Some(t) => t,
+            None => self.scan(),
+        }
+    }
+
+    /// The token `n` places ahead (0 is the next one), without consuming it.
+    pub(crate) fn peek(&mut self, n: usize) -> &Result<Token, LexError> {
+        while self.peeked.len() <= n {
+            let t = self.scan();
+            self.peeked.push_back(t);
+        }
+        &self.peeked[n]
+    }
+
+    fn err(&self, offset: usize, message: impl Into<String>) -> LexError {
+        LexError { offset, message: message.into() }
+    }
+
+    fn scan(&mut self) -> Result<Token, LexError> {
+        if let Some(remaining) = self.array_remaining {
+            let start = self.pos;
+            if remaining == 0 {
+                self.array_remaining = None;
+                return Ok(Token { kind: TokenKind::ArrayEnd, start });
+            }
+            self.array_remaining = Some(remaining - 1);
+            let v = self.read_u32_be(4, start)?;
+            return Ok(Token { kind: TokenKind::Number(Num::F32(f32::from_bits(v))), start });
+        }
+        loop {
+            // Skip whitespace; `i` is the first byte of a token or comment.
+            let (i, b) = {
+                let bytes = &*self.bytes;
+                let mut i = self.pos;
+                while i < self.end && matches!(bytes[i], b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c) {
+                    i += 1;
+                }
+                if i >= self.end {
+                    self.pos = self.end;
+                    return Ok(Token { kind: TokenKind::Eof, start: self.end });
+                }
+                (i, bytes[i])
+            };
+            self.pos = i;
+            match b {
+                b'#' => {
+                    let bytes = &*self.bytes;
+                    let mut j = i;
+                    while j < self.end && bytes[j] != b'\n' && bytes[j] != b'\r' {
+                        j += 1;
+                    }
+                    self.pos = j;
+                }
+                b'[' => {
+                    self.pos = i + 1;
+                    return Ok(Token { kind: TokenKind::ArrayBegin, start: i });
+                }
+                b']' => {
+                    self.pos = i + 1;
+                    return Ok(Token { kind: TokenKind::ArrayEnd, start: i });
+                }
+                b'"' => return self.scan_string(i),
+                b'0'..=b'9' | b'-' | b'+' | b'.' => return self.scan_number(i),
+                0x80.. => {
+                    if let Some(t) = self.scan_binary(i)? {
+                        return Ok(t);
+                    }
+                    // A definition (request or string token): no token produced, go on.
+                }
+                0x21..=0x7e => {
+                    let bytes = &*self.bytes;
+                    let mut j = i + 1;
+                    while j < self.end && (0x21..0x7f).contains(&bytes[j]) && !is_delimiter(bytes[j]) {
+                        j += 1;
+                    }
+                    self.pos = j;
+                    return Ok(Token { kind: TokenKind::Request(Text::Span(i, j)), start: i });
+                }
+                _ => {
+                    self.pos = i + 1;
+                    return Err(
+                        self.err(i, format!("unexpected byte 0x{b:02x} (not RIB text or a binary token)"))
+                    );
+                }
+            }
+        }
+    }
+
+    fn skip_to_delimiter(&mut self, mut i: usize) {
+        while i < self.end && !is_delimiter(self.bytes[i]) {
+            i += 1;
+        }
+        self.pos = i;
+    }
+
+    fn scan_number(&mut self, start: usize) -> Result<Token, LexError> {
+        let bytes = &*self.bytes;
+        let end = self.end;
+        let mut i = start;
+        let negative = bytes[i] == b'-';
+        if bytes[i] == b'-' || bytes[i] == b'+' {
+            i += 1;
+        }
+        let mut mantissa: u64 = 0;
+        let mut exp10: i32 = 0;
+        let mut exact = true;
+        let mut any_digit = false;
+        let mut integer = true;
+        while i < end && bytes[i].is_ascii_digit() {
+            any_digit = true;
+            let d = u64::from(bytes[i] - b'0');
+            if mantissa < (u64::MAX - 9) / 10 {
+                mantissa = mantissa * 10 + d;
+            } else {
+                exact = false;
+                exp10 = exp10.saturating_add(1);
+            }
+            i += 1;
+        }
+        if i < end && bytes[i] == b'.' {
+            integer = false;
+            i += 1;
+            while i < end && bytes[i].is_ascii_digit() {
+                any_digit = true;
+                let d = u64::from(bytes[i] - b'0');
+                if mantissa < (u64::MAX - 9) / 10 {
+                    mantissa = mantissa * 10 + d;
+                    exp10 -= 1;
+                } else if d != 0 {
+                    exact = false;
+                }
+                i += 1;
+            }
+        }
+        if !any_digit {
+            self.skip_to_delimiter(i);
+            let text = String::from_utf8_lossy(&self.bytes[start..self.pos]).into_owned();
+            return Err(self.err(start, format!("'{text}' is not a number")));
+        }
+        if i < end && (bytes[i] == b'e' || bytes[i] == b'E') {
+            integer = false;
+            i += 1;
+            let mut exp_negative = false;
+            if i < end && (bytes[i] == b'-' || bytes[i] == b'+') {
+                exp_negative = bytes[i] == b'-';
+                i += 1;
+            }
+            let exp_start = i;
+            let mut e: i32 = 0;
+            while i < end && bytes[i].is_ascii_digit() {
+                e = e.saturating_mul(10).saturating_add(i32::from(bytes[i] - b'0'));
+                i += 1;
+            }
+            if i == exp_start {
+                self.skip_to_delimiter(i);
+                let text = String::from_utf8_lossy(&self.bytes[start..self.pos]).into_owned();
+                return Err(self.err(start, format!("'{text}' is not a number (exponent without digits)")));
+            }
+            exp10 = exp10.saturating_add(if exp_negative { -e } else { e });
+        }
+        if i < end && !is_delimiter(bytes[i]) {
+            self.skip_to_delimiter(i);
+            let text = String::from_utf8_lossy(&self.bytes[start..self.pos]).into_owned();
+            return Err(self.err(start, format!("'{text}' is not a number")));
+        }
+        self.pos = i;
+        Ok(Token {
+            kind: TokenKind::Number(Num::Decimal {
+                negative,
+                mantissa,
+                exp10,
+                integer,
+                exact,
+                start,
+                end: i,
+            }),
+            start,
+        })
+    }
+
+    fn scan_string(&mut self, start: usize) -> Result<Token, LexError> {
+        let bytes = &*self.bytes;
+        let mut i = start + 1;
+        // Fast path: no escapes and no carriage returns.
+        while i < self.end {
+            match bytes[i] {
+                b'"' => {
+                    self.pos = i + 1;
+                    return Ok(Token { kind: TokenKind::String(Text::Span(start + 1, i)), start });
+                }
+                b'\\' | b'\r' => break,
+                _ => i += 1,
+            }
+        }
+        let mut out = bytes[start + 1..i].to_vec();
+        while i < self.end {
+            let b = bytes[i];
+            i += 1;
+            match b {
+                b'"' => {
+                    self.pos = i;
+                    return Ok(Token { kind: TokenKind::String(Text::Owned(out)), start });
+                }
+                b'\r' => {
+                    if i < self.end && bytes[i] == b'\n' {
+                        i += 1;
+                    }
+                    out.push(b'\n');
+                }
+                b'\\' => {
+                    let Some(&e) = bytes.get(i).filter(|_| i < self.end) else { break };
+                    i += 1;
+                    match e {
+                        b'n' => out.push(b'\n'),
+                        b'r' => out.push(b'\r'),
+                        b't' => out.push(b'\t'),
+                        b'b' => out.push(0x08),
+                        b'f' => out.push(0x0c),
+                        b'0'..=b'7' => {
+                            let mut v = u32::from(e - b'0');
+                            for _ in 0..2 {
+                                match bytes.get(i) {
+                                    Some(&d @ b'0'..=b'7') if i < self.end => {
+                                        v = v * 8 + u32::from(d - b'0');
+                                        i += 1;
+                                    }
+                                    _ => break,
+                                }
+                            }
+                            out.push((v & 0xff) as u8);
+                        }
+                        // A backslash before a line ending continues the string on the next line.
+                        b'\n' => {}
+                        b'\r' => {
+                            if i < self.end && bytes[i] == b'\n' {
+                                i += 1;
+                            }
+                        }
+                        other => out.push(other),
+                    }
+                }
+                other => out.push(other),
+            }
+        }
+        self.pos = self.end;
+        Err(self.err(start, "unterminated string (no closing '\"' before the end of the file)"))
+    }
+
+    fn read_u32_be(&mut self, n: usize, token_start: usize) -> Result<u32, LexError> {
+        if self.pos + n > self.end {
+            self.pos = self.end;
+            return Err(self.err(token_start, "binary token cut short by the end of the file"));
+        }
+        let mut v: u32 = 0;
+        for k in 0..n {
+            v = (v << 8) | u32::from(self.bytes[self.pos + k]);
+        }
+        self.pos += n;
+        Ok(v)
+    }
+
+    fn read_slice(&mut self, n: usize, token_start: usize) -> Result<(usize, usize), LexError> {
+        if n > self.end - self.pos {
+            self.pos = self.end;
+            return Err(self.err(token_start, "binary string cut short by the end of the file"));
+        }
+        let span = (self.pos, self.pos + n);
+        self.pos += n;
+        Ok(span)
+    }
+
+    /// Decodes one binary token starting at `start` (a byte >= 0200). Returns `None` for
+    /// definitions, which produce no token.
+    fn scan_binary(&mut self, start: usize) -> Result<Option<Token>, LexError> {
+        let code = self.bytes[start];
+        self.pos = start + 1;
+        let token = |kind| Ok(Some(Token { kind, start }));
+        match code {
+            // Integers and fixed-point numbers: 0200 + 4d + w, then w+1 bytes of a signed
+            // integer, most significant first, whose bottom d bytes follow the radix point.
+            0x80..=0x8f => {
+                let w = usize::from(code & 0x03);
+                let d = i32::from((code >> 2) & 0x03);
+                let n = w + 1;
+                let raw = self.read_u32_be(n, start)?;
+                let shift = 32 - 8 * n as u32;
+                let signed = ((raw << shift) as i32) >> shift;
+                if d == 0 {
+                    token(TokenKind::Number(Num::Int(signed)))
+                } else {
+                    token(TokenKind::Number(Num::F64(f64::from(signed) / 256f64.powi(d))))
+                }
+            }
+            // Short strings: 0220 + w, then w bytes.
+            0x90..=0x9f => {
+                let (a, b) = self.read_slice(usize::from(code - 0x90), start)?;
+                token(TokenKind::String(Text::Span(a, b)))
+            }
+            // Long strings: 0240 + l, an (l+1)-byte unsigned length, then the bytes.
+            0xa0..=0xa3 => {
+                let len = self.read_u32_be(usize::from(code - 0xa0) + 1, start)? as usize;
+                let (a, b) = self.read_slice(len, start)?;
+                token(TokenKind::String(Text::Span(a, b)))
+            }
+            0xa4 => {
+                let v = self.read_u32_be(4, start)?;
+                token(TokenKind::Number(Num::F32(f32::from_bits(v))))
+            }
+            0xa5 => {
+                let hi = self.read_u32_be(4, start)?;
+                let lo = self.read_u32_be(4, start)?;
+                token(TokenKind::Number(Num::F64(f64::from_bits((u64::from(hi) << 32) | u64::from(lo)))))
+            }
+            // An encoded request: 0246 then the request's one-byte code.
+            0xa6 => {
+                let c = self.read_u32_be(1, start)? as usize;
+                match self.tables.requests.get(c).and_then(Option::as_ref) {
+                    Some(name) => token(TokenKind::Request(Text::Shared(name.clone()))),
+                    None => Err(self.err(start, format!("encoded request {c} was never defined"))),
+                }
+            }
+            // Float arrays: 0310 + l, an (l+1)-byte length, then that many IEEE floats. The
+            // elements are delivered as separate number tokens between array brackets.
+            0xc8..=0xcb => {
+                let len = self.read_u32_be(usize::from(code - 0xc8) + 1, start)? as usize;
+                if len.saturating_mul(4) > self.end - self.pos {
+                    self.pos = self.end;
+                    return Err(self.err(start, format!("binary float array of {len} values cut short")));
+                }
+                self.array_remaining = Some(len);
+                token(TokenKind::ArrayBegin)
+            }
+            // Request definition: 0314, a one-byte code, then a string.
+            0xcc => {
+                let c = self.read_u32_be(1, start)? as usize;
+                let name = self.definition_string(start)?;
+                if name.is_empty() {
+                    return Err(self.err(start, "empty request name in an encoded request definition"));
+                }
+                if self.tables.requests.len() <= c {
+                    self.tables.requests.resize(c + 1, None);
+                }
+                self.tables.requests[c] = Some(name);
+                Ok(None)
+            }
+            // String definition: 0315 + w, a (w+1)-byte token, then a string.
+            0xcd | 0xce => {
+                let t = self.read_u32_be(usize::from(code - 0xcd) + 1, start)?;
+                let value = self.definition_string(start)?;
+                if self.tables.strings.len() >= MAX_DEFINED_STRINGS && !self.tables.strings.contains_key(&t) {
+                    return Err(self.err(start, "too many defined binary string tokens"));
+                }
+                self.tables.strings.insert(t, value);
+                Ok(None)
+            }
+            // String reference: 0317 + w, a (w+1)-byte token.
+            0xcf | 0xd0 => {
+                let t = self.read_u32_be(usize::from(code - 0xcf) + 1, start)?;
+                match self.tables.strings.get(&t) {
+                    Some(s) => token(TokenKind::String(Text::Shared(s.clone()))),
+                    None => Err(self.err(start, format!("binary string token {t} was never defined"))),
+                }
+            }
+            _ => Err(self.err(start, format!("reserved binary code 0{code:o}"))),
+        }
+    }
+
+    /// The string operand of a binary definition (encoded or quoted ASCII).
+    fn definition_string(&mut self, start: usize) -> Result<Arc<[u8]>, LexError> {
+        let t = self.scan()?;
+        match t.kind {
+            TokenKind::String(text) => Ok(Arc::from(text.bytes(&self.bytes))),
+            _ => Err(self.err(start, "a binary definition is not followed by a string")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lex(src: &[u8]) -> (Vec<Result<TokenKind, String>>, Arc<[u8]>) {
+        let bytes: Arc<[u8]> = Arc::from(src);
+        let mut l = Lexer::new(bytes.clone());
+        let mut out = Vec::new();
+        loop {
+            match l.next() {
+                Ok(Token { kind: TokenKind::Eof, .. }) => break,
+                Ok(t) => out.push(Ok(t.kind)),
+                Err(e) => out.push(Err(e.message)),
+            }
+            assert!(out.len() < 1000);
+        }
+        (out, bytes)
+    }
+
+    fn floats(src: &str) -> Vec<f32> {
+        let (toks, bytes) = lex(src.as_bytes());
+        toks.into_iter()
+            .map(|t| match t {
+                Ok(TokenKind::Number(n)) => n.to_f32(&bytes),
+                other => panic!("not a number: {other:?}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn numbers_in_every_written_form() {
+        assert_eq!(
+            floats(".5 1. 1e30 -0 -.75 +2 0.80000000000000004 1E-3"),
+            vec![0.5, 1.0, 1e30, -0.0, -0.75, 2.0, 0.8, 1e-3]
+        );
+        assert!(floats("-0")[0].is_sign_negative());
+    }
+
+    #[test]
+    fn float_conversion_is_correctly_rounded() {
+        for text in ["0.1", "3.14159265358979", "123456789", "1.17549435e-38", "3.4028235e38", "0.000001"] {
+            let (toks, bytes) = lex(text.as_bytes());
+            let Ok(TokenKind::Number(n)) = &toks[0] else { panic!() };
+            assert_eq!(n.to_f32(&bytes), text.parse::<f32>().unwrap(), "{text}");
+            assert_eq!(n.to_f64(&bytes), text.parse::<f64>().unwrap(), "{text}");
+        }
+    }
+
+    #[test]
+    fn integers_and_integral_floats() {
+        let (toks, bytes) = lex(b"42 -7 3.0 2147483648 1.5");
+        let ints: Vec<Option<i32>> = toks
+            .iter()
+            .map(|t| match t {
+                Ok(TokenKind::Number(n)) => n.to_i32(&bytes),
+                _ => panic!(),
+            })
+            .collect();
+        assert_eq!(ints, vec![Some(42), Some(-7), Some(3), None, None]);
+    }
+
+    #[test]
+    fn strings_escapes_and_line_spanning() {
+        let (toks, bytes) = lex(b"\"a\\\"b\\n\\101\\\nc\" \"two\r\nlines\"");
+        let strs: Vec<Vec<u8>> = toks
+            .iter()
+            .map(|t| match t {
+                Ok(TokenKind::String(s)) => s.bytes(&bytes).to_vec(),
+                _ => panic!(),
+            })
+            .collect();
+        assert_eq!(strs, vec![b"a\"b\nAc".to_vec(), b"two\nlines".to_vec()]);
+    }
+
+    #[test]
+    fn tokens_without_whitespace_and_comments_in_arrays() {
+        let (toks, bytes) = lex(b"Surface\"plastic\"\"Ks\"[0.8]\"Ka\"[.5 # comment ]\n 1]#end");
+        let kinds: Vec<String> = toks
+            .iter()
+            .map(|t| match t {
+                Ok(TokenKind::Request(s)) => format!("R:{}", String::from_utf8_lossy(s.bytes(&bytes))),
+                Ok(TokenKind::String(s)) => format!("S:{}", String::from_utf8_lossy(s.bytes(&bytes))),
+                Ok(TokenKind::Number(n)) => format!("N:{}", n.to_f32(&bytes)),
+                Ok(TokenKind::ArrayBegin) => "[".into(),
+                Ok(TokenKind::ArrayEnd) => "]".into(),
+                other => format!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(
+            kinds,
+            ["R:Surface", "S:plastic", "S:Ks", "[", "N:0.8", "]", "S:Ka", "[", "N:0.5", "N:1", "]"]
+        );
+    }
+
+    #[test]
+    fn bad_tokens_are_errors_and_lexing_goes_on() {
+        let (toks, _) = lex(b"set -x\nSphere 1.2.3 \"open");
+        assert!(matches!(toks[0], Ok(TokenKind::Request(_))));
+        assert_eq!(toks[1], Err("'-x' is not a number".into()));
+        assert!(matches!(toks[2], Ok(TokenKind::Request(_))));
+        assert_eq!(toks[3], Err("'1.2.3' is not a number".into()));
+        assert!(toks[4].as_ref().unwrap_err().starts_with("unterminated string"));
+    }
+
+    #[test]
+    fn binary_tokens() {
+        // version 3.03 as fixed point (0212: 3 bytes, 2 after the point), a 2-byte integer 512,
+        // a negative 1-byte integer, an IEEE float, a float array, a defined request and string.
+        let mut src = b"version".to_vec();
+        src.extend([0x8a, 0x03, 0x07, 0xae, 0x81, 0x02, 0x00, 0x80, 0xff, 0xa4, 0x3f, 0x80, 0, 0]);
+        src.extend([0xc8, 0x02, 0x3f, 0x80, 0, 0, 0x40, 0, 0, 0]);
+        src.extend([0xcc, 0x07, 0x96]);
+        src.extend(b"Sphere");
+        src.extend([0xa6, 0x07, 0xcd, 0x00, 0x92]);
+        src.extend(b"lh");
+        src.extend([0xcf, 0x00]);
+        let (toks, bytes) = lex(&src);
+        let n = |i: usize| match &toks[i] {
+            Ok(TokenKind::Number(n)) => n.to_f64(&bytes),
+            other => panic!("{other:?}"),
+        };
+        assert!((n(1) - 3.03).abs() < 1e-4);
+        assert_eq!(n(2), 512.0);
+        assert_eq!(n(3), -1.0);
+        assert_eq!(n(4), 1.0);
+        assert_eq!(toks[5], Ok(TokenKind::ArrayBegin));
+        assert_eq!((n(6), n(7)), (1.0, 2.0));
+        assert_eq!(toks[8], Ok(TokenKind::ArrayEnd));
+        match &toks[9] {
+            Ok(TokenKind::Request(t)) => assert_eq!(t.bytes(&bytes), b"Sphere"),
+            other => panic!("{other:?}"),
+        }
+        match &toks[10] {
+            Ok(TokenKind::String(t)) => assert_eq!(t.bytes(&bytes), b"lh"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn truncated_and_undefined_binary_is_an_error() {
+        let (toks, _) = lex(&[0xa6, 0x05]);
+        assert_eq!(toks, vec![Err("encoded request 5 was never defined".into())]);
+        let (toks, _) = lex(&[0xc8, 0xff, 0, 0]);
+        assert!(toks[0].as_ref().unwrap_err().contains("cut short"));
+        let (toks, _) = lex(&[0x83, 0, 0]);
+        assert!(toks[0].as_ref().unwrap_err().contains("cut short"));
+        let (toks, _) = lex(&[0xd5]);
+        assert!(toks[0].as_ref().unwrap_err().contains("reserved"));
+    }
+}
