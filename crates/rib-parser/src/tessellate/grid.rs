@@ -128,7 +128,8 @@ impl Grid {
                 for dx in -1..=1 {
                     for dy in -1..=1 {
                         for dz in -1..=1 {
-                            let cell = [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
+                            let cell =
+                                [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
                             let Some(others) = cells.get(&cell) else { continue };
                             // One representative per cell is enough: its members are already one.
                             if let Some(&o) = others.iter().find(|&&o| points[o].distance(p) <= weld_eps) {

@@ -2,8 +2,8 @@
 
 use super::assert_well_formed;
 use crate::scene::{
-    Basis, NuPatch, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh, SubdivisionTag, TrimCurves,
-    Wrap,
+    Basis, NuPatch, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh, SubdivisionTag,
+    TrimCurves, Wrap,
 };
 use crate::tessellate::{Tolerance, tessellate, tessellate_placed};
 use glam::{DMat4, DVec3, Vec3, Vec4};
@@ -33,16 +33,39 @@ fn tame_point() -> impl Strategy<Value = Vec3> {
 
 fn quadric() -> impl Strategy<Value = Shape> {
     prop_oneof![
-        (number(), number(), number(), angle())
-            .prop_map(|(radius, z_min, z_max, t)| Shape::Sphere { radius, z_min, z_max, theta_max_degrees: t }),
-        (number(), number(), number(), angle())
-            .prop_map(|(radius, z_min, z_max, t)| Shape::Cylinder { radius, z_min, z_max, theta_max_degrees: t }),
-        (number(), number(), angle()).prop_map(|(height, radius, t)| Shape::Cone { height, radius, theta_max_degrees: t }),
-        (number(), number(), angle()).prop_map(|(height, radius, t)| Shape::Disk { height, radius, theta_max_degrees: t }),
-        (number(), number(), number(), angle())
-            .prop_map(|(r_max, z_min, z_max, t)| Shape::Paraboloid { r_max, z_min, z_max, theta_max_degrees: t }),
-        (point(), point(), angle())
-            .prop_map(|(point1, point2, t)| Shape::Hyperboloid { point1, point2, theta_max_degrees: t }),
+        (number(), number(), number(), angle()).prop_map(|(radius, z_min, z_max, t)| Shape::Sphere {
+            radius,
+            z_min,
+            z_max,
+            theta_max_degrees: t
+        }),
+        (number(), number(), number(), angle()).prop_map(|(radius, z_min, z_max, t)| Shape::Cylinder {
+            radius,
+            z_min,
+            z_max,
+            theta_max_degrees: t
+        }),
+        (number(), number(), angle()).prop_map(|(height, radius, t)| Shape::Cone {
+            height,
+            radius,
+            theta_max_degrees: t
+        }),
+        (number(), number(), angle()).prop_map(|(height, radius, t)| Shape::Disk {
+            height,
+            radius,
+            theta_max_degrees: t
+        }),
+        (number(), number(), number(), angle()).prop_map(|(r_max, z_min, z_max, t)| Shape::Paraboloid {
+            r_max,
+            z_min,
+            z_max,
+            theta_max_degrees: t
+        }),
+        (point(), point(), angle()).prop_map(|(point1, point2, t)| Shape::Hyperboloid {
+            point1,
+            point2,
+            theta_max_degrees: t
+        }),
         (number(), number(), angle(), angle(), angle()).prop_map(|(a, b, p0, p1, t)| Shape::Torus {
             major_radius: a,
             minor_radius: b,
@@ -90,9 +113,13 @@ fn polygons() -> impl Strategy<Value = Shape> {
 
 fn basis() -> impl Strategy<Value = Basis> {
     prop_oneof![
-        Just(Basis { matrix: [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], step: 3 }),
         Just(Basis {
-            matrix: [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 0.0, 3.0, 0.0, 1.0, 4.0, 1.0, 0.0].map(|x: f32| x / 6.0),
+            matrix: [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+            step: 3
+        }),
+        Just(Basis {
+            matrix: [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 0.0, 3.0, 0.0, 1.0, 4.0, 1.0, 0.0]
+                .map(|x: f32| x / 6.0),
             step: 1
         }),
         (prop::array::uniform16(-3.0f32..3.0), prop_oneof![9 => 1u32..5, 1 => Just(0u32)])
@@ -105,7 +132,8 @@ fn wrap() -> impl Strategy<Value = Wrap> {
 }
 
 fn homogeneous() -> impl Strategy<Value = Vec4> {
-    (tame_point(), prop_oneof![30 => Just(1.0f32), 10 => 0.2f32..3.0, 1 => number()]).prop_map(|(p, w)| p.extend(w))
+    (tame_point(), prop_oneof![30 => Just(1.0f32), 10 => 0.2f32..3.0, 1 => number()])
+        .prop_map(|(p, w)| p.extend(w))
 }
 
 /// Control points along one direction that fit `patches` patches (usually).
@@ -119,7 +147,16 @@ fn fitting_count(bicubic: bool, wrap: Wrap, step: u32, patches: u32) -> u32 {
 }
 
 fn patches() -> impl Strategy<Value = Shape> {
-    (any::<bool>(), 1u32..4, 1u32..4, wrap(), wrap(), basis(), basis(), prop_oneof![8 => Just(0i32), 1 => -1i32..2])
+    (
+        any::<bool>(),
+        1u32..4,
+        1u32..4,
+        wrap(),
+        wrap(),
+        basis(),
+        basis(),
+        prop_oneof![8 => Just(0i32), 1 => -1i32..2],
+    )
         .prop_flat_map(|(bicubic, pu, pv, u_wrap, v_wrap, u_basis, v_basis, off)| {
             let nu = fitting_count(bicubic, u_wrap, u_basis.step, pu);
             let nv = fitting_count(bicubic, v_wrap, v_basis.step, pv);
@@ -155,7 +192,12 @@ fn knots(len: usize) -> impl Strategy<Value = Vec<f32>> {
 fn trim() -> impl Strategy<Value = Option<Arc<TrimCurves>>> {
     let curve = (2u32..4, 2u32..6).prop_flat_map(|(order, n)| {
         let n = n.max(order);
-        (Just(order), Just(n), knots((n + order) as usize), prop::collection::vec((0.0f32..3.0, 0.0f32..3.0, 0.3f32..2.0), n as usize))
+        (
+            Just(order),
+            Just(n),
+            knots((n + order) as usize),
+            prop::collection::vec((0.0f32..3.0, 0.0f32..3.0, 0.3f32..2.0), n as usize),
+        )
     });
     prop_oneof![
         2 => Just(None),
@@ -189,38 +231,51 @@ fn trim() -> impl Strategy<Value = Option<Arc<TrimCurves>>> {
 }
 
 fn nupatch() -> impl Strategy<Value = Shape> {
-    (prop_oneof![9 => 2u32..5, 1 => 0u32..2], 0u32..4, prop_oneof![9 => 2u32..5, 1 => 0u32..2], 0u32..4, prop_oneof![8 => Just(0i32), 1 => -1i32..2]).prop_flat_map(|(uo, extra_u, vo, extra_v, off)| {
-        let (nu, nv) = (uo.max(1) + extra_u, vo.max(1) + extra_v);
-        let count = ((nu * nv) as i32 + off).max(0) as usize;
-        (
-            knots((nu + uo) as usize),
-            knots((nv + vo) as usize),
-            prop::collection::vec(homogeneous(), count),
-            (number(), number(), number(), number()),
-            trim(),
-        )
-            .prop_map(move |(u_knots, v_knots, positions, (u_min, u_max, v_min, v_max), trim)| {
-                // Ranges usually from the knots, sometimes arbitrary.
-                let pick = |x: f32, k: &[f32], i: usize| {
-                    if x.abs() < 3.0 { k.get(i.min(k.len().saturating_sub(1))).copied().unwrap_or(x) } else { x }
-                };
-                Shape::NuPatch(NuPatch {
-                    nu,
-                    u_order: uo,
-                    u_min: pick(u_min, &u_knots, (uo as usize).saturating_sub(1)),
-                    u_max: pick(u_max, &u_knots, nu as usize),
-                    u_knots,
-                    nv,
-                    v_order: vo,
-                    v_min: pick(v_min, &v_knots, (vo as usize).saturating_sub(1)),
-                    v_max: pick(v_max, &v_knots, nv as usize),
-                    v_knots,
-                    positions,
-                    trim,
-                    primvars: ParamList::default(),
-                })
-            })
-    })
+    (
+        prop_oneof![9 => 2u32..5, 1 => 0u32..2],
+        0u32..4,
+        prop_oneof![9 => 2u32..5, 1 => 0u32..2],
+        0u32..4,
+        prop_oneof![8 => Just(0i32), 1 => -1i32..2],
+    )
+        .prop_flat_map(|(uo, extra_u, vo, extra_v, off)| {
+            let (nu, nv) = (uo.max(1) + extra_u, vo.max(1) + extra_v);
+            let count = ((nu * nv) as i32 + off).max(0) as usize;
+            (
+                knots((nu + uo) as usize),
+                knots((nv + vo) as usize),
+                prop::collection::vec(homogeneous(), count),
+                (number(), number(), number(), number()),
+                trim(),
+            )
+                .prop_map(
+                    move |(u_knots, v_knots, positions, (u_min, u_max, v_min, v_max), trim)| {
+                        // Ranges usually from the knots, sometimes arbitrary.
+                        let pick = |x: f32, k: &[f32], i: usize| {
+                            if x.abs() < 3.0 {
+                                k.get(i.min(k.len().saturating_sub(1))).copied().unwrap_or(x)
+                            } else {
+                                x
+                            }
+                        };
+                        Shape::NuPatch(NuPatch {
+                            nu,
+                            u_order: uo,
+                            u_min: pick(u_min, &u_knots, (uo as usize).saturating_sub(1)),
+                            u_max: pick(u_max, &u_knots, nu as usize),
+                            u_knots,
+                            nv,
+                            v_order: vo,
+                            v_min: pick(v_min, &v_knots, (vo as usize).saturating_sub(1)),
+                            v_max: pick(v_max, &v_knots, nv as usize),
+                            v_knots,
+                            positions,
+                            trim,
+                            primvars: ParamList::default(),
+                        })
+                    },
+                )
+        })
 }
 
 fn subdivision() -> impl Strategy<Value = Shape> {
@@ -242,7 +297,15 @@ fn subdivision() -> impl Strategy<Value = Shape> {
         })
         .prop_map(|(positions, faces, mut tags, interpolate)| {
             if interpolate {
-                tags.insert(0, SubdivisionTag { name: "interpolateboundary".into(), int_args: vec![], float_args: vec![], string_args: vec![] });
+                tags.insert(
+                    0,
+                    SubdivisionTag {
+                        name: "interpolateboundary".into(),
+                        int_args: vec![],
+                        float_args: vec![],
+                        string_args: vec![],
+                    },
+                );
             }
             let faces: Vec<Vec<u32>> = faces.into_iter().filter_map(|f| f.into_iter().next()).collect();
             Shape::SubdivisionMesh(SubdivisionMesh {
@@ -309,4 +372,3 @@ proptest! {
         check(&shape, &tol);
     }
 }
-
