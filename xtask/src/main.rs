@@ -3,6 +3,9 @@
 //! - `cargo xtask test`: the whole test suite, exactly what CI runs. It first makes sure the
 //!   system packages the GPU and window tests need are installed (a software Vulkan driver and a
 //!   virtual X server), so the viewer's GPU code really runs on a machine without a GPU.
+//! - `cargo xtask depth-exhaustive` / `depth-study`: see `depth.rs`.
+
+mod depth;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -16,9 +19,11 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => test(&args[1..]),
         Some("install-test-deps") => install_test_packages(),
+        Some("depth-exhaustive") => depth::exhaustive(&args[1..]),
+        Some("depth-study") => depth::study(),
         _ => {
             eprintln!(
-                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need"
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md"
             );
             return ExitCode::from(2);
         }
