@@ -20,7 +20,8 @@
 //! - **Thread** ([`HapticThread`]): the 1 kHz loop with a watchdog, exchanging state with the
 //!   viewer through wait-free triple buffers; [`replay`] runs the same loop in simulated time,
 //!   deterministically, writing the force log ([`ForceLogWriter`]).
-//! - **Scenes** ([`scene`]): haptic materials from a RIB scene's `Attribute "haptic"`.
+//! - **Scenes** ([`scene`], [`session`]): a RIB scene's surfaces tessellated into a collision
+//!   mesh with materials from `Attribute "haptic"`, and everything a front end needs to run them.
 //!
 //! The core (geometry, proxy, devices, thread) works on plain triangles; see `docs/haptics.md`
 //! for the design, measurements and limitations.
@@ -72,6 +73,7 @@ pub mod proxy;
 pub mod render;
 pub mod replay;
 pub mod scene;
+pub mod session;
 pub mod thread;
 pub mod timing;
 pub mod trajectory;

@@ -364,12 +364,17 @@ fn gain_and_centre_map_device_to_scene() {
     assert!((last.proxy_device - DVec3::new(0.001, 0.0, -0.045)).length() < 1e-9);
 }
 
-/// Press a mass-damper device held by a hand into a plane and back out; return the energy the
-/// display delivered to the hand.
-fn press_cycle(stiffness: f64, device_damping: f64, press_time: f64) -> (f64, f64) {
+/// Press a mass-damper device held by a hand `hand_depth` into a plane (past the proxy's first
+/// contact) and back out; return its energy ledger.
+fn press_cycle(
+    stiffness: f64,
+    device_damping: f64,
+    press_time: f64,
+    hand_depth: f64,
+) -> haptics::device::EnergyLedger {
     let world = world(&floor(0.1, 0.0), DVec3::ZERO);
     let above = DVec3::new(0.0, 0.0, 0.02);
-    let below = DVec3::new(0.0, 0.0, -0.01);
+    let below = DVec3::new(0.0, 0.0, RADIUS - hand_depth);
     let trajectory = Trajectory::from_samples(&[
         (0.0, above),
         (0.05, above),
@@ -394,31 +399,46 @@ fn press_cycle(stiffness: f64, device_damping: f64, press_time: f64) -> (f64, f6
     })
     .unwrap();
     assert!(contact > 10, "the press never reached the plane");
-    let e = device.energy();
-    (e.delivered_to_user(), e.by_rendered_force)
+    device.energy()
 }
 
 #[test]
 fn a_closed_press_cycle_is_passive() {
     // The simulated device's damping (1 N s/m) and maximum stiffness (2000 N/m) meet Colgate's
-    // bound b > k T / 2 at 1 kHz: the display as a whole must not deliver energy.
-    for press_time in [0.02, 0.1, 0.5] {
-        for stiffness in [500.0, 1000.0, 1900.0] {
-            let (delivered, by_force) = press_cycle(stiffness, 1.0, press_time);
-            assert!(
-                delivered <= 0.0,
-                "k {stiffness}, press {press_time} s: delivered {delivered} J (force work {by_force} J)"
-            );
+    // bound b > k T / 2 at 1 kHz. The sampled spring returns more energy than it stored (its
+    // work over the cycle is positive), but less than the device dissipates while in contact,
+    // and the display as a whole delivers no energy to the hand.
+    // Shallow presses keep the force below its limit (where the spring's lag matters most);
+    // deep ones saturate it.
+    for hand_depth in [0.004, 0.015] {
+        for press_time in [0.02, 0.1, 0.5] {
+            for stiffness in [500.0, 1000.0, 1900.0] {
+                let e = press_cycle(stiffness, 1.0, press_time, hand_depth);
+                eprintln!(
+                    "passivity: depth {hand_depth} m, k {stiffness} N/m, press {press_time} s: spring work {:.3e} J, dissipated in contact {:.3e} J, delivered to the hand {:.3e} J",
+                    e.by_rendered_force,
+                    e.dissipated_in_contact,
+                    e.delivered_to_user()
+                );
+                assert!(e.contact_surplus() <= 0.0, "k {stiffness}, press {press_time} s: {e:?}");
+                assert!(e.delivered_to_user() <= 0.0, "k {stiffness}, press {press_time} s: {e:?}");
+            }
         }
     }
 }
 
 #[test]
 fn passivity_check_detects_an_active_display() {
-    // Without device damping the sampled spring is active (it returns more energy than it
-    // stored): the same measurement must catch it, or the passing test above proves nothing.
-    let (delivered, by_force) = press_cycle(1900.0, 0.0, 0.02);
-    assert!(delivered > 0.0 && by_force > 0.0, "delivered {delivered} J, force work {by_force} J");
+    // Above the bound (k = 6000 N/m > 2 b / T) or without device damping, the same measurement
+    // must find the contact active, or the passing test above proves nothing.
+    for (stiffness, damping) in [(6000.0, 1.0), (1900.0, 0.0)] {
+        let e = press_cycle(stiffness, damping, 0.5, 0.004);
+        eprintln!(
+            "passivity, k {stiffness} N/m, b {damping} N s/m: spring work {:.3e} J, dissipated in contact {:.3e} J",
+            e.by_rendered_force, e.dissipated_in_contact
+        );
+        assert!(e.contact_surplus() > 0.0, "k {stiffness}, b {damping}: {e:?}");
+    }
 }
 
 #[test]

@@ -42,6 +42,8 @@ pub struct EnergyLedger {
     pub by_hand: f64,
     /// Energy the device's own damping dissipated (non-negative).
     pub dissipated: f64,
+    /// The part of `dissipated` while a force was rendered (in contact).
+    pub dissipated_in_contact: f64,
 }
 
 impl EnergyLedger {
@@ -50,6 +52,13 @@ impl EnergyLedger {
     /// this is `<= 0`.
     pub fn delivered_to_user(&self) -> f64 {
         self.by_rendered_force - self.dissipated
+    }
+
+    /// Energy the rendered contacts delivered beyond what the device dissipated while in
+    /// contact: Colgate's condition for a passive virtual wall (`b > k T / 2`) is that this is
+    /// `<= 0`, without credit for damping in free space.
+    pub fn contact_surplus(&self) -> f64 {
+        self.by_rendered_force - self.dissipated_in_contact
     }
 }
 
@@ -203,7 +212,11 @@ impl SimulatedDevice {
             self.position += step;
             self.ledger.by_rendered_force += self.force.dot(step);
             self.ledger.by_hand += grip.dot(step);
-            self.ledger.dissipated += dynamics.damping * self.velocity.length_squared() * h;
+            let loss = dynamics.damping * self.velocity.length_squared() * h;
+            self.ledger.dissipated += loss;
+            if self.force != DVec3::ZERO {
+                self.ledger.dissipated_in_contact += loss;
+            }
         }
     }
 }

@@ -11,9 +11,11 @@
 //! - id 3: button bitmap, bit `i` = button `i`, little-endian over the following bytes;
 //! - anything else (battery level 0x17, ...) is ignored.
 //!
-//! The HID axes are x right, y towards the user, z down. The device frame used here is x right,
-//! y up, z away from the user: with a RenderMan camera looking down +z with y up (the usual
-//! RIB set-up), pushing the cap away moves the cursor into the screen.
+//! The HID axes are x right, y towards the user, z down. They are first turned into the **cap
+//! frame**: x right, y up, z towards the user (the viewer's eye frame, right-handed), then into
+//! the device frame by [`SpaceMouseSettings::device_from_cap`]. A front end that knows the
+//! camera sets it so that pushing the cap away moves the cursor into the screen whatever the
+//! scene's axes (see [`device_from_cap_for_camera`]); the identity keeps the cap frame.
 //!
 //! ## Controllers
 //! - **Position**: the cap's deflection is the position, scaled so full deflection reaches the
@@ -30,7 +32,7 @@
 
 use super::{DeviceError, DeviceSample, DeviceSpecs, HapticDevice, SafeForce};
 use crate::triple_buffer::{self, Reader, Writer};
-use glam::{DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -155,9 +157,21 @@ impl RawState {
     }
 }
 
-/// HID axes (x right, y towards the user, z down) to the device frame (x right, y up, z away).
-fn device_frame([x, y, z]: [i16; 3]) -> DVec3 {
-    DVec3::new(x as f64, -(z as f64), -(y as f64))
+/// HID axes (x right, y towards the user, z down) to the cap frame (x right, y up, z towards
+/// the user).
+fn cap_frame([x, y, z]: [i16; 3]) -> DVec3 {
+    DVec3::new(x as f64, -(z as f64), y as f64)
+}
+
+/// The `device_from_cap` rotation that makes the cap move the cursor in the view: right on the
+/// screen, up on the screen, and towards the viewer, for a RenderMan camera whose
+/// `world_from_camera` linear part is given (camera space: x right, y up, z into the screen).
+/// With `scene = centre + gain * device`, device axes are world axes.
+pub fn device_from_cap_for_camera(world_from_camera: DMat3) -> DMat3 {
+    // Cap z (towards the viewer) is camera -z; normalise away any scale in the camera.
+    let cols = [world_from_camera.x_axis, world_from_camera.y_axis, -world_from_camera.z_axis];
+    let unit = |v: DVec3| v.normalize_or(DVec3::ZERO);
+    DMat3::from_cols(unit(cols[0]), unit(cols[1]), unit(cols[2]))
 }
 
 /// How the cap drives the goal.
@@ -185,6 +199,8 @@ pub struct SpaceMouseSettings {
     pub max_angle: f64,
     /// Rate mode: damping of the force feedback admittance (N s/m); velocity += force / this.
     pub feedback_damping: f64,
+    /// From the cap frame (x right, y up, z towards the user) to the device frame.
+    pub device_from_cap: DMat3,
 }
 
 impl Default for SpaceMouseSettings {
@@ -198,6 +214,7 @@ impl Default for SpaceMouseSettings {
             angular_speed: 1.5,
             max_angle: 0.8,
             feedback_damping: 50.0,
+            device_from_cap: DMat3::IDENTITY,
         }
     }
 }
@@ -244,8 +261,11 @@ impl Controller {
     /// Advances to loop time `time` with the cap in state `raw`.
     pub fn update(&mut self, raw: &RawState, time: f64) -> (DVec3, DQuat) {
         let s = self.settings;
-        let translation = self.normalised(device_frame(raw.translation));
-        let rotation = self.normalised(device_frame(raw.rotation));
+        let turn = s.device_from_cap;
+        // Rotation vectors are axial: a mirror in `device_from_cap` flips them once more.
+        let axial = if turn.determinant() < 0.0 { -1.0 } else { 1.0 };
+        let translation = turn * self.normalised(cap_frame(raw.translation));
+        let rotation = turn * self.normalised(cap_frame(raw.rotation)) * axial;
         let dt = match self.last_time {
             Some(t0) if time > t0 => (time - t0).min(0.05),
             _ => 0.0,
@@ -508,13 +528,33 @@ mod tests {
         let raw = RawState { translation: [350, 0, 0], ..RawState::default() };
         let (p, _) = c.update(&raw, 0.0);
         assert!((p - DVec3::new(settings.workspace_radius, 0.0, 0.0)).length() < 1e-12);
-        // Press down (HID +z) moves the device down (-y); pull towards you (HID +y) moves -z.
+        // Press down (HID +z) moves the device down (-y); pull towards you (HID +y) moves +z.
         let raw = RawState { translation: [0, 100, 100], ..RawState::default() };
         let (p, _) = c.update(&raw, 0.0);
-        assert!(p.y < 0.0 && p.z < 0.0);
+        assert!(p.y < 0.0 && p.z > 0.0);
         // Inside the deadband nothing moves.
         let raw = RawState { translation: [5, -5, 3], ..RawState::default() };
         assert_eq!(c.update(&raw, 0.0).0, DVec3::ZERO);
+    }
+
+    #[test]
+    fn the_cap_follows_the_camera() {
+        // The Cornell box's camera: world = (cam.x, cam.y, 3.9 - cam.z), so into the screen is
+        // world -z; pushing the cap away (HID -y) must move the cursor to world -z.
+        let world_from_camera = DMat3::from_diagonal(DVec3::new(1.0, 1.0, -1.0));
+        let settings = SpaceMouseSettings {
+            mode: ControlMode::Position,
+            device_from_cap: device_from_cap_for_camera(world_from_camera),
+            ..SpaceMouseSettings::default()
+        };
+        let mut c = Controller::new(settings);
+        let (p, _) = c.update(&RawState { translation: [0, -350, 0], ..RawState::default() }, 0.0);
+        assert!((p - DVec3::new(0.0, 0.0, -settings.workspace_radius)).length() < 1e-12, "{p}");
+        // A camera turned 90 degrees about y (looking down world -x... any rotation) keeps
+        // right-on-screen as the camera's x axis.
+        let turned = DMat3::from_rotation_y(0.5) * DMat3::from_diagonal(DVec3::splat(2.0));
+        let m = device_from_cap_for_camera(turned);
+        assert!((m * DVec3::X - DMat3::from_rotation_y(0.5) * DVec3::X).length() < 1e-12);
     }
 
     #[test]
