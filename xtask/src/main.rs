@@ -4,8 +4,10 @@
 //!   system packages the GPU and window tests need are installed (a software Vulkan driver and a
 //!   virtual X server), so the viewer's GPU code really runs on a machine without a GPU.
 //! - `cargo xtask depth-exhaustive` / `depth-study`: see `depth.rs`.
+//! - `cargo xtask update-fixtures`, `cargo xtask bench-parse`: see `rib.rs`.
 
 mod depth;
+mod rib;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -21,9 +23,11 @@ fn main() -> ExitCode {
         Some("install-test-deps") => install_test_packages(),
         Some("depth-exhaustive") => depth::exhaustive(&args[1..]),
         Some("depth-study") => depth::study(),
+        Some("update-fixtures") => rib::update_fixtures(),
+        Some("bench-parse") => rib::bench_parse(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md"
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)"
             );
             return ExitCode::from(2);
         }

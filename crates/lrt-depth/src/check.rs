@@ -3,7 +3,15 @@
 use crate::args::Settings;
 use rib_parser::scene::{DepthRequest, DepthRequestSource};
 use rib_parser::summary::SceneCounts;
+use rib_parser::tessellate::{SceneMeshes, Tolerance, tessellate_scene};
+use rib_parser::{Diagnostic, DiagnosticKind, Severity};
 use std::process::ExitCode;
+
+/// The tessellation `--check` counts triangles at: the default of
+/// [`rib_parser::tessellate::Tolerance`] (0.1 % of each shape's size).
+fn check_tolerance() -> Tolerance {
+    Tolerance::default()
+}
 
 /// Loads the scene named by the settings. Prints diagnostics (warnings unless `--quiet`) to
 /// standard error; on failure returns exit code 1.
@@ -30,19 +38,18 @@ pub fn load(settings: &Settings) -> Result<rib_parser::Loaded, ExitCode> {
     }
 }
 
-/// The one-line summary: requests, shapes, lights, triangles, warnings.
-pub fn summary_line(loaded: &rib_parser::Loaded, triangles: Option<u64>) -> String {
+/// The one-line summary: requests, shapes, lights, triangles after tessellation, warnings
+/// (the parser's and the tessellation's).
+pub fn summary_line(loaded: &rib_parser::Loaded, meshes: &SceneMeshes) -> String {
     let counts = SceneCounts::of(&loaded.scene);
-    let triangles = triangles
-        .map_or("triangles: n/a (tessellation not available yet)".to_string(), |t| format!("{t} triangles"));
     format!(
-        "{}: ok: {} requests, {} shapes, {} lights, {}, {} warnings",
+        "{}: ok: {} requests, {} shapes, {} lights, {} triangles, {} warnings",
         loaded.scene.source,
         loaded.requests,
         counts.total_shapes(),
         counts.lights,
-        triangles,
-        loaded.diagnostics.warning_count()
+        meshes.triangle_count(),
+        loaded.diagnostics.warning_count() + meshes.skipped.len()
     )
 }
 
@@ -51,11 +58,26 @@ pub fn run(settings: &Settings) -> ExitCode {
         Ok(l) => l,
         Err(code) => return code,
     };
+    let meshes = tessellate_scene(&loaded.scene, &check_tolerance());
     if !settings.quiet {
-        println!("{}", summary_line(&loaded, None));
+        for skipped in &meshes.skipped {
+            let d = Diagnostic::new(
+                Severity::Warning,
+                DiagnosticKind::Unsupported,
+                Some(skipped.loc.clone()),
+                format!("not tessellated: {}", skipped.error),
+            );
+            eprintln!("{}", d.render(&loaded.sources));
+        }
+        println!("{}", summary_line(&loaded, &meshes));
     }
     if settings.stats {
         print_stats(&loaded);
+        println!(
+            "stats: {} meshes, {} triangles at a tolerance of 0.1% of each shape's size",
+            meshes.meshes.len(),
+            meshes.triangle_count()
+        );
     }
     ExitCode::SUCCESS
 }

@@ -202,6 +202,11 @@ impl Lexer {
         }
     }
 
+    /// Puts a token back: the next `next` returns it.
+    pub(crate) fn unread(&mut self, token: Token) {
+        self.peeked.push_front(Ok(token));
+    }
+
     /// The token `n` places ahead (0 is the next one), without consuming it.
     pub(crate) fn peek(&mut self, n: usize) -> &Result<Token, LexError> {
         while self.peeked.len() <= n {

@@ -13,7 +13,8 @@
 //!   shapes in object space with `f64` transforms, object instances, and the `file:line:col`
 //!   of every entity.
 //! - [`tessellate`] turns every surface shape into world-space triangles with a stated tolerance.
-//! - [`summary`] describes a scene in a few lines.
+//! - [`writer`] writes a scene back as RIB (an exact round trip); [`summary`] describes one in
+//!   a few lines.
 //! - [`diagnostics`]: warnings and errors rendered as `PATH:LINE:COL: error: message` with the
 //!   source line and a caret.
 //!
@@ -51,6 +52,7 @@ pub mod source;
 pub mod summary;
 pub mod target;
 pub mod tessellate;
+pub mod writer;
 
 pub use builder::{BuildOptions, Built, FrameInfo, SceneBuilder};
 pub use diagnostics::{Diagnostic, DiagnosticKind, Diagnostics, RibError, Severity};

@@ -115,7 +115,7 @@ fn params_text(p: &ParamList) -> String {
                         v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
                     }
                     ParamValues::Strings(v) if v.len() <= 8 => {
-                        v.iter().map(|s| format!("\"{s}\"")).collect::<Vec<_>>().join(" ")
+                        v.iter().map(|s| format!("{s:?}")).collect::<Vec<_>>().join(" ")
                     }
                     other => format!("<{} values>", other.len()),
                 };
@@ -364,9 +364,12 @@ pub fn dump(scene: &Scene) -> String {
     }
     for (i, a) in scene.attributes.iter().enumerate() {
         let lights: Vec<String> = a.illuminated_by.iter().map(|l| l.0.to_string()).collect();
+        let user: Vec<String> =
+            a.user.iter().map(|c| format!("\"{}\" {}", c.namespace, params_text(&c.params))).collect();
+        let user = if user.is_empty() { String::new() } else { format!(" attributes=[{}]", user.join("; ")) };
         let _ = writeln!(
             o,
-            "attributes {i}: color={} opacity={} surface={} sides={} reverse={} area={} lights=[{}]{}{}{}",
+            "attributes {i}: color={} opacity={} surface={} sides={} reverse={} area={} lights=[{}]{}{}{}{}",
             v3(a.color),
             v3(a.opacity),
             call(&a.surface),
@@ -376,7 +379,8 @@ pub fn dump(scene: &Scene) -> String {
             lights.join(" "),
             a.name.as_ref().map_or(String::new(), |n| format!(" name=\"{n}\"")),
             if a.matte { " matte" } else { "" },
-            haptic_text(&a.haptic)
+            haptic_text(&a.haptic),
+            user
         );
     }
     for (i, s) in scene.shapes.iter().enumerate() {

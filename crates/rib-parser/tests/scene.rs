@@ -283,9 +283,10 @@ fn perspective_camera_rules() {
 
 #[test]
 fn perspective_request_matches_prman() {
-    let s = load("Perspective 90 WorldBegin WorldEnd").scene;
+    let l = load("WorldBegin Perspective 90 Sphere 1 -1 1 360 WorldEnd");
+    assert!(l.render_warnings().contains("projective"), "{}", l.render_warnings());
     // tan(45 deg) = 1: (x, y, z) -> (x/z, y/z, 1 - 1/z).
-    let p = s.camera.camera_from_world.project_point3(DVec3::new(1.0, 2.0, 4.0));
+    let p = l.scene.shapes[0].world_from_object.project_point3(DVec3::new(1.0, 2.0, 4.0));
     assert!((p - DVec3::new(0.25, 0.5, 0.75)).length() < 1e-12, "{p}");
 }
 

@@ -1,4 +1,5 @@
-//! The pre-rendered inputs: the image (8-bit RGBA, shown pixel for pixel) and its depth table.
+//! The pre-rendered image: 8-bit RGBA, shown pixel for pixel (the depth table is
+//! `depth_remap::DepthTable`).
 //!
 //! Image files: PNG, JPEG and TIFF are decoded to 8-bit RGBA and their values copied through
 //! untouched (16-bit files are reduced to 8 bits by `image`'s rounding, `round(v / 257)`).
@@ -126,148 +127,6 @@ fn read_exr_rgba(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerErr
     Ok(Rgba8Image { width: w as u32, height: h as u32, pixels })
 }
 
-/// A radial depth table: per pixel, the distance from the eye along the pixel-centre ray to the
-/// nearest surface, `inf` for a miss (CONTRACTS.md §2). Rows top to bottom.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RadialDepth {
-    pub width: u32,
-    pub height: u32,
-    pub values: Vec<f32>,
-}
-
-impl RadialDepth {
-    /// Reads an ASCII `.depth` table or an OpenEXR `Z` image (by the `.exr` extension).
-    ///
-    /// PROVISIONAL: the depth-table reader belongs to `depth_remap`; this one follows
-    /// CONTRACTS.md §2 and is replaced by theirs when it lands.
-    pub fn read(path: &Path) -> Result<RadialDepth, ViewerError> {
-        let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        if is_exr {
-            return read_depth_exr(path);
-        }
-        let text =
-            std::fs::read(path).map_err(|e| ViewerError::Io { path: path.to_path_buf(), source: e })?;
-        let text = std::str::from_utf8(&text).map_err(|e| ViewerError::BadInput {
-            path: path.to_path_buf(),
-            message: format!("the depth table is not UTF-8 text: {e}"),
-        })?;
-        parse_depth_table(text).map_err(|(line, column, message)| ViewerError::BadInput {
-            path: path.to_path_buf(),
-            message: format!("{line}:{column}: {message}"),
-        })
-    }
-}
-
-/// Parses the ASCII depth table; errors are `(line, column, message)`, 1-based.
-fn parse_depth_table(text: &str) -> Result<RadialDepth, (usize, usize, String)> {
-    let mut header: Option<(u32, u32)> = None;
-    let mut width: Option<u32> = None;
-    let mut values = Vec::new();
-    let mut rows = 0u32;
-    for (line_index, raw_line) in text.split('\n').enumerate() {
-        let line_no = line_index + 1;
-        let line = raw_line.strip_suffix('\r').unwrap_or(raw_line);
-        if let Some(comment) = line.strip_prefix('#') {
-            if rows == 0 && header.is_none() {
-                header = parse_header(comment);
-            }
-            continue;
-        }
-        if line.is_empty() {
-            continue;
-        }
-        let mut count = 0u32;
-        let mut column = 1usize;
-        for token in line.split(' ') {
-            if token.is_empty() {
-                return Err((line_no, column, "values must be separated by single spaces".into()));
-            }
-            let v = match token {
-                "inf" | "+inf" | "infinity" => f32::INFINITY,
-                _ => match token.parse::<f32>() {
-                    Ok(v) if v.is_finite() && v >= 0.0 => v,
-                    _ => {
-                        return Err((
-                            line_no,
-                            column,
-                            format!("`{token}` is not a finite non-negative number or `inf`"),
-                        ));
-                    }
-                },
-            };
-            values.push(v);
-            count += 1;
-            column += token.len() + 1;
-            if values.len() > (MAX_IMAGE_SIDE as usize) * (MAX_IMAGE_SIDE as usize) {
-                return Err((line_no, column, "the table is larger than any accepted image".into()));
-            }
-        }
-        match width {
-            None => width = Some(count),
-            Some(w) if w != count => {
-                return Err((line_no, 1, format!("row has {count} values, the first row has {w}")));
-            }
-            Some(_) => {}
-        }
-        rows += 1;
-    }
-    let width = width.ok_or((1, 1, "the depth table has no rows".to_string()))?;
-    if let Some((hw, hh)) = header
-        && (hw, hh) != (width, rows)
-    {
-        return Err((1, 1, format!("header says {hw}x{hh} but the table holds {width}x{rows} values")));
-    }
-    Ok(RadialDepth { width, height: rows, values })
-}
-
-fn parse_header(comment: &str) -> Option<(u32, u32)> {
-    let mut words = comment.split_whitespace();
-    if words.next()? != "lrt-depth" {
-        return None;
-    }
-    let (mut w, mut h) = (None, None);
-    for word in words {
-        if let Some(v) = word.strip_prefix("width=") {
-            w = v.parse().ok();
-        } else if let Some(v) = word.strip_prefix("height=") {
-            h = v.parse().ok();
-        }
-    }
-    Some((w?, h?))
-}
-
-fn read_depth_exr(path: &Path) -> Result<RadialDepth, ViewerError> {
-    use exr::prelude::*;
-    let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .specific_channels()
-        .required("Z")
-        .collect_pixels(
-            |resolution, _| {
-                let (w, h) = (resolution.width(), resolution.height());
-                let ok = w > 0 && h > 0 && w <= MAX_IMAGE_SIDE as usize && h <= MAX_IMAGE_SIDE as usize;
-                (w, h, if ok { vec![0f32; w * h] } else { Vec::new() })
-            },
-            |(w, _, values): &mut (usize, usize, Vec<f32>), position, (z,): (f32,)| {
-                if let Some(v) = values.get_mut(position.y() * *w + position.x()) {
-                    *v = z;
-                }
-            },
-        )
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| bad(format!("cannot read the `Z` channel: {e}")))?;
-    let (w, h, values) = image.layer_data.channel_data.pixels;
-    check_size(path, w as u32, h as u32)?;
-    if let Some(k) = values.iter().position(|v| v.is_nan() || *v < 0.0) {
-        return Err(bad(format!("pixel ({}, {}) holds {}, not a distance or +inf", k % w, k / w, values[k])));
-    }
-    Ok(RadialDepth { width: w as u32, height: h as u32, values })
-}
-
 /// Writes an 8-bit PNG atomically: a temporary file beside the target, then a rename.
 pub(crate) fn write_png_atomically(
     path: &Path,
@@ -314,30 +173,5 @@ mod tests {
         assert_eq!(t.to_byte(f32::NAN), 0);
         let g = ToneMap { gain: 2.0, gamma: 2.2 };
         assert_eq!(g.to_byte(0.25), ((0.5f32).powf(1.0 / 2.2) * 255.0).round() as u8);
-    }
-
-    #[test]
-    fn depth_table_parses_with_header_comments_and_crlf() {
-        let t = parse_depth_table(
-            "# lrt-depth v1 width=3 height=2 depth=radial units=scene\r\n1 2.5 inf\r\n# c\n0 3 4\n",
-        )
-        .unwrap();
-        assert_eq!((t.width, t.height), (3, 2));
-        assert_eq!(t.values, vec![1.0, 2.5, f32::INFINITY, 0.0, 3.0, 4.0]);
-    }
-
-    #[test]
-    fn depth_table_errors_name_line_and_column() {
-        let e = parse_depth_table("1 2\n3 nan\n").unwrap_err();
-        assert_eq!((e.0, e.1), (2, 3));
-        let e = parse_depth_table("1 -2\n").unwrap_err();
-        assert_eq!((e.0, e.1), (1, 3));
-        let e = parse_depth_table("1 2\n3\n").unwrap_err();
-        assert_eq!(e.0, 2);
-        let e = parse_depth_table("1  2\n").unwrap_err();
-        assert_eq!(e.0, 1);
-        let e = parse_depth_table("# lrt-depth v1 width=2 height=2\n1 2\n").unwrap_err();
-        assert!(e.2.contains("2x2"), "{}", e.2);
-        assert!(parse_depth_table("# only a comment\n").is_err());
     }
 }

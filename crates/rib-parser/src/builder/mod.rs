@@ -54,7 +54,7 @@ use crate::limits::Limits;
 use crate::scene::*;
 use crate::target::{Cx, NuPatchArgs, Quadric, RibTarget, ShaderSlot};
 use depth_remap::{CameraSettings, Clipping, CropWindow, Projection, ScreenWindow};
-use glam::{DMat4, DVec3};
+use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -385,10 +385,15 @@ impl SceneBuilder {
             return;
         }
         self.push_block(BlockKind::World, cx);
-        self.camera_from_world = self.gs.ctm;
+        self.camera_from_world = snap_affine(self.gs.ctm);
         let mut settings = self.opts.camera.clone();
         settings.camera_from_world = self.camera_from_world;
-        if let Err(e) = depth_remap::Camera::new(settings) {
+        if self.camera_from_world.row(3) != DVec4::W {
+            cx.error(
+                DiagnosticKind::Camera,
+                "the camera transformation is projective (a Perspective request or a matrix with a projective row before WorldBegin); use Projection \"perspective\" instead",
+            );
+        } else if let Err(e) = depth_remap::Camera::new(settings) {
             cx.error(DiagnosticKind::Camera, format!("the camera is invalid: {e}"));
         }
         self.gs.ctm = DMat4::IDENTITY;
@@ -472,7 +477,15 @@ impl SceneBuilder {
             return;
         }
         let attributes = self.intern_attributes();
-        let world_from_object = self.gs.ctm;
+        let world_from_object = snap_affine(self.gs.ctm);
+        if world_from_object.row(3) != DVec4::W {
+            self.warn_once(
+                "projective-shape",
+                cx,
+                DiagnosticKind::Unsupported,
+                "this shape's transformation is projective (Perspective); consumers that need affine transformations may reject it",
+            );
+        }
         if let Some(world) = self.world_mut() {
             world.shapes.push(ShapeEntity {
                 shape: Arc::new(shape),
@@ -1182,6 +1195,26 @@ impl RibTarget for SceneBuilder {
         let shape = shapes::curves(cubic, vertices_per_curve, wrap, self.gs.attrs.v_basis, params);
         self.add_shape(shape, cx);
     }
+}
+
+/// Exporters write camera and object matrices whose projective row holds float noise
+/// (`2.7e-12` instead of 0, as in the corpus's `complexnurbs1.rib`); below `f32` precision it
+/// is taken as the exact affine row `(0 0 0 1)`.
+fn snap_affine(mut m: DMat4) -> DMat4 {
+    let r = m.row(3);
+    let noise = f64::from(f32::EPSILON);
+    if r.x.abs() < noise
+        && r.y.abs() < noise
+        && r.z.abs() < noise
+        && (r.w - 1.0).abs() < noise
+        && r != DVec4::W
+    {
+        m.x_axis.w = 0.0;
+        m.y_axis.w = 0.0;
+        m.z_axis.w = 0.0;
+        m.w_axis.w = 1.0;
+    }
+    m
 }
 
 fn is_identity3(m: &[f32]) -> bool {

@@ -433,6 +433,10 @@ impl Reader {
             &loc,
             format!("{request}: expected {what}, found {found}"),
         );
+        // A request name that ends the arguments too early starts the next request: keep it.
+        if matches!(tok.kind, TokenKind::Request(_) | TokenKind::Eof) {
+            self.input().lexer.unread(tok.clone());
+        }
         Stop
     }
 

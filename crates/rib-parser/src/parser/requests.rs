@@ -468,7 +468,6 @@ impl Reader {
                 );
             }
             _ if LATER_REQUESTS.contains(&name) => {
-                self.skip_arguments();
                 let note = match name {
                     "IfBegin" | "ElseIf" | "Else" | "IfEnd" => {
                         " (conditions are not evaluated: the requests of every branch are read)"
@@ -480,14 +479,15 @@ impl Reader {
                     &loc,
                     format!("'{name}' (a request of later RenderMan versions) is not supported; skipped with its arguments{note}"),
                 );
+                self.skip_arguments();
             }
             _ => {
-                self.skip_arguments();
                 self.diagnostics.warn(
                     DiagnosticKind::UnknownRequest,
                     &loc,
                     format!("unknown request '{name}'; skipped with its arguments"),
                 );
+                self.skip_arguments();
             }
         }
         Ok(())

@@ -108,7 +108,9 @@ impl Grid {
         }
         if weld_eps > 0.0 {
             let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-            let key = |p: DVec3| (p / weld_eps).floor().as_i64vec3().to_array();
+            // Cells relative to one sample, so far-off surfaces keep small keys.
+            let origin = points[source[0]];
+            let key = |p: DVec3| ((p - origin) / weld_eps).floor().as_i64vec3().to_array();
             let mut border: Vec<usize> = Vec::with_capacity(2 * (nu + nv + 2));
             for i in 0..=nu {
                 border.push(source[i]);
@@ -126,9 +128,9 @@ impl Grid {
                 for dx in -1..=1 {
                     for dy in -1..=1 {
                         for dz in -1..=1 {
-                            let Some(others) = cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
-                                continue;
-                            };
+                            let cell =
+                                [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
+                            let Some(others) = cells.get(&cell) else { continue };
                             // One representative per cell is enough: its members are already one.
                             if let Some(&o) = others.iter().find(|&&o| points[o].distance(p) <= weld_eps) {
                                 let (ra, rb) = (find(&mut parent, k), find(&mut parent, o));

@@ -21,15 +21,16 @@ pub struct WorldMesh {
     /// of the [module docs](super).
     pub mesh: TriangleMesh,
     pub origin: MeshOrigin,
-    /// The attribute state the shape was made under (for an instanced shape: the one recorded
-    /// with its definition).
+    /// The attribute state to shade and orient the shape with: the one it was made under, or
+    /// for an instanced shape its state in that instance
+    /// ([`ObjectInstanceEntity::shape_attributes`](crate::scene::ObjectInstanceEntity::shape_attributes)).
     pub attributes: AttributesId,
     /// For an instanced shape, the attribute state current at its `ObjectInstance`.
     pub instance_attributes: Option<AttributesId>,
     /// The full transform applied (`world_from_instance * world_from_object` for instances).
     pub world_from_object: DMat4,
-    /// Whether the normals were flipped from `world_from_object^-T * n_object`: the shape's
-    /// `reverse_orientation`, exclusive-or the instance's for instanced shapes.
+    /// Whether the normals were flipped from `world_from_object^-T * n_object`: the
+    /// `reverse_orientation` of [`WorldMesh::attributes`].
     pub reverse_orientation: bool,
     pub loc: FileLoc,
 }
@@ -190,16 +191,16 @@ pub fn tessellate_scene_filtered(
     let mut visit = |origin: MeshOrigin,
                      entity: &ShapeEntity,
                      world_from_object: DMat4,
+                     shape_attributes: AttributesId,
                      instance_attributes: Option<AttributesId>| {
         if !keep(&entity.shape) {
             return;
         }
-        let own = attributes(entity.attributes);
-        let reverse = own.is_some_and(|a| a.reverse_orientation)
-            != instance_attributes.and_then(attributes).is_some_and(|a| a.reverse_orientation);
+        let own = attributes(shape_attributes);
+        let reverse = own.is_some_and(|a| a.reverse_orientation);
         let options = ShapeOptions { trim_keeps_outside: own.is_some_and(trim_keeps_outside) };
         let skip =
-            |error| SkippedShape { origin, attributes: entity.attributes, loc: entity.loc.clone(), error };
+            |error| SkippedShape { origin, attributes: shape_attributes, loc: entity.loc.clone(), error };
         if total >= tol.max_scene_triangles {
             out.skipped.push(skip(TessellateError::TooManyTriangles {
                 kind: super::shape_kind(&entity.shape),
@@ -216,7 +217,7 @@ pub fn tessellate_scene_filtered(
                 out.meshes.push(WorldMesh {
                     mesh,
                     origin,
-                    attributes: entity.attributes,
+                    attributes: shape_attributes,
                     instance_attributes,
                     world_from_object,
                     reverse_orientation: reverse,
@@ -227,18 +228,17 @@ pub fn tessellate_scene_filtered(
         }
     };
     for (index, entity) in scene.shapes.iter().enumerate() {
-        visit(MeshOrigin::Shape { index }, entity, entity.world_from_object, None);
+        visit(MeshOrigin::Shape { index }, entity, entity.world_from_object, entity.attributes, None);
     }
     for (instance, inst) in scene.instances.iter().enumerate() {
         let Some(def) = scene.objects.get(inst.object.0 as usize) else { continue };
         for (shape, entity) in def.shapes.iter().enumerate() {
             let m = inst.world_from_instance * entity.world_from_object;
-            visit(
-                MeshOrigin::Instance { instance, object: inst.object, shape },
-                entity,
-                m,
-                Some(inst.attributes),
-            );
+            // The state resolved for this shape in this instance (the builder replays the
+            // definition's attribute requests over the instance's state).
+            let resolved = inst.shape_attributes.get(shape).copied().unwrap_or(entity.attributes);
+            let origin = MeshOrigin::Instance { instance, object: inst.object, shape };
+            visit(origin, entity, m, resolved, Some(inst.attributes));
         }
     }
     out

@@ -71,6 +71,7 @@ impl FileSystem for CorpusFs {
 }
 
 /// Every corpus file as (repo, flattened name), sorted.
+#[allow(dead_code)]
 pub fn corpus_files() -> Vec<(String, String)> {
     let mut out = Vec::new();
     let Ok(repos) = std::fs::read_dir(corpus_dir()) else { return out };

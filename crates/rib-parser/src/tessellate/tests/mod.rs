@@ -4,6 +4,7 @@ mod nurbs;
 mod patch;
 mod placed;
 mod polygon;
+mod props;
 mod quadric;
 mod subdiv;
 
