@@ -244,6 +244,12 @@ fn print_stats(s: &RenderStats, parse: Duration, write: Duration, scene: &Scene)
         seconds(s.time_depth),
         seconds(write)
     );
+    if let Some(photon) = &s.photon {
+        println!("stats: time: photon-map preparation {}", seconds(s.time_prepare));
+        for line in photon.lines() {
+            println!("stats: {line}");
+        }
+    }
     println!(
         "stats: rays: {} camera, {} bounce, {} shadow, {} total; {:.3} M rays/s",
         s.rays.camera,

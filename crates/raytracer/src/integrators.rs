@@ -1,5 +1,6 @@
-//! Surface integrators: `directlighting` (Whitted-style) and `path` (unbiased path tracing with
-//! multiple importance sampling and Russian roulette, the project's ground truth).
+//! Surface integrators: `directlighting` (Whitted-style), `path` (unbiased path tracing with
+//! multiple importance sampling and Russian roulette, the project's ground truth) and
+//! `photonmap` ([`crate::photon`]).
 //!
 //! The building blocks are public so that other integrators (the photon mapper) share them:
 //! [`find_surface`] resolves partially transparent surfaces, [`sample_one_light`] and
@@ -7,9 +8,11 @@
 //! [`RayCounters`] counts rays for `--stats`.
 
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
+use crate::diagnostics::Diagnostics;
 use crate::lights::LightSampleContext;
 use crate::materials::Material;
 use crate::math::average;
+use crate::photon::{PhotonMapSettings, PhotonMapper};
 use crate::sampling::{Rng, power_heuristic};
 use crate::world::{Ray, SurfaceInteraction, World};
 use glam::Vec3;
@@ -44,6 +47,8 @@ pub enum IntegratorKind {
     /// Unidirectional path tracing with next-event estimation and MIS; Russian roulette after
     /// `rr_depth` bounces; `max_depth` bounces at most (default effectively unbounded).
     Path { max_depth: u32, rr_depth: u32 },
+    /// Photon mapping with final gathering (pbrt-v1/v2 `photonmap`); see [`crate::photon`].
+    PhotonMap(PhotonMapSettings),
 }
 
 /// Largest path depth used when a RIB does not limit it: deep enough to be unbiased in
@@ -75,6 +80,10 @@ impl IntegratorKind {
         match call.name.as_str() {
             "directlighting" | "whitted" => (IntegratorKind::DirectLighting { max_depth: depth(5) }, None),
             "path" => (IntegratorKind::Path { max_depth: depth(UNBOUNDED_DEPTH), rr_depth: rr() }, None),
+            "photonmap" => {
+                let (settings, notes) = PhotonMapSettings::from_params(&call.params);
+                (IntegratorKind::PhotonMap(settings), (!notes.is_empty()).then(|| notes.join("; ")))
+            }
             other => (
                 IntegratorKind::Path { max_depth: depth(UNBOUNDED_DEPTH), rr_depth: rr() },
                 Some(format!("surface integrator \"{other}\" is not available: using \"path\"")),
@@ -86,6 +95,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::DirectLighting { .. } => "directlighting",
             IntegratorKind::Path { .. } => "path",
+            IntegratorKind::PhotonMap(_) => "photonmap",
         }
     }
 }
@@ -247,20 +257,53 @@ pub fn sample_one_light(
 
 /// Emission, self-emission and ambient light at a surface reached by a ray (all but the
 /// emission of lights, which the integrators weight themselves).
-fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
+pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
     let set = world.light_set(si.attributes);
     material.self_emission(si.ns, si.wo, si.st) + material.ambient_reflectance(si.st) * set.ambient
+}
+
+/// An integrator ready to render one world: its kind and what it precomputed for the world
+/// (the photon maps).
+#[derive(Debug)]
+pub struct Integrator {
+    pub kind: IntegratorKind,
+    photon_mapper: Option<PhotonMapper>,
+}
+
+impl Integrator {
+    /// Prepares `kind` for `world` (built from `scene`): photon mapping shoots its photons here.
+    /// What it skips goes to `diagnostics`.
+    pub fn prepare(
+        world: &World,
+        scene: &rib_parser::scene::Scene,
+        kind: IntegratorKind,
+        seed: u64,
+        diagnostics: &mut Diagnostics,
+    ) -> Integrator {
+        let photon_mapper = match kind {
+            IntegratorKind::PhotonMap(settings) => {
+                Some(PhotonMapper::prepare(world, scene, settings, seed, diagnostics))
+            }
+            _ => None,
+        };
+        Integrator { kind, photon_mapper }
+    }
+
+    /// The photon mapper, for a `photonmap` integrator.
+    pub fn photon_mapper(&self) -> Option<&PhotonMapper> {
+        self.photon_mapper.as_ref()
+    }
 }
 
 /// Radiance along a camera ray.
 pub fn li(
     world: &World,
-    kind: IntegratorKind,
+    integrator: &Integrator,
     ray: Ray,
     rng: &mut Rng,
     counters: &mut RayCounters,
 ) -> Radiance {
-    match kind {
+    match integrator.kind {
         IntegratorKind::DirectLighting { max_depth } => {
             let mut camera = 0;
             let r = whitted(world, ray, 0, max_depth, rng, counters, &mut camera);
@@ -269,6 +312,11 @@ pub fn li(
             r
         }
         IntegratorKind::Path { max_depth, rr_depth } => path(world, ray, max_depth, rr_depth, rng, counters),
+        IntegratorKind::PhotonMap(_) => match &integrator.photon_mapper {
+            Some(mapper) => mapper.li(world, ray, rng, counters),
+            // Not prepared for this world: nothing to render with.
+            None => Radiance::default(),
+        },
     }
 }
 

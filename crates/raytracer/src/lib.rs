@@ -10,7 +10,9 @@
 //!   polygons come as triangles from `rib_parser::tessellate`.
 //! - [`materials`], [`bsdf`], [`lights`]: RenderMan's standard shaders and lights (and LRT's
 //!   mirror and glass) as physically based BSDFs and emitters.
-//! - [`integrators`]: `directlighting` (Whitted) and `path` (MIS, Russian roulette).
+//! - [`integrators`]: `directlighting` (Whitted) and `path` (MIS, Russian roulette);
+//!   [`photon`]: `photonmap` (global and caustic photon maps in kd-trees, final gathering with
+//!   precomputed radiance photons, scene analysis that skips what a scene does not need).
 //! - [`render`]: camera rays from `depth_remap::Camera`, parallel deterministic tiles, pixel
 //!   filters ([`film`]), the depth table's distances; [`output`] writes TIFF, PNG, JPEG and EXR.
 //!
@@ -52,6 +54,7 @@ pub mod lights;
 pub mod materials;
 pub mod math;
 pub mod output;
+pub mod photon;
 pub mod render;
 pub mod sampling;
 pub mod shapes;

@@ -8,7 +8,7 @@
 
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
-use crate::integrators::{IntegratorKind, RayCounters, li};
+use crate::integrators::{Integrator, IntegratorKind, RayCounters, li};
 use crate::sampling::Rng;
 use crate::world::{Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
@@ -65,8 +65,12 @@ pub struct RenderStats {
     pub time_build: Duration,
     pub time_render: Duration,
     pub time_depth: Duration,
+    /// Preprocessing of the integrator (photon shooting, kd-trees, radiance photons).
+    pub time_prepare: Duration,
     /// What was skipped and why, with counts.
     pub skipped: Vec<(String, usize)>,
+    /// The photon mapper's maps, timings and counts (`photonmap` only).
+    pub photon: Option<crate::photon::PhotonStats>,
 }
 
 impl RenderStats {
@@ -222,7 +226,10 @@ fn render_in_pool(
     let time_build = build_start.elapsed();
     let rays = CameraRays::new(camera, &world.render_from_world);
 
-    let integrator = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
+    let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
+    let prepare_start = Instant::now();
+    let integrator = Integrator::prepare(&world, scene, kind, options.seed, &mut diagnostics);
+    let time_prepare = prepare_start.elapsed();
     let filter = Filter::from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
         Filter { kind: crate::film::FilterKind::Gaussian, x_width: 2.0, y_width: 2.0 }
@@ -257,8 +264,15 @@ fn render_in_pool(
     let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
         .par_iter()
         .map(|&(tx0, ty0, tx1, ty1)| {
-            let r =
-                render_tile(&world, &rays, integrator, &filter, (nx, ny), options.seed, (tx0, ty0, tx1, ty1));
+            let r = render_tile(
+                &world,
+                &rays,
+                &integrator,
+                &filter,
+                (nx, ny),
+                options.seed,
+                (tx0, ty0, tx1, ty1),
+            );
             let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = &options.progress {
@@ -295,8 +309,11 @@ fn render_in_pool(
     });
     let time_depth = if options.depth { depth_start.elapsed() } else { Duration::ZERO };
 
+    if let Some(mapper) = integrator.photon_mapper() {
+        diagnostics.skipped.extend(mapper.culled_skips());
+    }
     let stats = RenderStats {
-        integrator: integrator.name().to_string(),
+        integrator: kind.name().to_string(),
         samples_per_pixel: spp,
         threads,
         width: w,
@@ -307,7 +324,9 @@ fn render_in_pool(
         time_build,
         time_render,
         time_depth,
+        time_prepare,
         skipped: diagnostics.skipped.clone(),
+        photon: integrator.photon_mapper().map(|m| m.stats()),
     };
     let image = Image {
         width: w,
@@ -351,7 +370,7 @@ struct Sample {
 fn render_tile(
     world: &World,
     rays: &CameraRays,
-    integrator: IntegratorKind,
+    integrator: &Integrator,
     filter: &Filter,
     (nx, ny): (u32, u32),
     seed: u64,

@@ -1,0 +1,320 @@
+//! A balanced kd-tree stored in place (Jensen's photon-map layout, without pointers).
+//!
+//! The items of a range `[lo, hi)` are partitioned around the median `m = lo + (hi - lo) / 2`
+//! along the axis of the range's largest extent: `[lo, m)` lie on or below the median's
+//! coordinate, `(m, hi)` on or above it. The tree is the array itself plus one byte per item
+//! (the split axis), so a million photons cost their own size and a megabyte. Building is
+//! `O(n log n)` with `select_nth_unstable` (in parallel with rayon above a few thousand items)
+//! and deterministic: the same input gives the same tree whatever the thread count.
+//!
+//! Queries: the `k` nearest items within a radius that pass a filter ([`KdTree::knn`], a
+//! bounded max-heap whose radius shrinks as it fills), and the single nearest passing item
+//! ([`KdTree::nearest`]). `benches/photon_kdtree.rs` measures this tree against `kiddo`.
+
+use glam::Vec3;
+
+/// Something with a position in space.
+pub trait Positioned {
+    fn position(&self) -> Vec3;
+}
+
+impl Positioned for Vec3 {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        *self
+    }
+}
+
+/// Ranges at most this long are built sequentially.
+const PARALLEL_BUILD_MIN: usize = 8192;
+
+/// A kd-tree over items stored in tree order.
+#[derive(Clone, Debug, Default)]
+pub struct KdTree<T> {
+    items: Vec<T>,
+    axes: Vec<u8>,
+}
+
+impl<T: Positioned + Send> KdTree<T> {
+    /// Builds the tree, taking the items (reordered). Items with non-finite positions are
+    /// dropped first, so every query stays well defined.
+    pub fn build(mut items: Vec<T>) -> KdTree<T> {
+        items.retain(|i| i.position().is_finite());
+        let mut axes = vec![0u8; items.len()];
+        build_range(&mut items, &mut axes);
+        KdTree { items, axes }
+    }
+}
+
+fn build_range<T: Positioned + Send>(items: &mut [T], axes: &mut [u8]) {
+    let n = items.len();
+    if n <= 1 {
+        return;
+    }
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for i in items.iter() {
+        let p = i.position();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let m = n / 2;
+    items.select_nth_unstable_by(m, |a, b| a.position()[axis].total_cmp(&b.position()[axis]));
+    axes[m] = axis as u8;
+    let (left, rest) = items.split_at_mut(m);
+    let right = &mut rest[1..];
+    let (axes_left, axes_rest) = axes.split_at_mut(m);
+    let axes_right = &mut axes_rest[1..];
+    if n > PARALLEL_BUILD_MIN {
+        rayon::join(|| build_range(left, axes_left), || build_range(right, axes_right));
+    } else {
+        build_range(left, axes_left);
+        build_range(right, axes_right);
+    }
+}
+
+impl<T: Positioned> KdTree<T> {
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// The items, in tree order.
+    pub fn items(&self) -> &[T] {
+        &self.items
+    }
+
+    /// Mutable access to the items (positions must not change: the order is the tree).
+    pub fn items_mut(&mut self) -> &mut [T] {
+        &mut self.items
+    }
+
+    /// Bytes held by the tree.
+    pub fn bytes(&self) -> usize {
+        self.items.capacity() * std::mem::size_of::<T>() + self.axes.capacity()
+    }
+
+    /// The (at most) `heap.capacity()` nearest items to `p` within distance `sqrt(max_d2)` that
+    /// pass `accept`, into `heap` (cleared first).
+    pub fn knn(&self, p: Vec3, max_d2: f32, heap: &mut KnnHeap, mut accept: impl FnMut(&T) -> bool) {
+        heap.reset(max_d2);
+        if heap.capacity() == 0 || !(max_d2 > 0.0) {
+            return;
+        }
+        self.search(0, self.items.len(), p, heap, &mut accept);
+    }
+
+    fn search(&self, lo: usize, hi: usize, p: Vec3, heap: &mut KnnHeap, accept: &mut impl FnMut(&T) -> bool) {
+        // Small ranges are scanned: cheaper than descending to single items.
+        if hi - lo <= 4 {
+            for i in lo..hi {
+                self.consider(i, p, heap, accept);
+            }
+            return;
+        }
+        let m = lo + (hi - lo) / 2;
+        let axis = self.axes[m] as usize;
+        let d = p[axis] - self.items[m].position()[axis];
+        let (near, far) = if d < 0.0 { ((lo, m), (m + 1, hi)) } else { ((m + 1, hi), (lo, m)) };
+        self.search(near.0, near.1, p, heap, accept);
+        self.consider(m, p, heap, accept);
+        if d * d < heap.max_d2() {
+            self.search(far.0, far.1, p, heap, accept);
+        }
+    }
+
+    #[inline]
+    fn consider(&self, i: usize, p: Vec3, heap: &mut KnnHeap, accept: &mut impl FnMut(&T) -> bool) {
+        let d2 = (self.items[i].position() - p).length_squared();
+        if d2 < heap.max_d2() && accept(&self.items[i]) {
+            heap.push(d2, i as u32);
+        }
+    }
+
+    /// The nearest item to `p` within distance `sqrt(max_d2)` that passes `accept`.
+    pub fn nearest(&self, p: Vec3, max_d2: f32, accept: impl FnMut(&T) -> bool) -> Option<&T> {
+        let mut heap = KnnHeap::new(1);
+        self.knn(p, max_d2, &mut heap, accept);
+        heap.entries().first().map(|&(_, i)| &self.items[i as usize])
+    }
+
+    /// The item at a tree index returned in a [`KnnHeap`].
+    #[inline]
+    pub fn get(&self, index: u32) -> &T {
+        &self.items[index as usize]
+    }
+}
+
+/// The result set of a k-nearest-neighbour query: a max-heap on squared distance holding at
+/// most `capacity` entries. While it is not full, the search radius is the query's; once full,
+/// it is the distance of the farthest entry, which shrinks as nearer items replace it.
+#[derive(Clone, Debug)]
+pub struct KnnHeap {
+    entries: Vec<(f32, u32)>,
+    capacity: usize,
+    max_d2: f32,
+}
+
+impl KnnHeap {
+    pub fn new(capacity: usize) -> KnnHeap {
+        KnnHeap { entries: Vec::with_capacity(capacity), capacity, max_d2: 0.0 }
+    }
+
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    fn reset(&mut self, max_d2: f32) {
+        self.entries.clear();
+        self.max_d2 = max_d2;
+    }
+
+    /// True when `capacity` items were found (the radius is then the farthest one's).
+    pub fn is_full(&self) -> bool {
+        self.entries.len() >= self.capacity
+    }
+
+    /// The current search radius, squared.
+    #[inline]
+    pub fn max_d2(&self) -> f32 {
+        self.max_d2
+    }
+
+    /// `(squared distance, tree index)` of the items found, in heap order.
+    pub fn entries(&self) -> &[(f32, u32)] {
+        &self.entries
+    }
+
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    fn push(&mut self, d2: f32, index: u32) {
+        if self.entries.len() < self.capacity {
+            self.entries.push((d2, index));
+            // Sift up.
+            let mut c = self.entries.len() - 1;
+            while c > 0 {
+                let parent = (c - 1) / 2;
+                if self.entries[parent].0 >= self.entries[c].0 {
+                    break;
+                }
+                self.entries.swap(parent, c);
+                c = parent;
+            }
+            if self.entries.len() == self.capacity {
+                self.max_d2 = self.entries[0].0;
+            }
+        } else {
+            // Replace the farthest and sift down.
+            self.entries[0] = (d2, index);
+            let n = self.entries.len();
+            let mut c = 0;
+            loop {
+                let (l, r) = (2 * c + 1, 2 * c + 2);
+                let mut largest = c;
+                if l < n && self.entries[l].0 > self.entries[largest].0 {
+                    largest = l;
+                }
+                if r < n && self.entries[r].0 > self.entries[largest].0 {
+                    largest = r;
+                }
+                if largest == c {
+                    break;
+                }
+                self.entries.swap(c, largest);
+                c = largest;
+            }
+            self.max_d2 = self.entries[0].0;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    fn points(n: usize, seed: u64) -> Vec<Vec3> {
+        let mut rng = Rng::new(seed, 7);
+        (0..n).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform() * 0.1)).collect()
+    }
+
+    /// Brute force: the k nearest within the radius passing the filter, sorted by distance.
+    fn brute(pts: &[Vec3], p: Vec3, k: usize, max_d2: f32, accept: impl Fn(&Vec3) -> bool) -> Vec<f32> {
+        let mut d: Vec<f32> = pts
+            .iter()
+            .filter(|q| accept(q))
+            .map(|q| (*q - p).length_squared())
+            .filter(|&d2| d2 < max_d2)
+            .collect();
+        d.sort_by(f32::total_cmp);
+        d.truncate(k);
+        d
+    }
+
+    #[test]
+    fn knn_matches_brute_force() {
+        let pts = points(20_000, 1);
+        let tree = KdTree::build(pts.clone());
+        assert_eq!(tree.len(), pts.len());
+        let mut heap = KnnHeap::new(50);
+        let mut rng = Rng::new(5, 5);
+        for q in 0..200 {
+            let p = Vec3::new(rng.uniform() * 1.2 - 0.1, rng.uniform() * 1.2 - 0.1, rng.uniform() * 0.2);
+            let max_d2 = if q % 2 == 0 { 0.01 } else { f32::INFINITY };
+            // A filter that rejects half the points, as a normal test does.
+            let accept = |v: &Vec3| v.x + v.y > 0.7;
+            tree.knn(p, max_d2, &mut heap, accept);
+            let mut got: Vec<f32> = heap.entries().iter().map(|e| e.0).collect();
+            got.sort_by(f32::total_cmp);
+            assert_eq!(got, brute(&pts, p, 50, max_d2, accept), "query {q} at {p}");
+            for &(d2, i) in heap.entries() {
+                assert_eq!((*tree.get(i) - p).length_squared(), d2);
+            }
+        }
+    }
+
+    #[test]
+    fn nearest_and_degenerate_inputs() {
+        // Many equal points, a NaN, an empty tree.
+        let mut pts = vec![Vec3::ONE; 100];
+        pts.push(Vec3::new(f32::NAN, 0.0, 0.0));
+        pts.push(Vec3::ZERO);
+        let tree = KdTree::build(pts);
+        assert_eq!(tree.len(), 101);
+        assert_eq!(tree.nearest(Vec3::splat(0.1), 1.0, |_| true), Some(&Vec3::ZERO));
+        assert_eq!(tree.nearest(Vec3::splat(0.1), 1.0, |v| *v != Vec3::ZERO), None);
+        assert!(tree.nearest(Vec3::splat(0.9), 1.0, |v| *v != Vec3::ZERO).is_some());
+        let empty: KdTree<Vec3> = KdTree::build(Vec::new());
+        assert!(empty.nearest(Vec3::ZERO, f32::INFINITY, |_| true).is_none());
+        let mut heap = KnnHeap::new(0);
+        tree.knn(Vec3::ZERO, 1.0, &mut heap, |_| true);
+        assert!(heap.is_empty());
+    }
+
+    #[test]
+    fn build_is_deterministic_across_thread_counts() {
+        let pts = points(50_000, 3);
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
+        let a = one.install(|| KdTree::build(pts.clone()));
+        let b = four.install(|| KdTree::build(pts.clone()));
+        assert_eq!(a.items(), b.items());
+        assert_eq!(a.axes, b.axes);
+    }
+}

@@ -1,0 +1,662 @@
+//! Photon mapping (Jensen 1996, 2001; pbrt-v1/v2's `PhotonIntegrator`): `SurfaceIntegrator
+//! "photonmap"`.
+//!
+//! # Overview
+//! A preprocessing pass ([`PhotonMapper::prepare`]) shoots photons from every light in
+//! proportion to its power ([`shoot`]) and stores them in three balanced kd-trees
+//! ([`kdtree`]): the *caustic* map (paths `L S+ D`), the *indirect* map (paths with a
+//! non-specular bounce) and, for final gathering, the *direct* map (`L D`). With final gathering
+//! it then precomputes irradiance at a fraction of the photon hits (Christensen's *radiance
+//! photons*), so that a gather ray needs one nearest-neighbour lookup instead of a full density
+//! estimate.
+//!
+//! Rendering ([`PhotonMapper::li`]) splits the light at the first non-specular surface a camera
+//! path reaches (after any specular bounces, followed by recursion):
+//! - emitted light, and direct light by sampling the lights (shadow rays);
+//! - caustics from the caustic map (a `k`-nearest-neighbour radiance estimate with a filter);
+//! - indirect light by *final gathering*: rays sampled from the BSDF (and optionally guided by
+//!   the directions of nearby photons, with multiple importance sampling) read the radiance
+//!   photons where they land; without final gathering, the indirect map's estimate directly.
+//!
+//! The scene is analysed first, and `--stats` reports what was skipped and why ([`Skips`]): no
+//! caustic map without a specular surface reached from a light, no global map and no final
+//! gathering without diffuse interreflection, no light sampling or shadow rays toward a light
+//! that cannot reach the point ([`cull`]).
+//!
+//! Deterministic: photon paths are numbered and seeded by their number, merged in order, and the
+//! kd-trees are built deterministically, so an image depends only on the seed, never on the
+//! thread count.
+
+pub mod cull;
+pub mod estimate;
+pub mod kdtree;
+mod render;
+pub(crate) mod shoot;
+
+use crate::diagnostics::Diagnostics;
+use crate::world::World;
+use cull::{CullReason, LightBounds};
+pub use estimate::PhotonFilter;
+use glam::Vec3;
+use kdtree::{KdTree, Positioned};
+use rayon::prelude::*;
+use rib_parser::scene::{AttributesId, ParamList, Scene};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// How final-gather directions are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GatherSampling {
+    /// From the BSDF (cosine-weighted for matte surfaces), stratified.
+    Bsdf,
+    /// Half from the BSDF, half in cones around the directions the nearest indirect photons
+    /// arrived from (pbrt-v2), combined by the power heuristic.
+    Photons,
+}
+
+/// Parameters of `SurfaceIntegrator "photonmap"` (names as in pbrt-v1/v2 and LRT).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhotonMapSettings {
+    /// `causticphotons`: photons in the caustic map.
+    pub caustic_photons: u32,
+    /// `indirectphotons`: photons in the indirect map (the direct map fills alongside).
+    pub indirect_photons: u32,
+    /// `nused`: photons per density estimate.
+    pub n_used: u32,
+    /// `maxdist`: the largest search radius, in scene units; `None` for a tenth of the scene's
+    /// bounding radius (so that a scaled scene renders the same).
+    pub max_dist: Option<f32>,
+    /// `finalgather`: estimate indirect light by final gathering (otherwise directly from the
+    /// indirect map).
+    pub final_gather: bool,
+    /// `finalgathersamples`: gather rays per camera sample.
+    pub final_gather_samples: u32,
+    /// `gatherangle`: half-angle in degrees of the cones of photon-guided gathering.
+    pub gather_angle_degrees: f32,
+    /// `gathersampling`: `"bsdf"` or `"photons"`.
+    pub gather_sampling: GatherSampling,
+    /// `radiancephotons`: precompute irradiance at photons for final gathering.
+    pub radiance_photons: bool,
+    /// `filter`: `"box"`, `"cone"` or `"gaussian"` kernel for density estimates.
+    pub filter: PhotonFilter,
+    /// `maxdepth` (or `maxspeculardepth`): specular bounces followed from the camera.
+    pub max_depth: u32,
+    /// `maxphotondepth`: bounces of a photon path (Russian roulette ends them first).
+    pub max_photon_depth: u32,
+    /// Analyse the scene and skip what it does not need (tests turn it off to show that the
+    /// skips change nothing).
+    pub scene_analysis: bool,
+}
+
+impl Default for PhotonMapSettings {
+    fn default() -> PhotonMapSettings {
+        PhotonMapSettings {
+            caustic_photons: 20_000,
+            indirect_photons: 100_000,
+            n_used: 50,
+            max_dist: None,
+            final_gather: true,
+            final_gather_samples: 8,
+            gather_angle_degrees: 10.0,
+            gather_sampling: GatherSampling::Bsdf,
+            radiance_photons: true,
+            filter: PhotonFilter::Box,
+            max_depth: 5,
+            max_photon_depth: crate::integrators::UNBOUNDED_DEPTH,
+            scene_analysis: true,
+        }
+    }
+}
+
+/// Largest photon count a map may be asked for (32 bytes each).
+pub const MAX_PHOTONS: u32 = 20_000_000;
+/// Largest `nused` and `finalgathersamples`.
+pub const MAX_NUSED: u32 = 4096;
+pub const MAX_GATHER_SAMPLES: u32 = 65_536;
+/// Fraction of photon hits that become radiance photons (pbrt-v2's choice).
+pub const RADIANCE_FRACTION: f32 = 0.125;
+/// Photon paths of the pilot after which a map still empty is abandoned.
+pub const PILOT_PATHS: u64 = 1 << 16;
+
+fn int_param(params: &ParamList, name: &str) -> Option<f64> {
+    params
+        .ints(name)
+        .and_then(|v| v.first().map(|&i| f64::from(i)))
+        .or_else(|| params.float(name).map(f64::from))
+}
+
+fn bool_param(params: &ParamList, name: &str) -> Option<Result<bool, String>> {
+    if let Some(s) = params.string(name) {
+        return Some(match s.to_ascii_lowercase().as_str() {
+            "true" | "on" | "yes" | "1" => Ok(true),
+            "false" | "off" | "no" | "0" => Ok(false),
+            other => Err(format!("\"{name}\" must be true or false, not \"{other}\"")),
+        });
+    }
+    int_param(params, name).map(|v| Ok(v != 0.0))
+}
+
+const KNOWN_PARAMS: &[&str] = &[
+    "causticphotons",
+    "indirectphotons",
+    "nused",
+    "maxdist",
+    "finalgather",
+    "finalgathersamples",
+    "gatherangle",
+    "gathersampling",
+    "radiancephotons",
+    "filter",
+    "maxdepth",
+    "maxspeculardepth",
+    "maxphotondepth",
+];
+
+impl PhotonMapSettings {
+    /// Reads the parameters of a `SurfaceIntegrator "photonmap"` call; returns the settings and
+    /// a message for every parameter that was unknown or out of range (and replaced).
+    pub fn from_params(params: &ParamList) -> (PhotonMapSettings, Vec<String>) {
+        let mut s = PhotonMapSettings::default();
+        let mut notes = Vec::new();
+        let count = |name: &str, default: u32, min: u32, max: u32, notes: &mut Vec<String>| -> u32 {
+            match int_param(params, name) {
+                None => default,
+                Some(v) if v.is_finite() && v >= f64::from(min) && v <= f64::from(max) => v as u32,
+                Some(v) => {
+                    let clamped =
+                        if v.is_finite() { v.clamp(f64::from(min), f64::from(max)) as u32 } else { default };
+                    notes
+                        .push(format!("photonmap \"{name}\" {v} is outside [{min}, {max}]: using {clamped}"));
+                    clamped
+                }
+            }
+        };
+        s.caustic_photons = count("causticphotons", s.caustic_photons, 0, MAX_PHOTONS, &mut notes);
+        s.indirect_photons = count("indirectphotons", s.indirect_photons, 0, MAX_PHOTONS, &mut notes);
+        s.n_used = count("nused", s.n_used, 1, MAX_NUSED, &mut notes);
+        s.final_gather_samples =
+            count("finalgathersamples", s.final_gather_samples, 1, MAX_GATHER_SAMPLES, &mut notes);
+        let depth_name =
+            if params.get("maxspeculardepth").is_some() { "maxspeculardepth" } else { "maxdepth" };
+        s.max_depth = count(depth_name, s.max_depth, 0, crate::integrators::UNBOUNDED_DEPTH, &mut notes);
+        s.max_photon_depth =
+            count("maxphotondepth", s.max_photon_depth, 1, crate::integrators::UNBOUNDED_DEPTH, &mut notes);
+        if let Some(d) = params.float("maxdist") {
+            if d.is_finite() && d > 0.0 {
+                s.max_dist = Some(d);
+            } else {
+                notes.push(format!("photonmap \"maxdist\" {d} must be positive: using the default"));
+            }
+        }
+        if let Some(a) = params.float("gatherangle") {
+            if a.is_finite() && a > 0.0 && a <= 90.0 {
+                s.gather_angle_degrees = a;
+            } else {
+                notes.push(format!("photonmap \"gatherangle\" {a} must be in (0, 90] degrees: using 10"));
+            }
+        }
+        for (name, field) in
+            [("finalgather", &mut s.final_gather), ("radiancephotons", &mut s.radiance_photons)]
+        {
+            match bool_param(params, name) {
+                None => {}
+                Some(Ok(v)) => *field = v,
+                Some(Err(e)) => notes.push(format!("photonmap {e}")),
+            }
+        }
+        match params.string("gathersampling") {
+            None => {}
+            Some("bsdf") => s.gather_sampling = GatherSampling::Bsdf,
+            Some("photons") => s.gather_sampling = GatherSampling::Photons,
+            Some(other) => notes
+                .push(format!("photonmap \"gathersampling\" \"{other}\" is not bsdf or photons: using bsdf")),
+        }
+        match params.string("filter") {
+            None => {}
+            Some("box") => s.filter = PhotonFilter::Box,
+            Some("cone") => s.filter = PhotonFilter::Cone { k: 1.1 },
+            Some("gaussian") => s.filter = PhotonFilter::Gaussian,
+            Some(other) => notes
+                .push(format!("photonmap \"filter\" \"{other}\" is not box, cone or gaussian: using box")),
+        }
+        for p in &params.0 {
+            if !KNOWN_PARAMS.contains(&p.name.as_str()) {
+                notes.push(format!("photonmap parameter \"{}\" is unknown: ignored", p.name));
+            }
+        }
+        (s, notes)
+    }
+}
+
+/// A stored photon: where it landed, its power (divided by the paths of its map), the direction
+/// it came from and the surface normal on that side, both as octahedral unit vectors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Photon {
+    pub p: Vec3,
+    pub power: Vec3,
+    pub wi: u32,
+    pub n: u32,
+}
+
+impl Positioned for Photon {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
+/// Irradiance precomputed at a photon hit, with the normal on the side it is valid for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadiancePhoton {
+    pub p: Vec3,
+    pub n: u32,
+    pub irradiance: Vec3,
+}
+
+impl Positioned for RadiancePhoton {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
+/// Encodes a unit vector in 32 bits (octahedral mapping, 16 bits per coordinate on an odd grid
+/// so that the axes are exact; error below 1e-4 radians).
+pub fn pack_unit(v: Vec3) -> u32 {
+    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
+    if !(l1 > 0.0) || !l1.is_finite() {
+        return pack_unit(Vec3::Z);
+    }
+    let (mut x, mut y) = (v.x / l1, v.y / l1);
+    if v.z < 0.0 {
+        let (ox, oy) = (x, y);
+        x = (1.0 - oy.abs()) * if ox >= 0.0 { 1.0 } else { -1.0 };
+        y = (1.0 - ox.abs()) * if oy >= 0.0 { 1.0 } else { -1.0 };
+    }
+    let q = |c: f32| ((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65534.0).round() as u32;
+    q(x) | (q(y) << 16)
+}
+
+/// Decodes [`pack_unit`].
+#[inline]
+pub fn unpack_unit(bits: u32) -> Vec3 {
+    let x = ((bits & 0xffff) as f32 / 65534.0 * 2.0 - 1.0).clamp(-1.0, 1.0);
+    let y = ((bits >> 16) as f32 / 65534.0 * 2.0 - 1.0).clamp(-1.0, 1.0);
+    let z = 1.0 - x.abs() - y.abs();
+    let t = (-z).max(0.0);
+    let x = x + if x >= 0.0 { -t } else { t };
+    let y = y + if y >= 0.0 { -t } else { t };
+    Vec3::new(x, y, z).normalize()
+}
+
+/// Size and cost of one photon map.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MapStats {
+    pub photons: usize,
+    /// Light paths its photons are normalised by.
+    pub paths: u64,
+    pub bytes: usize,
+}
+
+/// What the photon mapper built, skipped and did, for `--stats`.
+#[derive(Clone, Debug, Default)]
+pub struct PhotonStats {
+    pub caustic: Option<MapStats>,
+    pub direct: Option<MapStats>,
+    pub indirect: Option<MapStats>,
+    pub radiance: Option<MapStats>,
+    pub paths_traced: u64,
+    pub photon_rays: u64,
+    pub max_dist: f32,
+    pub final_gather: bool,
+    pub time_shoot: Duration,
+    pub time_build: Duration,
+    pub time_radiance: Duration,
+    /// Filled after rendering: gather rays and density lookups.
+    pub gather_rays: u64,
+    pub lookups: u64,
+    /// Light evaluations skipped per reason.
+    pub culled: Vec<(CullReason, u64)>,
+    /// What the analysis skipped and why.
+    pub skipped: Vec<String>,
+}
+
+impl PhotonStats {
+    /// Lines for `--stats` (without a prefix).
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let map = |name: &str, m: &Option<MapStats>| match m {
+            Some(m) => format!(
+                "{name} map: {} photons from {} paths, {:.2} MiB",
+                m.photons,
+                m.paths,
+                m.bytes as f64 / (1024.0 * 1024.0)
+            ),
+            None => format!("{name} map: not built"),
+        };
+        out.push(format!(
+            "photons: {} paths traced, {} photon rays; shoot {:.3} s, kd-trees {:.3} s, radiance photons {:.3} s",
+            self.paths_traced,
+            self.photon_rays,
+            self.time_shoot.as_secs_f64(),
+            self.time_build.as_secs_f64(),
+            self.time_radiance.as_secs_f64()
+        ));
+        out.push(map("caustic", &self.caustic));
+        out.push(map("direct", &self.direct));
+        out.push(map("indirect", &self.indirect));
+        out.push(map("radiance-photon", &self.radiance));
+        out.push(format!(
+            "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4})",
+            self.lookups, self.gather_rays, self.max_dist
+        ));
+        out
+    }
+}
+
+/// Counters shared by the render threads.
+#[derive(Debug, Default)]
+struct SharedCounters {
+    gather_rays: AtomicU64,
+    lookups: AtomicU64,
+    culled: [AtomicU64; 3],
+}
+
+/// A photon mapper prepared for one world.
+#[derive(Debug)]
+pub struct PhotonMapper {
+    settings: PhotonMapSettings,
+    caustic: Option<KdTree<Photon>>,
+    direct: Option<KdTree<Photon>>,
+    indirect: Option<KdTree<Photon>>,
+    radiance: Option<KdTree<RadiancePhoton>>,
+    /// Whether final gathering runs (it is skipped without interreflection).
+    gather: bool,
+    max_d2: f32,
+    light_bounds: Vec<LightBounds>,
+    cull_lights: bool,
+    stats: PhotonStats,
+    counters: SharedCounters,
+}
+
+/// The attribute states some shape is rendered with.
+fn used_attributes(scene: &Scene) -> Vec<AttributesId> {
+    let mut ids: Vec<AttributesId> = scene.shapes.iter().map(|s| s.attributes).collect();
+    ids.extend(scene.instances.iter().map(|i| i.attributes));
+    for inst in &scene.instances {
+        if let Some(def) = scene.objects.get(inst.object.0 as usize) {
+            ids.extend(def.shapes.iter().map(|s| s.attributes));
+        }
+    }
+    ids.sort_by_key(|a| a.0);
+    ids.dedup();
+    ids
+}
+
+impl PhotonMapper {
+    /// Shoots the photons and builds the maps for `world` (built from `scene`). Skips are
+    /// recorded in `diagnostics` (and the stats); `seed` seeds every photon path.
+    pub fn prepare(
+        world: &World,
+        scene: &Scene,
+        settings: PhotonMapSettings,
+        seed: u64,
+        diagnostics: &mut Diagnostics,
+    ) -> PhotonMapper {
+        let mut stats = PhotonStats { final_gather: settings.final_gather, ..PhotonStats::default() };
+        let analysis = settings.scene_analysis;
+        let (_, radius) = world.bounding_sphere();
+        let max_dist = settings.max_dist.unwrap_or(0.1 * radius);
+        stats.max_dist = max_dist;
+        let max_d2 = max_dist * max_dist;
+
+        // What the scene's surfaces can do.
+        let mut has_specular = false;
+        let mut has_non_specular = false;
+        for a in used_attributes(scene) {
+            let Some(m) = world.materials.get(a.0 as usize) else { continue };
+            let bsdf = m.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, glam::Vec2::ZERO);
+            has_specular |= m.has_specular();
+            has_non_specular |= bsdf.has_non_specular();
+        }
+        let emitters = shoot::Emitters::new(world);
+        let mut skip = |what: String, stats: &mut PhotonStats| {
+            diagnostics.skip(&what);
+            stats.skipped.push(what);
+        };
+
+        let mut want_caustic = settings.caustic_photons > 0;
+        let mut want_indirect = settings.indirect_photons > 0;
+        if settings.caustic_photons == 0 {
+            skip("caustic photon map (causticphotons is 0)".into(), &mut stats);
+        }
+        if settings.indirect_photons == 0 {
+            skip("indirect photon map (indirectphotons is 0)".into(), &mut stats);
+        }
+        if analysis {
+            if emitters.lights.is_empty() && (want_caustic || want_indirect) {
+                skip("photon maps (no light emits photons)".into(), &mut stats);
+                want_caustic = false;
+                want_indirect = false;
+            }
+            if want_caustic && !(has_specular && has_non_specular) {
+                let why = if has_specular {
+                    "no non-specular surface to store them"
+                } else {
+                    "no specular surface in the scene"
+                };
+                skip(format!("caustic photon map ({why})"), &mut stats);
+                want_caustic = false;
+            }
+            if want_indirect && !has_non_specular {
+                skip("indirect photon map (no non-specular surface)".into(), &mut stats);
+                want_indirect = false;
+            }
+        }
+        if !settings.final_gather {
+            skip("direct photons (final gathering is off: direct light is sampled)".into(), &mut stats);
+        }
+
+        let request = shoot::ShootRequest {
+            caustic: want_caustic.then_some(settings.caustic_photons as usize),
+            indirect: want_indirect.then_some(settings.indirect_photons as usize),
+            direct: settings.final_gather,
+            radiance_fraction: if settings.final_gather && settings.radiance_photons {
+                RADIANCE_FRACTION
+            } else {
+                0.0
+            },
+            max_depth: settings.max_photon_depth.max(1),
+            seed,
+            pilot_paths: PILOT_PATHS,
+            max_paths: 200 * u64::from(settings.caustic_photons.max(settings.indirect_photons)) + (1 << 20),
+        };
+        let shoot_start = Instant::now();
+        let shot = shoot::shoot(world, &emitters, &request);
+        stats.time_shoot = shoot_start.elapsed();
+        stats.paths_traced = shot.paths_traced;
+        stats.photon_rays = shot.rays;
+        if shot.caustic_abandoned {
+            skip(
+                format!(
+                    "caustic photon map (no specular surface reached from the lights in {} photon paths)",
+                    shot.paths_traced
+                ),
+                &mut stats,
+            );
+        }
+        let mut gather = settings.final_gather;
+        if shot.indirect_abandoned {
+            let what = if settings.final_gather {
+                "global photon maps and final gathering"
+            } else {
+                "indirect photon map"
+            };
+            skip(
+                format!(
+                    "{what} (no diffuse interreflection: none of {} photon paths reached a second non-specular surface)",
+                    shot.paths_traced
+                ),
+                &mut stats,
+            );
+            if analysis {
+                gather = false;
+            }
+        } else if settings.final_gather && !want_indirect && analysis {
+            gather = false;
+        }
+        if shot.hit_path_limit {
+            diagnostics.warn_once(
+                None,
+                format!(
+                    "photon shooting stopped after {} paths before the maps were full",
+                    shot.paths_traced
+                ),
+            );
+        }
+
+        let build_start = Instant::now();
+        let tree = |photons: Vec<Photon>, paths: u64, stats: &mut Option<MapStats>| {
+            if photons.is_empty() {
+                return None;
+            }
+            let t = KdTree::build(photons);
+            *stats = Some(MapStats { photons: t.len(), paths, bytes: t.bytes() });
+            Some(t)
+        };
+        let caustic = tree(shot.caustic, shot.caustic_paths, &mut stats.caustic);
+        let direct = tree(shot.direct, shot.indirect_paths, &mut stats.direct);
+        let indirect = tree(shot.indirect, shot.indirect_paths, &mut stats.indirect);
+        stats.time_build = build_start.elapsed();
+
+        let radiance_start = Instant::now();
+        let radiance = if gather && settings.radiance_photons && !shot.sites.is_empty() {
+            let filter = settings.filter;
+            let n_used = settings.n_used as usize;
+            let maps = [&direct, &indirect, &caustic];
+            let photons: Vec<RadiancePhoton> = shot
+                .sites
+                .par_iter()
+                .map_init(
+                    || kdtree::KnnHeap::new(n_used),
+                    |heap, site| {
+                        let q = estimate::Query { p: site.p, n: site.n, max_d2 };
+                        let mut e = Vec3::ZERO;
+                        for m in maps.iter().copied().flatten() {
+                            e += estimate::irradiance(m, &q, filter, heap);
+                        }
+                        RadiancePhoton { p: site.p, n: pack_unit(site.n), irradiance: e }
+                    },
+                )
+                .collect();
+            let t = KdTree::build(photons);
+            stats.radiance =
+                Some(MapStats { photons: t.len(), paths: shot.indirect_paths, bytes: t.bytes() });
+            Some(t)
+        } else {
+            None
+        };
+        stats.time_radiance = radiance_start.elapsed();
+
+        let light_bounds = world.lights.iter().map(LightBounds::new).collect();
+        PhotonMapper {
+            settings,
+            caustic,
+            direct,
+            indirect,
+            radiance,
+            gather,
+            max_d2,
+            light_bounds,
+            cull_lights: analysis,
+            stats,
+            counters: SharedCounters::default(),
+        }
+    }
+
+    pub fn settings(&self) -> &PhotonMapSettings {
+        &self.settings
+    }
+
+    /// Whether final gathering runs.
+    pub fn gathers(&self) -> bool {
+        self.gather
+    }
+
+    /// The maps: caustic, direct, indirect.
+    pub fn maps(&self) -> [Option<&KdTree<Photon>>; 3] {
+        [self.caustic.as_ref(), self.direct.as_ref(), self.indirect.as_ref()]
+    }
+
+    pub fn radiance_photons(&self) -> Option<&KdTree<RadiancePhoton>> {
+        self.radiance.as_ref()
+    }
+
+    /// Statistics, with the render's counts so far.
+    pub fn stats(&self) -> PhotonStats {
+        let mut s = self.stats.clone();
+        s.gather_rays = self.counters.gather_rays.load(Ordering::Relaxed);
+        s.lookups = self.counters.lookups.load(Ordering::Relaxed);
+        s.culled = CullReason::ALL
+            .iter()
+            .zip(&self.counters.culled)
+            .map(|(r, c)| (*r, c.load(Ordering::Relaxed)))
+            .filter(|(_, c)| *c > 0)
+            .collect();
+        s
+    }
+
+    /// The skip lines for `RenderStats::skipped` after rendering: light evaluations culled.
+    pub fn culled_skips(&self) -> Vec<(String, usize)> {
+        self.stats()
+            .culled
+            .iter()
+            .map(|(r, n)| (format!("light samples and shadow rays (point {})", r.describe()), *n as usize))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::shader;
+
+    #[test]
+    fn unit_vectors_round_trip() {
+        let mut rng = crate::sampling::Rng::new(9, 9);
+        for _ in 0..10_000 {
+            let v = crate::sampling::sample_uniform_sphere(rng.uniform2());
+            let w = unpack_unit(pack_unit(v));
+            assert!((v - w).length() < 1e-4, "{v} -> {w}");
+        }
+        for v in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
+            assert!((unpack_unit(pack_unit(v)) - v).length() < 1e-4);
+        }
+        assert_eq!(unpack_unit(pack_unit(Vec3::new(f32::NAN, 0.0, 0.0))), Vec3::Z);
+    }
+
+    #[test]
+    fn parameters_parse_and_range_errors_are_reported() {
+        let call = shader(
+            "photonmap",
+            &[
+                ("indirectphotons", 5000.0),
+                ("nused", 0.0),
+                ("maxdist", 0.25),
+                ("finalgathersamples", 16.0),
+                ("wobble", 1.0),
+            ],
+        );
+        let (s, notes) = PhotonMapSettings::from_params(&call.params);
+        assert_eq!(s.indirect_photons, 5000);
+        assert_eq!(s.n_used, 1);
+        assert_eq!(s.max_dist, Some(0.25));
+        assert_eq!(s.final_gather_samples, 16);
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(notes.iter().any(|n| n.contains("nused")));
+        assert!(notes.iter().any(|n| n.contains("wobble")));
+        let (d, notes) = PhotonMapSettings::from_params(&ParamList::default());
+        assert_eq!(d, PhotonMapSettings::default());
+        assert!(notes.is_empty());
+    }
+}

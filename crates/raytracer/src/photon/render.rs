@@ -1,0 +1,356 @@
+//! Rendering with the photon maps: the radiance along a camera ray.
+
+use super::estimate::{self, NORMAL_COSINE, Query};
+use super::kdtree::KnnHeap;
+use super::{GatherSampling, PhotonMapper, unpack_unit};
+use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
+use crate::integrators::{
+    DirectStrategy, Radiance, RayCounters, direct_from_light, find_surface, sanitize, surface_terms,
+};
+use crate::math::Frame;
+use crate::render::strata_for;
+use crate::sampling::{Rng, power_heuristic, sample_uniform_cone, uniform_cone_pdf};
+use crate::world::{Ray, SurfaceInteraction, World};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::atomic::Ordering;
+
+/// Indirect photons whose directions guide photon-guided gathering (pbrt-v2's choice).
+const GUIDE_PHOTONS: usize = 50;
+
+/// Per-camera-ray scratch space and counts.
+struct Scratch {
+    heap: KnnHeap,
+    guide_heap: KnnHeap,
+    guide_dirs: Vec<Vec3>,
+    gather_rays: u64,
+    lookups: u64,
+    culled: [u64; 3],
+}
+
+/// The normal of `si` on the side its ray arrived from.
+#[inline]
+fn facing_normal(si: &SurfaceInteraction) -> Vec3 {
+    if si.ng.dot(si.wo) < 0.0 { -si.ng } else { si.ng }
+}
+
+/// Hemispherical reflectance of the non-specular lobes, as a radiance photon's irradiance is
+/// turned into exitant radiance (`rho / pi * E`): exact for matte surfaces, the lobe's scale for
+/// glossy ones (pbrt-v2 does the same with a sampled albedo).
+fn non_specular_albedo(bsdf: &Bsdf) -> Vec3 {
+    bsdf.lobes()
+        .iter()
+        .map(|l| match l {
+            Lobe::Lambert { r } => *r,
+            Lobe::Blinn { ks, .. } => *ks,
+            _ => Vec3::ZERO,
+        })
+        .sum()
+}
+
+impl PhotonMapper {
+    /// Radiance along a camera ray.
+    pub fn li(&self, world: &World, ray: Ray, rng: &mut Rng, counters: &mut RayCounters) -> Radiance {
+        let n_used = self.settings.n_used as usize;
+        let mut scratch = Scratch {
+            heap: KnnHeap::new(n_used),
+            guide_heap: KnnHeap::new(GUIDE_PHOTONS),
+            guide_dirs: Vec::new(),
+            gather_rays: 0,
+            lookups: 0,
+            culled: [0; 3],
+        };
+        let r = self.li_depth(world, ray, 0, rng, counters, &mut scratch);
+        let c = &self.counters;
+        if scratch.gather_rays > 0 {
+            c.gather_rays.fetch_add(scratch.gather_rays, Ordering::Relaxed);
+        }
+        if scratch.lookups > 0 {
+            c.lookups.fetch_add(scratch.lookups, Ordering::Relaxed);
+        }
+        for (a, n) in c.culled.iter().zip(scratch.culled) {
+            if n > 0 {
+                a.fetch_add(n, Ordering::Relaxed);
+            }
+        }
+        r
+    }
+
+    fn li_depth(
+        &self,
+        world: &World,
+        ray: Ray,
+        depth: u32,
+        rng: &mut Rng,
+        counters: &mut RayCounters,
+        scratch: &mut Scratch,
+    ) -> Radiance {
+        let mut rays = 0;
+        let found = find_surface(world, ray, rng, &mut rays);
+        if depth == 0 {
+            counters.camera += rays;
+        } else {
+            counters.bounce += rays;
+        }
+        let Some((si, weight)) = found else { return Radiance::default() };
+        let material = world.material(si.attributes);
+        if material.holdout {
+            return Radiance { rgb: Vec3::ZERO, alpha: 0.0 };
+        }
+        let mut l = surface_terms(world, &si, material);
+        if let Some(e) = si.emitter {
+            l += world.lights[e as usize].emitted(si.ng, si.wo);
+        }
+        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        if !bsdf.is_black() {
+            if bsdf.has_non_specular() {
+                l += self.direct(world, &si, &bsdf, rng, counters, scratch);
+                let q = Query { p: si.p, n: facing_normal(&si), max_d2: self.max_d2 };
+                if let Some(map) = &self.caustic {
+                    scratch.lookups += 1;
+                    l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+                }
+                if self.gather {
+                    l += self.gather(world, &si, &bsdf, rng, counters, scratch);
+                } else if let Some(map) = &self.indirect {
+                    scratch.lookups += 1;
+                    l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+                }
+            }
+            if depth < self.settings.max_depth {
+                for (wi, w, _) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
+                    if w == Vec3::ZERO {
+                        continue;
+                    }
+                    let r = self.li_depth(world, si.spawn_ray(wi), depth + 1, rng, counters, scratch);
+                    l += w * r.rgb;
+                }
+            }
+        }
+        Radiance { rgb: sanitize(l * weight), alpha: 1.0 }
+    }
+
+    /// Direct light from every light of the surface's set that can reach it: light sampling
+    /// alone for matte surfaces, combined with BSDF sampling (MIS) where a glossy lobe is.
+    fn direct(
+        &self,
+        world: &World,
+        si: &SurfaceInteraction,
+        bsdf: &Bsdf,
+        rng: &mut Rng,
+        counters: &mut RayCounters,
+        scratch: &mut Scratch,
+    ) -> Vec3 {
+        let set = world.light_set(si.attributes);
+        let glossy = bsdf.lobes().iter().any(|l| l.flags().intersects(LobeFlags::GLOSSY));
+        let strategy = if glossy { DirectStrategy::Both } else { DirectStrategy::LightOnly };
+        let reflect_only = bsdf
+            .lobes()
+            .iter()
+            .filter(|l| !l.flags().is_specular())
+            .all(|l| !l.flags().intersects(LobeFlags::TRANSMISSION));
+        let mut l = Vec3::ZERO;
+        for &light in &set.lights {
+            if self.cull_lights
+                && let Some(bounds) = self.light_bounds.get(light as usize)
+                && let Some(reason) = bounds.cull(si.p, si.p_error, bsdf.ng, reflect_only)
+            {
+                scratch.culled[reason as usize] += 1;
+                continue;
+            }
+            l += direct_from_light(world, si, bsdf, light, 1.0, LobeFlags::ALL, rng, counters, strategy);
+        }
+        l
+    }
+
+    /// Indirect light reflected at `si` by final gathering.
+    fn gather(
+        &self,
+        world: &World,
+        si: &SurfaceInteraction,
+        bsdf: &Bsdf,
+        rng: &mut Rng,
+        counters: &mut RayCounters,
+        scratch: &mut Scratch,
+    ) -> Vec3 {
+        let n = self.settings.final_gather_samples.max(1);
+        if self.settings.gather_sampling == GatherSampling::Photons && n >= 2 {
+            self.collect_guide_directions(si, scratch);
+            if !scratch.guide_dirs.is_empty() {
+                return self.gather_guided(world, si, bsdf, n, rng, counters, scratch);
+            }
+        }
+        let (nx, ny) = strata_for(n);
+        let mut sum = Vec3::ZERO;
+        for j in 0..n {
+            let u = Vec2::new(
+                ((j % nx) as f32 + rng.uniform()) / nx as f32,
+                ((j / nx) as f32 + rng.uniform()) / ny as f32,
+            );
+            let u = u.min(Vec2::splat(1.0 - f32::EPSILON / 2.0));
+            let Some(bs) =
+                bsdf.sample(si.wo, rng.uniform(), u, TransportMode::Radiance, LobeFlags::NON_SPECULAR)
+            else {
+                continue;
+            };
+            let f = bs.f * (bs.wi.dot(bsdf.frame.z).abs() / bs.pdf);
+            if f == Vec3::ZERO || !f.is_finite() {
+                continue;
+            }
+            sum += f * self.gathered(world, si.spawn_ray(bs.wi), rng, counters, scratch);
+        }
+        sum / n as f32
+    }
+
+    /// Directions the nearest indirect photons arrived from, widening the search until enough
+    /// are found (at most a few doublings).
+    fn collect_guide_directions(&self, si: &SurfaceInteraction, scratch: &mut Scratch) {
+        scratch.guide_dirs.clear();
+        let Some(map) = &self.indirect else { return };
+        let n = facing_normal(si);
+        let mut r2 = self.max_d2;
+        for _ in 0..4 {
+            map.knn(si.p, r2, &mut scratch.guide_heap, |ph| unpack_unit(ph.n).dot(n) > NORMAL_COSINE);
+            if scratch.guide_heap.is_full() {
+                break;
+            }
+            r2 *= 2.0;
+        }
+        scratch.lookups += 1;
+        scratch
+            .guide_dirs
+            .extend(scratch.guide_heap.entries().iter().map(|&(_, i)| unpack_unit(map.get(i).wi)));
+    }
+
+    /// Half the gather rays from the BSDF, half in cones around photon directions (pbrt-v2's
+    /// final gathering), each weighted by the power heuristic.
+    #[allow(clippy::too_many_arguments)]
+    fn gather_guided(
+        &self,
+        world: &World,
+        si: &SurfaceInteraction,
+        bsdf: &Bsdf,
+        n: u32,
+        rng: &mut Rng,
+        counters: &mut RayCounters,
+        scratch: &mut Scratch,
+    ) -> Vec3 {
+        let n_bsdf = n / 2;
+        let n_photon = n - n_bsdf;
+        let cos_gather = self.settings.gather_angle_degrees.to_radians().cos();
+        let cone_pdf = uniform_cone_pdf(cos_gather);
+        let dirs = std::mem::take(&mut scratch.guide_dirs);
+        let photon_pdf = |wi: Vec3| -> f32 {
+            let hits = dirs.iter().filter(|d| d.dot(wi) > 0.999 * cos_gather).count();
+            cone_pdf * hits as f32 / dirs.len() as f32
+        };
+        let mut from_bsdf = Vec3::ZERO;
+        for _ in 0..n_bsdf {
+            let Some(bs) = bsdf.sample(
+                si.wo,
+                rng.uniform(),
+                rng.uniform2(),
+                TransportMode::Radiance,
+                LobeFlags::NON_SPECULAR,
+            ) else {
+                continue;
+            };
+            let f = bs.f * bs.wi.dot(bsdf.frame.z).abs();
+            if f == Vec3::ZERO || !(bs.pdf > 0.0) {
+                continue;
+            }
+            let w = power_heuristic(n_bsdf as f32 * bs.pdf, n_photon as f32 * photon_pdf(bs.wi));
+            from_bsdf += f * self.gathered(world, si.spawn_ray(bs.wi), rng, counters, scratch) * (w / bs.pdf);
+        }
+        let mut from_photons = Vec3::ZERO;
+        for _ in 0..n_photon {
+            let d = dirs[rng.below(dirs.len() as u32) as usize];
+            let wi = Frame::from_z(d).from_local(sample_uniform_cone(rng.uniform2(), cos_gather));
+            let f = bsdf.f(si.wo, wi, LobeFlags::NON_SPECULAR) * wi.dot(bsdf.frame.z).abs();
+            if f == Vec3::ZERO {
+                continue;
+            }
+            let pdf = photon_pdf(wi);
+            if !(pdf > 0.0) {
+                continue;
+            }
+            let w = power_heuristic(
+                n_photon as f32 * pdf,
+                n_bsdf as f32 * bsdf.pdf(si.wo, wi, LobeFlags::NON_SPECULAR),
+            );
+            from_photons += f * self.gathered(world, si.spawn_ray(wi), rng, counters, scratch) * (w / pdf);
+        }
+        scratch.guide_dirs = dirs;
+        let mut l = from_photons / n_photon as f32;
+        if n_bsdf > 0 {
+            l += from_bsdf / n_bsdf as f32;
+        }
+        l
+    }
+
+    /// Radiance arriving along a gather ray, without emission and direct light (sampled at the
+    /// gather's origin) and without caustics there (the caustic map has them): the photon
+    /// estimate at the first non-specular surface, following specular surfaces on the way.
+    fn gathered(
+        &self,
+        world: &World,
+        mut ray: Ray,
+        rng: &mut Rng,
+        counters: &mut RayCounters,
+        scratch: &mut Scratch,
+    ) -> Vec3 {
+        let mut beta = Vec3::ONE;
+        let mut l = Vec3::ZERO;
+        for _ in 0..=self.settings.max_depth {
+            let mut rays = 0;
+            let found = find_surface(world, ray, rng, &mut rays);
+            counters.bounce += rays;
+            scratch.gather_rays += rays;
+            let Some((si, weight)) = found else { break };
+            beta *= weight;
+            let material = world.material(si.attributes);
+            // Self-emitting shaders and ambient light are not in the photons.
+            l += beta * surface_terms(world, &si, material);
+            let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+            if bsdf.has_non_specular() {
+                l += beta * self.exitant(&si, &bsdf, scratch);
+            }
+            if !bsdf.flags().is_specular() {
+                break;
+            }
+            let Some(bs) = bsdf.sample(
+                si.wo,
+                rng.uniform(),
+                rng.uniform2(),
+                TransportMode::Radiance,
+                LobeFlags::SPECULAR_ALL,
+            ) else {
+                break;
+            };
+            beta *= bs.f * (bs.wi.dot(bsdf.frame.z).abs() / bs.pdf);
+            if beta == Vec3::ZERO || !beta.is_finite() {
+                break;
+            }
+            ray = si.spawn_ray(bs.wi);
+        }
+        l
+    }
+
+    /// Radiance leaving a gather ray's surface toward its origin, from the photons.
+    fn exitant(&self, si: &SurfaceInteraction, bsdf: &Bsdf, scratch: &mut Scratch) -> Vec3 {
+        let n = facing_normal(si);
+        scratch.lookups += 1;
+        if let Some(rp) = &self.radiance {
+            return match rp.nearest(si.p, self.max_d2, |r| unpack_unit(r.n).dot(n) > NORMAL_COSINE) {
+                Some(r) => non_specular_albedo(bsdf) * FRAC_1_PI * r.irradiance,
+                None => Vec3::ZERO,
+            };
+        }
+        let q = Query { p: si.p, n, max_d2: self.max_d2 };
+        let mut l = Vec3::ZERO;
+        for map in [&self.direct, &self.indirect, &self.caustic].into_iter().flatten() {
+            l += estimate::radiance(map, &q, bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+        }
+        l
+    }
+}
