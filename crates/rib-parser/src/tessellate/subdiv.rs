@@ -16,15 +16,18 @@
 //!   (for `interpolateboundary [1]`, the default) corners with one face are sharp vertices.
 //! - `hole` faces (and their children) are subdivided but not drawn.
 //!
-//! The level comes from the tolerance: after each level the displacement of the next level's
-//! edge and face points (on the limit surface) from the flat quads is measured; it shrinks
-//! about fourfold per level, so the first level within the tolerance (measured or predicted)
-//! is drawn (faces around sharp corners, where uniform refinement converges only linearly, do
-//! not take part in the measure). Its vertices are then pushed to the limit surface: the smooth limit stencil
-//! `(n^2 v + 4 sum e + sum f) / (n (n + 5))` with the exact limit normal from Halstead et al.'s
-//! tangent stencils at smooth vertices, the cubic B-spline limit `(a + 4v + b) / 6` on creases,
-//! the vertex itself at corners; normals elsewhere are averaged from the limit faces. Edges
-//! still semi-sharp at the drawn level are taken as sharp there.
+//! The level comes from the tolerance: the displacement of the next level's edge and face
+//! points (on the limit surface) from a level's flat quads is measured (times 4/3: inside a
+//! triangle a quadratic error can exceed its edge-midpoint values by that much), level after
+//! level, until the first level within the tolerance, which is drawn; once two successive
+//! decay rates agree (about fourfold on smooth surfaces), the remaining levels are predicted
+//! from the rate instead of built only to be measured. Faces around sharp corners, where uniform
+//! refinement converges only linearly, take no part in the measure. The drawn level's
+//! vertices are pushed to the limit surface: the smooth limit stencil
+//! `(n^2 v + 4 sum e + sum f) / (n (n + 5))` with the exact limit normal from Halstead et
+//! al.'s tangent stencils at smooth vertices, the cubic B-spline limit `(a + 4v + b) / 6` on
+//! creases, the vertex itself at corners; normals elsewhere are averaged from the limit
+//! faces. Edges still semi-sharp at the drawn level are taken as sharp there.
 //!
 //! `st` of any class is carried per face corner and interpolated bilinearly (face-varying
 //! linear); vertices are split only where the values differ.
@@ -97,7 +100,8 @@ impl Level {
         self.face_start[f] as usize..self.face_start[f + 1] as usize
     }
 
-    /// Builds edges and adjacency from the faces, keeping the sharpness of `sharp` edges.
+    /// Finds the edges of the faces (control mesh only: finer levels know theirs), with the
+    /// sharpness of `sharp` edges, then the adjacency.
     fn build_topology(&mut self, sharp: &HashMap<(u32, u32), f64>) {
         let mut ids: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.face_verts.len());
         self.edges.clear();
@@ -118,12 +122,26 @@ impl Level {
                     });
                     (edges.len() - 1) as u32
                 });
-                let e = &mut self.edges[id as usize];
+                self.face_edges[r.start + k] = id;
+            }
+        }
+        self.build_adjacency();
+    }
+
+    /// Faces of every edge and the vertex-to-edge and vertex-to-face tables, from `edges` and
+    /// `face_edges`.
+    fn build_adjacency(&mut self) {
+        for e in &mut self.edges {
+            e.faces = 0;
+            e.face = [u32::MAX; 2];
+        }
+        for f in 0..self.face_count() {
+            for c in self.face(f) {
+                let e = &mut self.edges[self.face_edges[c] as usize];
                 if (e.faces as usize) < 2 {
                     e.face[e.faces as usize] = f as u32;
                 }
                 e.faces += 1;
-                self.face_edges[r.start + k] = id;
             }
         }
         let nv = self.positions.len();
@@ -295,18 +313,29 @@ fn subdivide(level: &Level, boundary: Boundary) -> Level {
         };
     }
 
-    // Children: one quad per face corner, counter-clockwise like the parent.
+    // Children: one quad per face corner, counter-clockwise like the parent. Child edges:
+    // `2e` and `2e + 1` are the halves of parent edge `e` (from `v[0]` and to `v[1]`), and
+    // `2E + c` joins the edge point of corner `c`'s edge to its face point.
     let corners = level.face_verts.len();
+    let mut edges = Vec::with_capacity(2 * ne + corners);
+    for (e, edge) in level.edges.iter().enumerate() {
+        let (ep, s) = ((nv + e) as u32, lowered_sharpness(edge.sharpness));
+        edges.push(Edge { v: [edge.v[0], ep], faces: 0, face: [u32::MAX; 2], sharpness: s });
+        edges.push(Edge { v: [ep, edge.v[1]], faces: 0, face: [u32::MAX; 2], sharpness: s });
+    }
     let mut child = Level {
         positions,
         face_start: (0..=corners as u32).map(|i| 4 * i).collect(),
         face_verts: Vec::with_capacity(4 * corners),
+        face_edges: Vec::with_capacity(4 * corners),
         face_origin: Vec::with_capacity(corners),
         face_hidden: Vec::with_capacity(corners),
         vertex_sharpness: Vec::with_capacity(nv + ne + nf),
         st: level.st.as_ref().map(|_| Vec::with_capacity(4 * corners)),
         ..Default::default()
     };
+    // The half of parent edge `e` that touches vertex `v`.
+    let half = |e: u32, v: u32| 2 * e + u32::from(level.edges[e as usize].v[0] != v);
     for f in 0..nf {
         let r = level.face(f);
         let n = r.len();
@@ -315,11 +344,15 @@ fn subdivide(level: &Level, boundary: Boundary) -> Level {
         for k in 0..n {
             let c = r.start + k;
             let prev = r.start + (k + n - 1) % n;
-            child.face_verts.extend_from_slice(&[
-                level.face_verts[c],
-                nv as u32 + level.face_edges[c],
-                fp,
-                nv as u32 + level.face_edges[prev],
+            let v = level.face_verts[c];
+            let (e_next, e_prev) = (level.face_edges[c], level.face_edges[prev]);
+            edges.push(Edge { v: [nv as u32 + e_next, fp], faces: 0, face: [u32::MAX; 2], sharpness: 0.0 });
+            child.face_verts.extend_from_slice(&[v, nv as u32 + e_next, fp, nv as u32 + e_prev]);
+            child.face_edges.extend_from_slice(&[
+                half(e_next, v),
+                (2 * ne + c) as u32,
+                (2 * ne + prev) as u32,
+                half(e_prev, v),
             ]);
             child.face_origin.push(level.face_origin[f]);
             child.face_hidden.push(level.face_hidden[f]);
@@ -329,19 +362,10 @@ fn subdivide(level: &Level, boundary: Boundary) -> Level {
             }
         }
     }
+    child.edges = edges;
     child.vertex_sharpness.extend(level.vertex_sharpness.iter().map(|&s| lowered_sharpness(s)));
     child.vertex_sharpness.resize(nv + ne + nf, 0.0);
-    let mut sharp = HashMap::new();
-    for (e, edge) in level.edges.iter().enumerate() {
-        let s = lowered_sharpness(edge.sharpness);
-        if s > 0.0 {
-            let ep = (nv + e) as u32;
-            for &v in &edge.v {
-                sharp.insert((v.min(ep), v.max(ep)), s);
-            }
-        }
-    }
-    child.build_topology(&sharp);
+    child.build_adjacency();
     child
 }
 
@@ -592,30 +616,60 @@ pub(crate) fn tessellate_subdivision(
     let triangles_at = |k: u32| 2.0 * corners * 4f64.powi(k as i32 - 1);
     check_budget(KIND, triangles_at(1), tol)?;
 
+    let cap = tol.max_triangles as f64;
     let mut current = subdivide(&control, boundary);
+    let mut current_limit = limit(&current, boundary);
     let mut k = 1u32;
+    // Measured deviations of the levels so far: while the decay rate settles each level is
+    // measured with the next one; once it is steady the level is predicted from it instead of
+    // building a level only to measure the one before.
+    let mut measured: Vec<f64> = Vec::new();
     let drawn = loop {
-        let current_limit = limit(&current, boundary);
         // Measuring needs the next level; it is only built while it is affordable.
-        if k >= MAX_LEVEL || triangles_at(k + 1) > 4.0 * tol.max_triangles as f64 {
+        if k >= MAX_LEVEL || triangles_at(k + 1) > 4.0 * cap {
+            break (current, current_limit);
+        }
+        // Once two successive decay rates agree, the level is predicted from them.
+        let stable = match measured[..] {
+            [.., a, b, c] if b > 0.0 && c > 0.0 => ((a / b) / (b / c) - 1.0).abs() < 0.15,
+            _ => false,
+        };
+        if let ([.., before, last], true) = (&measured[..], stable) {
+            let (before, last) = (*before, *last);
+            let ratio = (before / last).clamp(2.0, 4.0);
+            let (mut predicted, mut level) = (last / ratio, k);
+            while predicted > eps && level < MAX_LEVEL {
+                predicted /= ratio;
+                level += 1;
+            }
+            check_budget(KIND, triangles_at(level), tol)?;
+            if level > k {
+                while k < level {
+                    current = subdivide(&current, boundary);
+                    k += 1;
+                }
+                current_limit = limit(&current, boundary);
+            }
             break (current, current_limit);
         }
         let next = subdivide(&current, boundary);
         let next_limit = limit(&next, boundary);
-        let d = deviation(&current, &current_limit.0, &next_limit.0, boundary);
+        // Sampled at edge midpoints and quad centres; inside a triangle a quadratic error can
+        // be up to 4/3 of its largest edge-midpoint value.
+        let d = 4.0 / 3.0 * deviation(&current, &current_limit.0, &next_limit.0, boundary);
         if !d.is_finite() {
             return Err(TessellateError::NonFinite { kind: KIND, reason: "subdivision diverged".into() });
         }
         if d <= eps {
             break (current, current_limit);
         }
-        if d / 4.0 <= eps {
+        measured.push(d);
+        if measured.len() == 1 && d / 4.0 <= eps {
             check_budget(KIND, triangles_at(k + 1), tol)?;
             break (next, next_limit);
         }
-        // Two more levels at least: the one after next must fit the budget.
-        check_budget(KIND, triangles_at(k + 2), tol)?;
         current = next;
+        current_limit = next_limit;
         k += 1;
     };
     let (level, (positions, smooth_normals)) = drawn;
@@ -627,19 +681,29 @@ pub(crate) fn tessellate_subdivision(
 fn emit(level: &Level, positions: &[DVec3], smooth_normals: &[DVec3], degenerate: u32) -> TriangleMesh {
     let mut mesh = TriangleMesh { degenerate_faces: degenerate, ..Default::default() };
     // Output vertex per (level vertex, st): shared unless st differs.
-    let mut out_of: HashMap<(u32, u64, u64), u32> = HashMap::with_capacity(level.positions.len());
+    let mut out_of: HashMap<(u32, u64, u64), u32> = HashMap::new();
     let mut st_out: Vec<Vec2> = Vec::new();
     let mut source: Vec<u32> = Vec::new();
+    // Without st every level vertex is one output vertex: a table instead of hashing.
+    let mut plain = vec![u32::MAX; if level.st.is_none() { level.positions.len() } else { 0 }];
     let mut vertex = |v: u32, st: Option<DVec2>, mesh: &mut TriangleMesh| -> u32 {
-        let key = st.map_or((v, 0, 0), |s| (v, s.x.to_bits(), s.y.to_bits()));
-        *out_of.entry(key).or_insert_with(|| {
+        let mut push = |mesh: &mut TriangleMesh| {
             mesh.positions.push(positions[v as usize].as_vec3());
             source.push(v);
             if let Some(s) = st {
                 st_out.push(s.as_vec2());
             }
             (mesh.positions.len() - 1) as u32
-        })
+        };
+        match st {
+            None => {
+                if plain[v as usize] == u32::MAX {
+                    plain[v as usize] = push(mesh);
+                }
+                plain[v as usize]
+            }
+            Some(s) => *out_of.entry((v, s.x.to_bits(), s.y.to_bits())).or_insert_with(|| push(mesh)),
+        }
     };
     for f in 0..level.face_count() {
         if level.face_hidden[f] {

@@ -333,3 +333,22 @@ fn bad_subdivision_meshes_are_errors_not_panics() {
         tessellate(&Shape::SubdivisionMesh(cube()), &Tolerance::absolute(1e-9).with_max_triangles(10_000));
     assert!(matches!(r, Err(TessellateError::TooManyTriangles { .. })), "{r:?}");
 }
+
+#[test]
+fn the_drawn_level_meets_the_tolerance() {
+    // Vertices of a much finer tessellation lie on the limit surface; none may be farther
+    // than the tolerance from the coarse one.
+    let shapes = [
+        cube(),
+        subdivision(&CUBE_POSITIONS, &CUBE_FACES, vec![tag("crease", vec![4, 5, 6, 7, 4], vec![2.5])]),
+        grid_mesh(6, vec![tag("interpolateboundary", vec![], vec![])]),
+    ];
+    for sm in shapes {
+        for eps in [5e-2, 2e-2] {
+            let coarse = run(sm.clone(), eps);
+            let fine = run(sm.clone(), eps / 8.0);
+            let d = super::max_distance_to_mesh(&fine, &coarse);
+            assert!(d <= eps, "{eps}: {d} with {} triangles", coarse.triangle_count());
+        }
+    }
+}
