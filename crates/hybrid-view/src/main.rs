@@ -1,1 +1,48 @@
-fn main() {}
+//! `hybrid-view IMAGE DEPTH SCENE.rib`: the real-time half of hybrid rendering (CONTRACTS.md §5).
+//!
+//! The pre-rendered image is shown pixel for pixel; live objects (the cursor sphere) are drawn
+//! with the RIB camera's projection and lit by its lights, and occlude and are occluded by the
+//! pre-rendered scene through its converted depth table. `--headless` renders offscreen and
+//! writes exactly what the window would show.
+//!
+//! Exit codes: 0 success, 1 invalid input or failed rendering, 2 bad command line.
+
+mod args;
+mod convert;
+mod run;
+
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = match args::Args::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            // Help and version go to stdout with status 0; usage errors exit with 2.
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let settings = match args.settings() {
+        Ok(s) => s,
+        Err(message) => {
+            eprintln!("hybrid-view: error: {message}");
+            return ExitCode::from(2);
+        }
+    };
+    let result = run::prepare(&settings).and_then(|prepared| {
+        if settings.headless {
+            run::headless(&settings, prepared, None)
+        } else {
+            run::windowed(&settings, prepared, None)
+        }
+    });
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(run::Failure(message)) => {
+            eprintln!("hybrid-view: error: {message}");
+            ExitCode::from(1)
+        }
+    }
+}

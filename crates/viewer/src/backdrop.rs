@@ -1,10 +1,16 @@
-//! The pre-rendered inputs: the image (8-bit RGBA, shown pixel for pixel) and its depth table.
+//! The pre-rendered image: 8-bit RGBA, shown pixel for pixel (the depth table is
+//! `depth_remap::DepthTable`).
 //!
 //! Image files: PNG, JPEG and TIFF are decoded to 8-bit RGBA and their values copied through
-//! untouched (16-bit files are reduced to 8 bits by `image`'s rounding, `round(v / 257)`).
-//! OpenEXR images hold linear radiance and are tone-mapped exactly the way `lrt-depth` writes
-//! its 8-bit outputs: `byte = round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` per channel,
-//! with the RIB's `Exposure gain gamma` ([`ToneMap`]); alpha is 255.
+//! untouched (16-bit files are reduced to 8 bits by `image`'s rounding, `round(v / 257)`;
+//! 32-bit float TIFFs are tone-mapped like EXRs).
+//! OpenEXR images hold linear values and are tone-mapped the way `lrt-depth` writes its 8-bit
+//! outputs: `byte = round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` per channel with the
+//! given [`ToneMap`]; alpha is 255. `lrt-depth` writes float outputs with `Exposure`'s gain
+//! already applied, so for its EXRs the caller passes `gain = 1` and the RIB's gamma
+//! ([`ToneMap::for_float_image`]). The one difference from `lrt-depth`'s own 8-bit files is
+//! `Quantize`'s dither (default amplitude 0.5), which it adds before rounding and the viewer
+//! does not: a value may differ by one step where the dither crossed a rounding boundary.
 
 use crate::error::ViewerError;
 use std::path::Path;
@@ -27,6 +33,12 @@ impl Default for ToneMap {
 }
 
 impl ToneMap {
+    /// The tone map for a float image written with this exposure: `lrt-depth` applies the gain
+    /// to float outputs already, so only the gamma is left.
+    pub fn for_float_image(self) -> ToneMap {
+        ToneMap { gain: 1.0, gamma: self.gamma }
+    }
+
     /// The 8-bit value of a linear channel value: `round(255 * clamp((gain v)^(1/gamma), 0, 1))`.
     /// NaN maps to 0.
     pub fn to_byte(self, v: f32) -> u8 {
@@ -55,10 +67,12 @@ impl Rgba8Image {
     }
 
     /// Reads a PNG, JPEG, TIFF or OpenEXR file (by content for the first three, by the `.exr`
-    /// extension for the last). EXR values are tone-mapped with `tone_map`.
+    /// extension for the last). Float images (EXR, 32-bit float TIFF) are tone-mapped with
+    /// `tone_map`; 8-bit values are copied through; 16-bit values become `round(v / 257)`.
     pub fn read(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
         let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        let image = if is_exr { read_exr_rgba(path, tone_map)? } else { read_8bit(path)? };
+        let image =
+            if is_exr { read_exr_rgba(path, tone_map)? } else { read_integer_or_float(path, tone_map)? };
         check_size(path, image.width, image.height)?;
         Ok(image)
     }
@@ -79,7 +93,7 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<(), ViewerError> {
     Ok(())
 }
 
-fn read_8bit(path: &Path) -> Result<Rgba8Image, ViewerError> {
+fn read_integer_or_float(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
     let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
     let reader = image::ImageReader::open(path)
         .map_err(|e| ViewerError::Io { path: path.to_path_buf(), source: e })?
@@ -93,6 +107,15 @@ fn read_8bit(path: &Path) -> Result<Rgba8Image, ViewerError> {
     limits.max_alloc = Some(u64::from(MAX_IMAGE_SIDE) * u64::from(MAX_IMAGE_SIDE) * 8);
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| bad(format!("cannot decode the image: {e}")))?;
+    if matches!(decoded, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)) {
+        // A float TIFF holds linear values, like an EXR.
+        let linear = decoded.to_rgba32f();
+        let pixels = linear
+            .pixels()
+            .flat_map(|p| [tone_map.to_byte(p.0[0]), tone_map.to_byte(p.0[1]), tone_map.to_byte(p.0[2]), 255])
+            .collect();
+        return Ok(Rgba8Image { width: linear.width(), height: linear.height(), pixels });
+    }
     let rgba = decoded.to_rgba8();
     Ok(Rgba8Image { width: rgba.width(), height: rgba.height(), pixels: rgba.into_raw() })
 }
@@ -124,148 +147,6 @@ fn read_exr_rgba(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerErr
     let (w, h, pixels) = image.layer_data.channel_data.pixels;
     check_size(path, w as u32, h as u32)?;
     Ok(Rgba8Image { width: w as u32, height: h as u32, pixels })
-}
-
-/// A radial depth table: per pixel, the distance from the eye along the pixel-centre ray to the
-/// nearest surface, `inf` for a miss (CONTRACTS.md §2). Rows top to bottom.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RadialDepth {
-    pub width: u32,
-    pub height: u32,
-    pub values: Vec<f32>,
-}
-
-impl RadialDepth {
-    /// Reads an ASCII `.depth` table or an OpenEXR `Z` image (by the `.exr` extension).
-    ///
-    /// PROVISIONAL: the depth-table reader belongs to `depth_remap`; this one follows
-    /// CONTRACTS.md §2 and is replaced by theirs when it lands.
-    pub fn read(path: &Path) -> Result<RadialDepth, ViewerError> {
-        let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        if is_exr {
-            return read_depth_exr(path);
-        }
-        let text =
-            std::fs::read(path).map_err(|e| ViewerError::Io { path: path.to_path_buf(), source: e })?;
-        let text = std::str::from_utf8(&text).map_err(|e| ViewerError::BadInput {
-            path: path.to_path_buf(),
-            message: format!("the depth table is not UTF-8 text: {e}"),
-        })?;
-        parse_depth_table(text).map_err(|(line, column, message)| ViewerError::BadInput {
-            path: path.to_path_buf(),
-            message: format!("{line}:{column}: {message}"),
-        })
-    }
-}
-
-/// Parses the ASCII depth table; errors are `(line, column, message)`, 1-based.
-fn parse_depth_table(text: &str) -> Result<RadialDepth, (usize, usize, String)> {
-    let mut header: Option<(u32, u32)> = None;
-    let mut width: Option<u32> = None;
-    let mut values = Vec::new();
-    let mut rows = 0u32;
-    for (line_index, raw_line) in text.split('\n').enumerate() {
-        let line_no = line_index + 1;
-        let line = raw_line.strip_suffix('\r').unwrap_or(raw_line);
-        if let Some(comment) = line.strip_prefix('#') {
-            if rows == 0 && header.is_none() {
-                header = parse_header(comment);
-            }
-            continue;
-        }
-        if line.is_empty() {
-            continue;
-        }
-        let mut count = 0u32;
-        let mut column = 1usize;
-        for token in line.split(' ') {
-            if token.is_empty() {
-                return Err((line_no, column, "values must be separated by single spaces".into()));
-            }
-            let v = match token {
-                "inf" | "+inf" | "infinity" => f32::INFINITY,
-                _ => match token.parse::<f32>() {
-                    Ok(v) if v.is_finite() && v >= 0.0 => v,
-                    _ => {
-                        return Err((
-                            line_no,
-                            column,
-                            format!("`{token}` is not a finite non-negative number or `inf`"),
-                        ));
-                    }
-                },
-            };
-            values.push(v);
-            count += 1;
-            column += token.len() + 1;
-            if values.len() > (MAX_IMAGE_SIDE as usize) * (MAX_IMAGE_SIDE as usize) {
-                return Err((line_no, column, "the table is larger than any accepted image".into()));
-            }
-        }
-        match width {
-            None => width = Some(count),
-            Some(w) if w != count => {
-                return Err((line_no, 1, format!("row has {count} values, the first row has {w}")));
-            }
-            Some(_) => {}
-        }
-        rows += 1;
-    }
-    let width = width.ok_or((1, 1, "the depth table has no rows".to_string()))?;
-    if let Some((hw, hh)) = header
-        && (hw, hh) != (width, rows)
-    {
-        return Err((1, 1, format!("header says {hw}x{hh} but the table holds {width}x{rows} values")));
-    }
-    Ok(RadialDepth { width, height: rows, values })
-}
-
-fn parse_header(comment: &str) -> Option<(u32, u32)> {
-    let mut words = comment.split_whitespace();
-    if words.next()? != "lrt-depth" {
-        return None;
-    }
-    let (mut w, mut h) = (None, None);
-    for word in words {
-        if let Some(v) = word.strip_prefix("width=") {
-            w = v.parse().ok();
-        } else if let Some(v) = word.strip_prefix("height=") {
-            h = v.parse().ok();
-        }
-    }
-    Some((w?, h?))
-}
-
-fn read_depth_exr(path: &Path) -> Result<RadialDepth, ViewerError> {
-    use exr::prelude::*;
-    let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .specific_channels()
-        .required("Z")
-        .collect_pixels(
-            |resolution, _| {
-                let (w, h) = (resolution.width(), resolution.height());
-                let ok = w > 0 && h > 0 && w <= MAX_IMAGE_SIDE as usize && h <= MAX_IMAGE_SIDE as usize;
-                (w, h, if ok { vec![0f32; w * h] } else { Vec::new() })
-            },
-            |(w, _, values): &mut (usize, usize, Vec<f32>), position, (z,): (f32,)| {
-                if let Some(v) = values.get_mut(position.y() * *w + position.x()) {
-                    *v = z;
-                }
-            },
-        )
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| bad(format!("cannot read the `Z` channel: {e}")))?;
-    let (w, h, values) = image.layer_data.channel_data.pixels;
-    check_size(path, w as u32, h as u32)?;
-    if let Some(k) = values.iter().position(|v| v.is_nan() || *v < 0.0) {
-        return Err(bad(format!("pixel ({}, {}) holds {}, not a distance or +inf", k % w, k / w, values[k])));
-    }
-    Ok(RadialDepth { width: w as u32, height: h as u32, values })
 }
 
 /// Writes an 8-bit PNG atomically: a temporary file beside the target, then a rename.
@@ -316,28 +197,41 @@ mod tests {
         assert_eq!(g.to_byte(0.25), ((0.5f32).powf(1.0 / 2.2) * 255.0).round() as u8);
     }
 
-    #[test]
-    fn depth_table_parses_with_header_comments_and_crlf() {
-        let t = parse_depth_table(
-            "# lrt-depth v1 width=3 height=2 depth=radial units=scene\r\n1 2.5 inf\r\n# c\n0 3 4\n",
-        )
-        .unwrap();
-        assert_eq!((t.width, t.height), (3, 2));
-        assert_eq!(t.values, vec![1.0, 2.5, f32::INFINITY, 0.0, 3.0, 4.0]);
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("viewer-backdrop-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
     }
 
     #[test]
-    fn depth_table_errors_name_line_and_column() {
-        let e = parse_depth_table("1 2\n3 nan\n").unwrap_err();
-        assert_eq!((e.0, e.1), (2, 3));
-        let e = parse_depth_table("1 -2\n").unwrap_err();
-        assert_eq!((e.0, e.1), (1, 3));
-        let e = parse_depth_table("1 2\n3\n").unwrap_err();
-        assert_eq!(e.0, 2);
-        let e = parse_depth_table("1  2\n").unwrap_err();
-        assert_eq!(e.0, 1);
-        let e = parse_depth_table("# lrt-depth v1 width=2 height=2\n1 2\n").unwrap_err();
-        assert!(e.2.contains("2x2"), "{}", e.2);
-        assert!(parse_depth_table("# only a comment\n").is_err());
+    fn float_images_are_tone_mapped_and_8bit_images_copied() {
+        let dir = scratch("read");
+        let value = |x: usize, y: usize| (x as f32 * 0.3, y as f32 * 0.45, 1.7 - x as f32 * 0.2);
+        let exr_path = dir.join("a.exr");
+        exr::prelude::write_rgb_file(&exr_path, 5, 3, value).unwrap();
+        let tone = ToneMap { gain: 1.5, gamma: 2.2 };
+        let img = Rgba8Image::read(&exr_path, tone).unwrap();
+        assert_eq!((img.width, img.height), (5, 3));
+        for y in 0..3 {
+            for x in 0..5 {
+                let (r, g, b) = value(x, y);
+                let k = (y * 5 + x) * 4;
+                assert_eq!(img.pixels[k..k + 4], [tone.to_byte(r), tone.to_byte(g), tone.to_byte(b), 255]);
+            }
+        }
+        let png_path = dir.join("a.png");
+        let rgba = image::RgbaImage::from_fn(4, 2, |x, y| image::Rgba([x as u8 * 60, y as u8 * 200, 7, 255]));
+        rgba.save(&png_path).unwrap();
+        assert_eq!(Rgba8Image::read(&png_path, tone).unwrap().pixels, rgba.into_raw());
+        let png16 = dir.join("b.png");
+        let wide = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(2, 1, |x, _| {
+            image::Rgb([x as u16 * 40000, 257, 65535])
+        });
+        wide.save(&png16).unwrap();
+        assert_eq!(Rgba8Image::read(&png16, tone).unwrap().pixels, vec![0, 1, 255, 255, 156, 1, 255, 255]);
+        assert!(Rgba8Image::read(&dir.join("missing.png"), tone).is_err());
+        std::fs::write(dir.join("junk.png"), b"not an image").unwrap();
+        assert!(Rgba8Image::read(&dir.join("junk.png"), tone).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -5,9 +5,10 @@ use crate::backdrop::Rgba8Image;
 use crate::error::ViewerError;
 use crate::gpu::Gpu;
 use crate::live::{LiveLight, LiveObjects, Material, Mesh, ShadowSource};
-use crate::projection::{DepthConvention, DepthRange, Projection};
+use crate::projection::{Projection, nearer};
 use crate::scene::ViewerScene;
 use bytemuck::{Pod, Zeroable};
+use depth_remap::{DepthConvention, NearFar};
 use glam::{DMat3, DMat4, DVec3, Mat4};
 use std::sync::Arc;
 
@@ -49,7 +50,7 @@ pub struct DepthSettings {
 impl Default for DepthSettings {
     /// Reversed-Z in a 32-bit float buffer: nearly constant relative precision in eye depth.
     fn default() -> Self {
-        DepthSettings { format: wgpu::TextureFormat::Depth32Float, convention: DepthConvention::Reversed }
+        DepthSettings { format: wgpu::TextureFormat::Depth32Float, convention: DepthConvention::WgpuReversed }
     }
 }
 
@@ -74,8 +75,9 @@ impl Default for ShadowSettings {
 pub struct CompositorSettings {
     pub mode: CompositeMode,
     pub depth: DepthSettings,
-    /// Near/far planes; `None` derives them from the depth table.
-    pub depth_range: Option<DepthRange>,
+    /// Near/far planes; `None` derives them from the depth table
+    /// ([`crate::projection::near_far_policy`]).
+    pub depth_range: Option<NearFar>,
     /// `None` disables shadows.
     pub shadows: Option<ShadowSettings>,
 }
@@ -200,6 +202,8 @@ pub struct Compositor {
     tone: [f32; 4],
     /// Window depth of every pixel, kept to build the point cloud on demand.
     window_depths: Vec<f32>,
+    /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
+    surface_bounds: Option<(DVec3, DVec3)>,
     image: Rgba8Image,
     frame_texture: wgpu::Texture,
     frame_view: wgpu::TextureView,
@@ -223,6 +227,23 @@ pub struct Compositor {
     readback_pipeline: wgpu::ComputePipeline,
     readback_bind_group: wgpu::BindGroup,
     depth_storage: wgpu::Buffer,
+}
+
+/// Camera-space bounds of the surface points of a radial depth table (`None`: all misses).
+fn camera_space_bounds(projection: &Projection, radial: &[f32]) -> Option<(DVec3, DVec3)> {
+    let camera = projection.camera();
+    let (w, _) = camera.resolution();
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for (k, &r) in radial.iter().enumerate() {
+        if r.is_finite() {
+            let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
+            let p = ray.origin + ray.direction * f64::from(r);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    lo.is_finite().then_some((lo, hi))
 }
 
 fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
@@ -261,18 +282,14 @@ impl Compositor {
         ) {
             return Err(ViewerError::Unsupported(format!("depth format {depth_format:?}")));
         }
-        let camera = scene.camera().clone();
-        let range = settings.depth_range.unwrap_or_else(|| {
-            DepthRange::from_radial_depths(&camera, &scene.depth().values, settings.depth.convention)
-        });
-        if !(range.near.is_finite()
-            && range.near > 0.0
-            && range.far.is_none_or(|f| f.is_finite() && f > range.near))
-        {
-            return Err(ViewerError::Camera(format!("bad depth range {range:?}")));
-        }
-        let projection = Projection::new(camera, range, settings.depth.convention);
-        let window_depths = projection.window_depths(&scene.depth().values);
+        let projection = Projection::new(
+            scene.camera().clone(),
+            scene.depth(),
+            settings.depth.convention,
+            settings.depth_range,
+        )?;
+        let window_depths = projection.window_depths(scene.depth())?;
+        let surface_bounds = camera_space_bounds(&projection, scene.depth().values());
         let device = &gpu.device;
 
         // Error scopes catch validation and memory errors of resource creation as values.
@@ -323,7 +340,7 @@ impl Compositor {
         upload(&window_depth_texture, bytemuck::cast_slice(&window_depths), 4);
         // The GPU sees `inf` as a huge finite number on some backends; store misses as f32::MAX.
         let radial: Vec<f32> =
-            scene.depth().values.iter().map(|&r| if r.is_finite() { r } else { f32::MAX }).collect();
+            scene.depth().values().iter().map(|&r| if r.is_finite() { r } else { f32::MAX }).collect();
         upload(&radial_texture, bytemuck::cast_slice(&radial), 4);
 
         let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
@@ -416,7 +433,7 @@ impl Compositor {
             bind_group_layouts: &[Some(&frame_layout), Some(&mesh_layout)],
             immediate_size: 0,
         });
-        let nearer = settings.depth.convention.nearer();
+        let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
             depth_write_enabled: Some(write),
@@ -670,6 +687,7 @@ impl Compositor {
             shadow_light,
             tone,
             window_depths,
+            surface_bounds,
             image: scene.image().clone(),
             frame_view: view(&frame_texture),
             frame_texture,
@@ -933,6 +951,73 @@ impl Compositor {
         }
     }
 
+    /// The pixels the sphere's shadow can fall on: the screen bounds of the shadow volume (the
+    /// sphere's outer penumbra cone from the light, cut where it leaves the bounds of the
+    /// visible surfaces), or the whole image when that volume reaches behind the eye. `None`
+    /// when no visible surface can be in the shadow.
+    fn shadow_scissor(&self, uniform: &FrameUniform) -> Option<[u32; 4]> {
+        let full = Some([0, 0, self.width, self.height]);
+        let (lo, hi) = self.surface_bounds?;
+        let d = |a: [f32; 4]| DVec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
+        let centre = d(uniform.sphere);
+        let r = f64::from(uniform.sphere[3]);
+        let light = d(uniform.shadow_light);
+        let light_radius = f64::from(uniform.shadow_params[0]);
+        let corners = (0..8).map(|k| {
+            DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        });
+        // Cross-section discs (centre, radius) at the near end and the far end of the volume.
+        let (axis, discs) = if uniform.shadow_light[3] > 0.5 {
+            let to_sphere = centre - light;
+            let d_s = to_sphere.length();
+            if d_s <= r * 1.01 {
+                return full;
+            }
+            let axis = to_sphere / d_s;
+            let far = corners.map(|c| (c - light).length()).fold(0.0, f64::max);
+            let near = d_s - r;
+            if far <= near {
+                return None;
+            }
+            let tan_half = r / (d_s * d_s - r * r).sqrt();
+            let radius = |x: f64| (x * tan_half + light_radius * (x - d_s).max(0.0) / d_s) * 1.05 + r * 0.01;
+            (axis, [(light + axis * near, radius(d_s)), (light + axis * far, radius(far))])
+        } else {
+            let axis = light.normalize_or_zero();
+            let far = corners.map(|c| (c - centre).dot(axis)).fold(f64::NEG_INFINITY, f64::max);
+            if far <= -r {
+                return None;
+            }
+            (axis, [(centre - axis * r, r * 1.05), (centre + axis * far, r * 1.05)])
+        };
+        let u = axis.any_orthonormal_vector();
+        let v = axis.cross(u);
+        let clip_from_camera = self.projection.clip_from_camera();
+        let (mut x0, mut y0, mut x1, mut y1) =
+            (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for (c, radius) in discs {
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let p = c + (u * a + v * b) * radius;
+                let clip = clip_from_camera * p.extend(1.0);
+                if !(clip.w > 1e-9) {
+                    return full;
+                }
+                let x = (clip.x / clip.w + 1.0) * 0.5 * f64::from(self.width);
+                let y = (1.0 - clip.y / clip.w) * 0.5 * f64::from(self.height);
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+            }
+        }
+        let clamp_x = |v: f64| v.clamp(0.0, f64::from(self.width)) as u32;
+        let clamp_y = |v: f64| v.clamp(0.0, f64::from(self.height)) as u32;
+        let (ix0, iy0) = (clamp_x(x0.floor() - 1.0), clamp_y(y0.floor() - 1.0));
+        let (ix1, iy1) = (clamp_x(x1.ceil() + 1.0), clamp_y(y1.ceil() + 1.0));
+        (ix1 > ix0 && iy1 > iy0).then_some([ix0, iy0, ix1 - ix0, iy1 - iy0])
+    }
+
     /// Draws one frame into the offscreen targets and submits it. Does not wait for the GPU.
     pub fn render(&mut self, live: &LiveObjects) -> Result<(), ViewerError> {
         if self.settings.mode == CompositeMode::Points {
@@ -980,7 +1065,7 @@ impl Compositor {
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         {
-            let far = self.settings.depth.convention.far_value();
+            let far = self.settings.depth.convention.far_window_depth();
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("composite"),
                 color_attachments: &[
@@ -1027,9 +1112,13 @@ impl Compositor {
                     pass.draw(0..3, 0..1);
                 }
             }
-            if uniform.counts[1] == 1 {
+            if uniform.counts[1] == 1
+                && let Some([x, y, w, h]) = self.shadow_scissor(&uniform)
+            {
+                pass.set_scissor_rect(x, y, w, h);
                 pass.set_pipeline(&self.shadow_pipeline);
                 pass.draw(0..3, 0..1);
+                pass.set_scissor_rect(0, 0, self.width, self.height);
             }
             if !draws.is_empty() {
                 pass.set_pipeline(&self.mesh_pipeline);

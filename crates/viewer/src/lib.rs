@@ -5,7 +5,7 @@
 //!
 //! Overview:
 //! - [`ViewerScene`]: the camera (`depth_remap::Camera`, the one camera model), the image
-//!   ([`Rgba8Image`]), the radial depth table ([`RadialDepth`]), the lights ([`LiveLight`]) and
+//!   ([`Rgba8Image`]), the radial depth table (`depth_remap::DepthTable`), the lights ([`LiveLight`]) and
 //!   the tone map; checked for matching sizes.
 //! - [`Gpu`]: a wgpu device (Vulkan first, GL as a fallback; software adapters count).
 //! - [`Compositor`]: renders a frame into offscreen targets (colour, a live-object mask, depth)
@@ -17,10 +17,10 @@
 //!   sphere, or driven each frame by a [`LiveUpdate`] (e.g. the haptic thread's shared state).
 //!
 //! ```
-//! use depth_remap::{Camera, CameraSettings, Projection};
+//! use depth_remap::{Camera, CameraSettings, DepthTable, Projection};
 //! use glam::DVec3;
 //! use viewer::{Compositor, CompositorSettings, Gpu, LiveObjects, Sphere, ViewerScene};
-//! use viewer::{RadialDepth, Rgba8Image, ToneMap};
+//! use viewer::{Rgba8Image, ToneMap};
 //!
 //! # fn main() -> Result<(), viewer::ViewerError> {
 //! // A 64x48 grey image of a wall 5 units in front of the eye (radial distances per pixel).
@@ -34,7 +34,7 @@
 //! let values = (0..64 * 48)
 //!     .map(|k| (5.0 / camera.pixel_centre_ray(k % 64, k / 64).direction.z) as f32)
 //!     .collect();
-//! let depth = RadialDepth { width: 64, height: 48, values };
+//! let depth = DepthTable::new(64, 48, values).expect("valid depths");
 //! let image = Rgba8Image::filled(64, 48, [128, 128, 128, 255]);
 //! let scene = ViewerScene::new(camera, image, depth, vec![], ToneMap::default())?;
 //!
@@ -58,13 +58,14 @@ pub mod projection;
 pub mod scene;
 pub mod window;
 
-pub use backdrop::{RadialDepth, Rgba8Image, ToneMap};
+pub use backdrop::{Rgba8Image, ToneMap};
 pub use compositor::{
     CompositeMode, Compositor, CompositorSettings, DepthSettings, FrameReadback, ShadowSettings,
 };
+pub use depth_remap::{DepthConvention, DepthTable, NearFar};
 pub use error::ViewerError;
 pub use gpu::{Backends, Gpu};
 pub use live::{FrameInfo, LiveLight, LiveObjects, LiveUpdate, Material, Mesh, MeshInstance, Sphere};
-pub use projection::{DepthConvention, DepthRange, Projection};
+pub use projection::Projection;
 pub use scene::ViewerScene;
 pub use wgpu;

@@ -185,6 +185,32 @@ impl Mesh {
         mesh
     }
 
+    /// An axis-aligned box `[-half, half]` in object space, flat-shaded (four vertices per
+    /// face), wound counter-clockwise around its outward normals.
+    pub fn cuboid(half: Vec3) -> Mesh {
+        let mut mesh = Mesh { positions: Vec::new(), normals: Vec::new(), indices: Vec::new() };
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let mut normal = Vec3::ZERO;
+                normal[axis] = sign;
+                // Two tangents with u x v = normal.
+                let (u, v) = {
+                    let mut u = Vec3::ZERO;
+                    u[(axis + 1) % 3] = 1.0;
+                    let v = normal.cross(u);
+                    (u, v)
+                };
+                let base = mesh.positions.len() as u32;
+                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                    mesh.positions.push((normal + u * a + v * b) * half);
+                    mesh.normals.push(normal);
+                }
+                mesh.indices.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+            }
+        }
+        mesh
+    }
+
     /// Checks the mesh is drawable: matching positions and normals, indices in range, whole
     /// triangles, finite values.
     pub fn validate(&self) -> Result<(), String> {
@@ -263,6 +289,18 @@ mod tests {
         }
         for (&(a, b), &n) in &edges {
             assert_eq!(edges.get(&(b, a)), Some(&n), "edge {a:?}-{b:?} is not matched");
+        }
+    }
+
+    #[test]
+    fn cuboid_faces_point_outwards() {
+        let m = Mesh::cuboid(Vec3::new(1.0, 2.0, 3.0));
+        m.validate().unwrap();
+        for t in m.indices.chunks(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| m.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot(a) > 0.0, "triangle {t:?} faces inwards");
+            assert!(n.normalize().dot(m.normals[t[0] as usize]) > 0.999);
         }
     }
 

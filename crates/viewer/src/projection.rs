@@ -1,213 +1,112 @@
-//! The viewer's projection: the RIB camera's clip-from-camera matrix in wgpu's clip space, the
-//! depth convention of the depth buffer, and the per-pixel conversion of the depth table.
+//! The viewer's projection: `depth_remap`'s camera and depth mapping, as the GPU gets them.
 //!
-//! PROVISIONAL: the depth arithmetic here (`clip_from_camera`, `window_depth`,
-//! `DepthRange::from_radial_depths`) belongs to `depth_remap`, which is adding the same
-//! functions (view/projection matrices for wgpu conventions incl. reversed-Z, radial to window
-//! depth, near/far from the data). Replace these with `depth_remap`'s as soon as they land; the
-//! viewer's tests then check the two agree bit for bit.
+//! All depth arithmetic lives in `depth_remap` (the conventions, the clip matrices, the
+//! per-pixel radial-to-window conversion, near/far from the data, the point-cloud matrix);
+//! this module only picks what the viewer uses and hands it to the shaders:
 //!
-//! Conventions (wgpu clip space): `x_ndc, y_ndc` in `[-1, 1]` with `+y` up, window depth
-//! `z_ndc` in `[0, 1]`. Camera space is RenderMan's (left-handed, `+z` forward).
-//!
-//! | convention | window depth of eye depth `z` | near -> far | compare (nearer wins) | clear |
+//! | depth buffer | convention | window depth at eye depth `d` | compare | clear |
 //! |---|---|---|---|---|
-//! | [`DepthConvention::Reversed`] | `n (f - z) / (z (f - n))`, `n / z` for `f = inf` | 1 -> 0 | `Greater` | 0 |
-//! | [`DepthConvention::Standard`] | `f (z - n) / (z (f - n))` | 0 -> 1 | `Less` | 1 |
+//! | default: `Depth32Float` | [`DepthConvention::WgpuReversed`], infinite far | `n / d` | `Greater` | 0 |
+//! | `Depth32Float`, `Depth24Plus` | [`DepthConvention::Wgpu`], finite far | `f (d - n) / ((f - n) d)` | `Less` | 1 |
 //!
-//! Orthographic cameras use the linear versions (`(f - z) / (f - n)`, `(z - n) / (f - n)`).
+//! The near plane sits at 1/64 of the nearest pre-rendered surface's eye depth with reversed-Z
+//! (a float buffer's relative precision does not depend on it, so live objects may come far in
+//! front of the scene at no cost), and at `depth_remap`'s default (half the nearest surface,
+//! far at twice the farthest) with the conventional mapping, whose precision it governs.
 
-use depth_remap::Camera;
-use glam::{DMat4, DVec4};
+use crate::error::ViewerError;
+use depth_remap::{
+    Camera, DepthConvention, DepthMapping, DepthOutput, DepthTable, NearFar, NearFarPolicy, choose_near_far,
+    point_cloud_matrix, remap_depth_table,
+};
+use glam::DMat4;
 
-/// Which way the depth buffer runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum DepthConvention {
-    /// Reversed-Z: the near plane maps to 1 and the far plane (or infinity) to 0. With a float
-    /// depth buffer this spends the float exponent range where perspective compresses depth,
-    /// giving nearly constant relative precision in eye depth.
-    Reversed,
-    /// wgpu's conventional `[0, 1]`: near maps to 0 and far to 1.
-    Standard,
-}
-
-impl DepthConvention {
-    /// The window depth of a point at infinity or with no surface (the far end of the range).
-    pub fn far_value(self) -> f32 {
-        match self {
-            DepthConvention::Reversed => 0.0,
-            DepthConvention::Standard => 1.0,
-        }
-    }
-
-    /// The comparison under which a nearer fragment passes.
-    pub fn nearer(self) -> wgpu::CompareFunction {
-        match self {
-            DepthConvention::Reversed => wgpu::CompareFunction::Greater,
-            DepthConvention::Standard => wgpu::CompareFunction::Less,
-        }
+/// The near/far policy the viewer uses with `convention`.
+pub fn near_far_policy(convention: DepthConvention) -> NearFarPolicy {
+    if convention.is_reversed() {
+        NearFarPolicy { near_factor: 1.0 / 64.0, ..NearFarPolicy::default() }
+    } else {
+        NearFarPolicy { infinite_far: false, ..NearFarPolicy::default() }
     }
 }
 
-/// Near and far planes (camera-space z) of the live projection. `far = None` is an infinite far
-/// plane (only meaningful with [`DepthConvention::Reversed`] and a perspective camera).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DepthRange {
-    pub near: f64,
-    pub far: Option<f64>,
-}
-
-impl DepthRange {
-    /// Near/far from the data (PROVISIONAL, to be replaced by `depth_remap`'s): the near plane
-    /// sits at 1/64 of the nearest surface's eye depth, so a live object can come well in front
-    /// of every pre-rendered surface before it is clipped; with reversed-Z the near plane's
-    /// position barely changes precision, so this costs nothing. The far plane is infinite for
-    /// reversed-Z and twice the farthest surface otherwise. A table with no finite depth falls
-    /// back to the camera's `Clipping`.
-    pub fn from_radial_depths(camera: &Camera, radial: &[f32], convention: DepthConvention) -> DepthRange {
-        let (w, h) = camera.resolution();
-        let mut z_min = f64::INFINITY;
-        let mut z_max = 0.0f64;
-        for j in 0..h {
-            for i in 0..w {
-                let r = radial[(j * w + i) as usize];
-                if r.is_finite() && r > 0.0 {
-                    let z = camera.radial_to_eye_depth(i, j, f64::from(r));
-                    z_min = z_min.min(z);
-                    z_max = z_max.max(z);
-                }
-            }
-        }
-        let clipping = camera.settings().clipping;
-        if !z_min.is_finite() || z_min <= 0.0 {
-            let far = match convention {
-                DepthConvention::Reversed if camera.tan_half_fov().is_some() => None,
-                _ => Some(clipping.far.min(1e30)),
-            };
-            return DepthRange { near: clipping.near.max(1e-6), far };
-        }
-        let near = z_min / 64.0;
-        let far = match convention {
-            DepthConvention::Reversed if camera.tan_half_fov().is_some() => None,
-            _ => Some(z_max * 2.0),
-        };
-        DepthRange { near, far }
+/// The wgpu comparison that keeps the nearer fragment under `convention`.
+pub fn nearer(convention: DepthConvention) -> wgpu::CompareFunction {
+    match convention.compare() {
+        depth_remap::DepthCompare::Greater => wgpu::CompareFunction::Greater,
+        depth_remap::DepthCompare::Less => wgpu::CompareFunction::Less,
     }
 }
 
-/// The live projection: everything needed to map camera space to wgpu clip space and window
-/// depth, for one camera, range and convention.
+/// The live projection for one camera and depth mapping.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Projection {
     camera: Camera,
-    range: DepthRange,
-    convention: DepthConvention,
+    planes: NearFar,
+    mapping: DepthMapping,
 }
 
 impl Projection {
-    pub fn new(camera: Camera, range: DepthRange, convention: DepthConvention) -> Projection {
-        Projection { camera, range, convention }
+    /// The projection for `camera` with `convention`; near and far from `table` unless `planes`
+    /// are given. Only wgpu's `[0, 1]` conventions are accepted.
+    pub fn new(
+        camera: Camera,
+        table: &DepthTable,
+        convention: DepthConvention,
+        planes: Option<NearFar>,
+    ) -> Result<Projection, ViewerError> {
+        if convention.is_gl() {
+            return Err(ViewerError::Unsupported(format!(
+                "depth convention {convention}: wgpu's depth range is [0, 1]"
+            )));
+        }
+        let planes = match planes {
+            Some(p) => p,
+            None => {
+                let range = camera.eye_depth_range(table).map_err(|e| ViewerError::Camera(e.to_string()))?;
+                choose_near_far(range, camera.clipping(), near_far_policy(convention))
+            }
+        };
+        let mapping = camera
+            .depth_mapping(convention, planes)
+            .map_err(|e| ViewerError::Camera(format!("depth mapping: {e}")))?;
+        Ok(Projection { camera, planes, mapping })
     }
 
     pub fn camera(&self) -> &Camera {
         &self.camera
     }
 
-    pub fn range(&self) -> DepthRange {
-        self.range
+    pub fn planes(&self) -> NearFar {
+        self.planes
+    }
+
+    pub fn mapping(&self) -> &DepthMapping {
+        &self.mapping
     }
 
     pub fn convention(&self) -> DepthConvention {
-        self.convention
+        self.mapping.convention()
     }
 
-    /// Clip-from-camera (PROVISIONAL, `depth_remap` will own it): `x, y` through the RIB's screen
-    /// window (fov across the shorter axis), `z` by the depth convention, `w = z` for a
-    /// perspective camera. The raster positions of a camera-space point agree with
-    /// `Camera::ray_through_raster`.
+    /// Clip from RenderMan camera space: `depth_remap`'s projection for the camera's frustum.
     pub fn clip_from_camera(&self) -> DMat4 {
-        let sw = self.camera.screen_window();
-        let sx = 2.0 / (sw.right - sw.left);
-        let sy = 2.0 / (sw.top - sw.bottom);
-        let ox = -(sw.right + sw.left) / (sw.right - sw.left);
-        let oy = -(sw.top + sw.bottom) / (sw.top - sw.bottom);
-        let n = self.range.near;
-        match self.camera.tan_half_fov() {
-            Some(t) => {
-                // x_clip = sx * x / t + ox * z, w = z, so x_ndc = sx * (x / (z t)) + ox.
-                let (a, b) = match (self.convention, self.range.far) {
-                    (DepthConvention::Reversed, None) => (0.0, n),
-                    (DepthConvention::Reversed, Some(f)) => (-n / (f - n), n * f / (f - n)),
-                    (DepthConvention::Standard, Some(f)) => (f / (f - n), -n * f / (f - n)),
-                    // An infinite far plane with standard depth: the limit f -> inf.
-                    (DepthConvention::Standard, None) => (1.0, -n),
-                };
-                DMat4::from_cols(
-                    DVec4::new(sx / t, 0.0, 0.0, 0.0),
-                    DVec4::new(0.0, sy / t, 0.0, 0.0),
-                    DVec4::new(ox, oy, a, 1.0),
-                    DVec4::new(0.0, 0.0, b, 0.0),
-                )
-            }
-            None => {
-                let f = self.range.far.unwrap_or(n + 1e30);
-                let (a, b) = match self.convention {
-                    DepthConvention::Reversed => (-1.0 / (f - n), f / (f - n)),
-                    DepthConvention::Standard => (1.0 / (f - n), -n / (f - n)),
-                };
-                DMat4::from_cols(
-                    DVec4::new(sx, 0.0, 0.0, 0.0),
-                    DVec4::new(0.0, sy, 0.0, 0.0),
-                    DVec4::new(0.0, 0.0, a, 0.0),
-                    DVec4::new(ox, oy, b, 1.0),
-                )
-            }
-        }
+        self.mapping.clip_from_camera(&self.camera.frustum())
     }
 
-    /// Window depth of a point at eye depth `z` (PROVISIONAL, `depth_remap` will own it),
-    /// computed in `f64` and rounded once; clamped to `[0, 1]` so points outside the range land
-    /// on its ends instead of being lost.
-    pub fn window_depth_of_eye_depth(&self, z: f64) -> f32 {
-        if !z.is_finite() {
-            return self.convention.far_value();
-        }
-        let m = self.clip_from_camera();
-        let clip = m * DVec4::new(0.0, 0.0, z, 1.0);
-        let d = clip.z / clip.w;
-        if d.is_nan() { self.convention.far_value() } else { d.clamp(0.0, 1.0) as f32 }
-    }
-
-    /// Window depth of the depth-table value `radial` of pixel `(i, j)`: the eye depth along
-    /// the pixel-centre ray (`Camera::radial_to_eye_depth`, the one camera model) mapped by the
-    /// convention. A miss (`inf`) maps to the far end.
-    pub fn window_depth(&self, i: u32, j: u32, radial: f32) -> f32 {
-        if !radial.is_finite() {
-            return self.convention.far_value();
-        }
-        self.window_depth_of_eye_depth(self.camera.radial_to_eye_depth(i, j, f64::from(radial)))
-    }
-
-    /// Window depths of a whole table, row-major, top row first.
-    pub fn window_depths(&self, radial: &[f32]) -> Vec<f32> {
-        let (w, _) = self.camera.resolution();
-        radial.iter().enumerate().map(|(k, &r)| self.window_depth(k as u32 % w, k as u32 / w, r)).collect()
-    }
-
-    /// The paper's point-cloud matrix in wgpu form: `gluOrtho2D` over raster space (origin
-    /// top-left, `y` down, one unit per pixel) with the `z` row replaced so that `z` passes
-    /// through untouched. The paper's printed row `(0 0 1 1)` adds `w` to `z` (fine for its
-    /// pre-shifted GL values); passing `z` through exactly (`(0 0 1 0)`) keeps the window depth
-    /// bit-identical to the table's converted value, which the full-screen path writes directly.
+    /// The paper's point-cloud matrix (raster `x, y` to clip space, depth passed through).
     pub fn clip_from_raster(&self) -> DMat4 {
         let (w, h) = self.camera.resolution();
-        let (w, h) = (f64::from(w), f64::from(h));
-        DMat4::from_cols(
-            DVec4::new(2.0 / w, 0.0, 0.0, 0.0),
-            DVec4::new(0.0, -2.0 / h, 0.0, 0.0),
-            DVec4::new(0.0, 0.0, 1.0, 0.0),
-            DVec4::new(-1.0, 1.0, 0.0, 1.0),
-        )
+        point_cloud_matrix(w, h)
+    }
+
+    /// Window depths of a whole radial table (row-major, top row first), as the depth buffer
+    /// must hold them; a miss is the far value. For wgpu, window and NDC depth are equal, so
+    /// these are also the point cloud's vertex depths.
+    pub fn window_depths(&self, table: &DepthTable) -> Result<Vec<f32>, ViewerError> {
+        remap_depth_table(&self.camera, table, &self.mapping, DepthOutput::Window, 0)
+            .map(|r| r.values)
+            .map_err(|e| ViewerError::Camera(e.to_string()))
     }
 }
 
@@ -215,7 +114,7 @@ impl Projection {
 mod tests {
     use super::*;
     use depth_remap::{CameraSettings, Projection as RibProjection};
-    use glam::{DVec2, DVec3};
+    use glam::{DVec2, DVec3, DVec4};
 
     fn camera(w: u32, h: u32, fov: f64) -> Camera {
         Camera::new(CameraSettings {
@@ -227,6 +126,12 @@ mod tests {
         .unwrap()
     }
 
+    fn wall(cam: &Camera, eye_depth: f64) -> DepthTable {
+        let (w, h) = cam.resolution();
+        let values = (0..w * h).map(|k| cam.eye_depth_to_radial(k % w, k / w, eye_depth) as f32).collect();
+        DepthTable::new(w, h, values).unwrap()
+    }
+
     /// A camera-space point on the ray through a raster position projects back onto that raster
     /// position: the live projection and the depth table's rays agree.
     #[test]
@@ -234,7 +139,7 @@ mod tests {
         for (w, h) in [(64, 48), (48, 64), (50, 50)] {
             let cam = camera(w, h, 39.3);
             let p =
-                Projection::new(cam.clone(), DepthRange { near: 0.01, far: None }, DepthConvention::Reversed);
+                Projection::new(cam.clone(), &wall(&cam, 3.0), DepthConvention::WgpuReversed, None).unwrap();
             let m = p.clip_from_camera();
             for raster in [DVec2::new(0.5, 0.5), DVec2::new(17.25, 3.5), DVec2::new(f64::from(w) - 0.5, 9.0)]
             {
@@ -248,37 +153,31 @@ mod tests {
         }
     }
 
+    /// The viewer's default: reversed-Z, infinite far, near at 1/64 of the nearest surface.
     #[test]
-    fn conventions_map_near_and_far_to_their_ends() {
+    fn default_planes_leave_room_in_front_of_the_scene() {
         let cam = camera(32, 32, 60.0);
-        let r = Projection::new(
-            cam.clone(),
-            DepthRange { near: 0.5, far: Some(100.0) },
-            DepthConvention::Reversed,
-        );
-        assert_eq!(r.window_depth_of_eye_depth(0.5), 1.0);
-        assert_eq!(r.window_depth_of_eye_depth(100.0), 0.0);
-        let s = Projection::new(
-            cam.clone(),
-            DepthRange { near: 0.5, far: Some(100.0) },
-            DepthConvention::Standard,
-        );
-        assert_eq!(s.window_depth_of_eye_depth(0.5), 0.0);
-        assert_eq!(s.window_depth_of_eye_depth(100.0), 1.0);
-        let inf = Projection::new(cam, DepthRange { near: 0.5, far: None }, DepthConvention::Reversed);
-        assert_eq!(inf.window_depth_of_eye_depth(1.0), 0.5);
-        assert_eq!(inf.window_depth(0, 0, f32::INFINITY), 0.0);
+        let p = Projection::new(cam.clone(), &wall(&cam, 4.0), DepthConvention::WgpuReversed, None).unwrap();
+        assert!(p.planes().infinite_far);
+        assert!(p.planes().near <= 4.0 / 64.0 && p.planes().near > 4.0 / 65.0);
+        // Window depth n / d: a point at the near plane is 1, twice as far is 0.5.
+        let n = p.planes().near;
+        let m = p.clip_from_camera();
+        let at = |d: f64| {
+            let c = m * DVec4::new(0.0, 0.0, d, 1.0);
+            c.z / c.w
+        };
+        assert!((at(n) - 1.0).abs() < 1e-6 && (at(2.0 * n) - 0.5).abs() < 1e-6);
+        let standard = Projection::new(cam.clone(), &wall(&cam, 4.0), DepthConvention::Wgpu, None).unwrap();
+        assert!(!standard.planes().infinite_far);
+        assert!(Projection::new(cam.clone(), &wall(&cam, 4.0), DepthConvention::Gl, None).is_err());
     }
 
     #[test]
     fn raster_matrix_maps_pixel_centres_and_passes_depth_through() {
-        let p = Projection::new(
-            camera(8, 4, 45.0),
-            DepthRange { near: 0.1, far: None },
-            DepthConvention::Reversed,
-        );
-        let m = p.clip_from_raster();
-        let c = m * DVec4::new(0.5, 0.5, 0.123, 1.0);
+        let cam = camera(8, 4, 45.0);
+        let p = Projection::new(cam.clone(), &wall(&cam, 2.0), DepthConvention::WgpuReversed, None).unwrap();
+        let c = p.clip_from_raster() * DVec4::new(0.5, 0.5, 0.123, 1.0);
         assert_eq!((c.x, c.y, c.z, c.w), (-0.875, 0.75, 0.123, 1.0));
     }
 }

@@ -1,9 +1,9 @@
 //! The viewer's input: the camera, the pre-rendered image and depth table, and the lights.
 
-use crate::backdrop::{RadialDepth, Rgba8Image, ToneMap};
+use crate::backdrop::{Rgba8Image, ToneMap};
 use crate::error::ViewerError;
 use crate::live::LiveLight;
-use depth_remap::Camera;
+use depth_remap::{Camera, DepthTable};
 use glam::DVec3;
 
 /// Everything the viewer needs from the offline side, checked for consistency.
@@ -11,7 +11,7 @@ use glam::DVec3;
 pub struct ViewerScene {
     camera: Camera,
     image: Rgba8Image,
-    depth: RadialDepth,
+    depth: DepthTable,
     lights: Vec<LiveLight>,
     tone_map: ToneMap,
 }
@@ -22,12 +22,12 @@ impl ViewerScene {
     pub fn new(
         camera: Camera,
         image: Rgba8Image,
-        depth: RadialDepth,
+        depth: DepthTable,
         lights: Vec<LiveLight>,
         tone_map: ToneMap,
     ) -> Result<ViewerScene, ViewerError> {
         let image_size = (image.width, image.height);
-        let depth_size = (depth.width, depth.height);
+        let depth_size = (depth.width(), depth.height());
         if image_size != depth_size {
             return Err(ViewerError::SizeMismatch {
                 first_what: "the image".into(),
@@ -36,10 +36,8 @@ impl ViewerScene {
                 second: depth_size,
             });
         }
-        if image.pixels.len() != image.width as usize * image.height as usize * 4
-            || depth.values.len() != depth.width as usize * depth.height as usize
-        {
-            return Err(ViewerError::Camera("image or depth buffer length does not match its size".into()));
+        if image.pixels.len() != image.width as usize * image.height as usize * 4 {
+            return Err(ViewerError::Camera("the image's pixel buffer does not match its size".into()));
         }
         if camera.resolution() != image_size {
             return Err(ViewerError::SizeMismatch {
@@ -48,9 +46,6 @@ impl ViewerScene {
                 second_what: "the scene's Format".into(),
                 second: camera.resolution(),
             });
-        }
-        if let Some(v) = depth.values.iter().find(|v| v.is_nan() || **v < 0.0) {
-            return Err(ViewerError::Camera(format!("the depth table holds {v}, not a distance")));
         }
         Ok(ViewerScene { camera, image, depth, lights, tone_map })
     }
@@ -63,7 +58,7 @@ impl ViewerScene {
         &self.image
     }
 
-    pub fn depth(&self) -> &RadialDepth {
+    pub fn depth(&self) -> &DepthTable {
         &self.depth
     }
 
@@ -81,7 +76,7 @@ impl ViewerScene {
 
     /// The world-space point of pixel `(i, j)`'s surface, `None` for a miss.
     pub fn surface_point(&self, i: u32, j: u32) -> Option<DVec3> {
-        let r = *self.depth.values.get((j * self.depth.width + i) as usize)?;
+        let r = self.depth.get(i, j)?;
         if !r.is_finite() {
             return None;
         }

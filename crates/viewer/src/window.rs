@@ -14,6 +14,7 @@
 //! - always: `M` switches the compositing mode, `P` prints the sphere's world position,
 //!   `Escape` quits.
 
+use crate::backdrop::Rgba8Image;
 use crate::compositor::{CompositeMode, Compositor, CompositorSettings, FrameReadback};
 use crate::error::ViewerError;
 use crate::gpu::{Backends, Gpu};
@@ -48,6 +49,9 @@ pub struct WindowSettings {
 pub struct WindowOutcome {
     /// Frames drawn.
     pub frames: u64,
+    /// The last frame as presented, read back from the window's surface (when `frames` was
+    /// given and the surface allows copies), cropped to the image.
+    pub presented: Option<Rgba8Image>,
     /// The live objects at exit.
     pub live: LiveObjects,
     /// The adapter used.
@@ -77,6 +81,7 @@ struct App {
     dragging: bool,
     cursor: Option<DVec2>,
     dirty: bool,
+    presented: Option<Rgba8Image>,
 }
 
 /// Opens a window showing `scene` with the live objects, and runs until it is closed (or for
@@ -107,13 +112,14 @@ pub fn run(
         dragging: false,
         cursor: None,
         dirty: true,
+        presented: None,
     };
     event_loop.run_app(&mut app).map_err(|e| ViewerError::Window(e.to_string()))?;
     if let Some(e) = app.error {
         return Err(e);
     }
     let adapter = app.presenter.as_ref().map(|p| p.compositor.gpu().describe()).unwrap_or_default();
-    Ok(WindowOutcome { frames: app.frames, live: app.live, adapter })
+    Ok(WindowOutcome { frames: app.frames, presented: app.presented, live: app.live, adapter })
 }
 
 impl App {
@@ -162,8 +168,10 @@ impl App {
         } else {
             wgpu::PresentMode::Fifo
         };
+        // Copies out of the surface let a fixed-length run read back what it presented.
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | (caps.usages & wgpu::TextureUsages::COPY_SRC);
         let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            usage,
             format,
             color_space: wgpu::SurfaceColorSpace::Auto,
             width: size.width.max(1),
@@ -283,7 +291,13 @@ impl App {
             pass.set_bind_group(0, &p.bind_group, &[]);
             pass.draw(0..3, 0..1);
         }
+        let last = self.settings.frames.is_some_and(|n| self.frames + 1 >= n);
+        let capture = (last && p.config.usage.contains(wgpu::TextureUsages::COPY_SRC))
+            .then(|| capture_surface(&mut encoder, gpu, &frame.texture, p.compositor.size()));
         gpu.queue.submit([encoder.finish()]);
+        if let Some(capture) = capture {
+            self.presented = Some(capture.finish(gpu, p.config.format)?);
+        }
         p.window.pre_present_notify();
         gpu.queue.present(frame);
         gpu.take_errors()?;
@@ -302,7 +316,8 @@ impl App {
         }
         let frame: FrameReadback = p.compositor.read_back()?;
         if let Some(path) = &self.settings.screenshot {
-            frame.colour.write_png(path)?;
+            // What the window showed when it was read back, else the frame it was given.
+            self.presented.as_ref().unwrap_or(&frame.colour).write_png(path)?;
         }
         if let Some(path) = &self.settings.mask {
             frame.write_mask_png(path)?;
@@ -484,5 +499,76 @@ impl ApplicationHandler for App {
         {
             self.error = Some(e);
         }
+    }
+}
+
+/// A pending copy of the surface texture into a mappable buffer.
+struct SurfaceCapture {
+    buffer: wgpu::Buffer,
+    padded_row: u32,
+    width: u32,
+    height: u32,
+}
+
+fn capture_surface(
+    encoder: &mut wgpu::CommandEncoder,
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    (image_w, image_h): (u32, u32),
+) -> SurfaceCapture {
+    let width = image_w.min(texture.width());
+    let height = image_h.min(texture.height());
+    let padded_row = (width * 4).div_ceil(256) * 256;
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("surface capture"),
+        size: u64::from(padded_row) * u64::from(height),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+    SurfaceCapture { buffer, padded_row, width, height }
+}
+
+impl SurfaceCapture {
+    /// Waits for the copy and returns the pixels as RGBA.
+    fn finish(self, gpu: &Gpu, format: wgpu::TextureFormat) -> Result<Rgba8Image, ViewerError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        gpu.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| ViewerError::Gpu(e.to_string()))?
+            .map_err(|e| ViewerError::Gpu(format!("mapping the surface capture: {e}")))?;
+        let view = self.buffer.get_mapped_range(..).map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        let bgra = matches!(format.remove_srgb_suffix(), wgpu::TextureFormat::Bgra8Unorm);
+        let mut pixels = Vec::with_capacity(self.width as usize * self.height as usize * 4);
+        for row in 0..self.height as usize {
+            let start = row * self.padded_row as usize;
+            for px in view[start..start + self.width as usize * 4].chunks_exact(4) {
+                if bgra {
+                    pixels.extend_from_slice(&[px[2], px[1], px[0], px[3]]);
+                } else {
+                    pixels.extend_from_slice(px);
+                }
+            }
+        }
+        Ok(Rgba8Image { width: self.width, height: self.height, pixels })
     }
 }

@@ -35,6 +35,13 @@ fn replica_is_pixel_exact_in_both_modes() {
         assert!(frame.colour == *scene.image(), "{mode:?}: the frame differs from the input image");
         assert!(frame.mask.iter().all(|&m| m == 0), "{mode:?}: mask not empty");
         let expected: Vec<u32> = c.backdrop_window_depths().iter().map(|d| d.to_bits()).collect();
+        // The table's conversion is depth_remap's, pixel for pixel.
+        let (camera, mapping) = (c.projection().camera(), c.projection().mapping());
+        for k in (0..512 * 512).step_by(997) {
+            let (i, j) = (k % 512, k / 512);
+            let single = camera.window_depth_from_radial(i, j, scene.depth().get(i, j).unwrap(), mapping);
+            assert_eq!(single.to_bits(), expected[k as usize], "pixel ({i}, {j})");
+        }
         let got: Vec<u32> = frame.depth.iter().map(|d| d.to_bits()).collect();
         let differing = expected.iter().zip(&got).filter(|(a, b)| a != b).count();
         assert_eq!(differing, 0, "{mode:?}: {differing} depth values differ from the converted table");
@@ -61,7 +68,7 @@ fn replica_holds_for_odd_sizes() {
                 if k % 11 == 5 { f32::INFINITY } else { 2.0 + (k % w) as f32 * 0.01 + (k / w) as f32 * 0.003 }
             })
             .collect();
-        let depth = viewer::RadialDepth { width: w, height: h, values };
+        let depth = depth_remap::DepthTable::new(w, h, values).unwrap();
         let scene = ViewerScene::new(camera, noise_image(w, h), depth, vec![], ToneMap::default()).unwrap();
         let mut frames = Vec::new();
         for mode in [CompositeMode::Points, CompositeMode::Fullscreen] {
@@ -201,7 +208,7 @@ fn touching_a_wall_shows_no_z_fighting_at_the_default_format() {
     assert_eq!(a.unexplained, 0);
     assert!(a.iou >= 0.999);
     for format in [wgpu::TextureFormat::Depth24Plus, wgpu::TextureFormat::Depth16Unorm] {
-        let standard = DepthSettings { format, convention: DepthConvention::Standard };
+        let standard = DepthSettings { format, convention: DepthConvention::Wgpu };
         let b = check_against_truth(&scene, centre, radius, standard, &format!("standard {format:?}"));
         assert!(b.unexplained >= a.unexplained);
     }
@@ -230,7 +237,7 @@ fn grazing_plane_cuts_the_sphere_exactly() {
             if ray.direction.y < 0.0 { (0.02 / -ray.direction.y) as f32 } else { f32::INFINITY }
         })
         .collect();
-    let depth = viewer::RadialDepth { width: w, height: h, values };
+    let depth = depth_remap::DepthTable::new(w, h, values).unwrap();
     let scene = ViewerScene::new(camera, noise_image(w, h), depth, vec![], ToneMap::default()).unwrap();
     for (distance, radius) in [(0.5, 0.02), (2.0, 0.05), (6.0, 0.1)] {
         let what = format!("sphere sunk into a plane seen at grazing angles, {distance} away");

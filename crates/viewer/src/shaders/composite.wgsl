@@ -378,33 +378,6 @@ fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         to_light = -frame.shadow_light.xyz;
         light_distance = 3.0e38;
     }
-    // Only surfaces facing the light receive its direct light. The normal comes from the
-    // rebuilt neighbours, taking on each axis the neighbour nearer in depth so edges do not
-    // bend it.
-    let right = surface_point(pixel + vec2<i32>(1, 0));
-    let left = surface_point(pixel - vec2<i32>(1, 0));
-    let down = surface_point(pixel + vec2<i32>(0, 1));
-    let up = surface_point(pixel - vec2<i32>(0, 1));
-    var dx = right.xyz - p;
-    if right.w < 0.5 || (left.w > 0.5 && abs(p.z - left.z) < abs(right.z - p.z)) {
-        dx = p - left.xyz;
-    }
-    var dy = down.xyz - p;
-    if down.w < 0.5 || (up.w > 0.5 && abs(p.z - up.z) < abs(down.z - p.z)) {
-        dy = p - up.xyz;
-    }
-    var n = cross(dx, dy);
-    let len = length(n);
-    if len > 0.0 {
-        n = n / len;
-        let toward_eye = normalize(ray_through_raster(position.xy).origin - p);
-        if dot(n, toward_eye) < 0.0 {
-            n = -n;
-        }
-        if dot(n, to_light) <= 0.0 {
-            discard;
-        }
-    }
     // The sphere as seen from p.
     let to_sphere = frame.sphere.xyz - p;
     let sphere_distance = length(to_sphere);
@@ -424,6 +397,34 @@ fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     hidden = clamp(hidden, 0.0, 1.0);
     if hidden <= 0.0 {
         discard;
+    }
+    // Only surfaces facing the light receive its direct light (checked last: it reads four
+    // neighbours, and most pixels are out of the shadow). The normal comes from the
+    // rebuilt neighbours, taking on each axis the neighbour nearer in depth so edges do not
+    // bend it.
+    let right = surface_point(pixel + vec2<i32>(1, 0));
+    let left = surface_point(pixel - vec2<i32>(1, 0));
+    let down = surface_point(pixel + vec2<i32>(0, 1));
+    let up = surface_point(pixel - vec2<i32>(0, 1));
+    var dx = right.xyz - p;
+    if right.w < 0.5 || (left.w > 0.5 && abs(p.z - left.z) < abs(right.z - p.z)) {
+        dx = p - left.xyz;
+    }
+    var dy = down.xyz - p;
+    if down.w < 0.5 || (up.w > 0.5 && abs(p.z - up.z) < abs(down.z - p.z)) {
+        dy = p - up.xyz;
+    }
+    var n = cross(dx, dy);
+    let len = length(n);
+    if len > 0.0 {
+        n = n / len;
+        let toward_eye = -ray_through_raster(position.xy).direction;
+        if dot(n, toward_eye) < 0.0 {
+            n = -n;
+        }
+        if dot(n, to_light) <= 0.0 {
+            discard;
+        }
     }
     let keep = 1.0 - frame.shadow_params.y * hidden;
     return vec4<f32>(keep, keep, keep, 1.0);

@@ -1,10 +1,11 @@
 //! Shared test scenes and analytic ground truth.
 #![allow(dead_code)]
 
+use depth_remap::DepthTable;
 use depth_remap::{Camera, CameraSettings, Clipping, Projection as RibProjection};
 use glam::{DMat4, DVec3, Vec3};
 use std::path::PathBuf;
-use viewer::{Backends, Gpu, LiveLight, RadialDepth, Rgba8Image, ToneMap, ViewerScene};
+use viewer::{Backends, Gpu, LiveLight, Rgba8Image, ToneMap, ViewerScene};
 
 /// A GPU device. Fails, never skips, when there is no adapter: `cargo xtask test` installs
 /// lavapipe (mesa-vulkan-drivers) so there always is one.
@@ -36,8 +37,8 @@ pub fn cornell_camera() -> Camera {
 }
 
 /// The exact depth table of the Cornell RIB.
-pub fn cornell_depth() -> RadialDepth {
-    RadialDepth::read(&shared().join("reference/cornell/depth-analytic.depth"))
+pub fn cornell_depth() -> DepthTable {
+    DepthTable::read(shared().join("reference/cornell/depth-analytic.depth"))
         .expect("the Cornell analytic depth")
 }
 
@@ -114,7 +115,7 @@ pub fn sphere_truth(scene: &ViewerScene, centre_world: DVec3, radius: f64) -> Tr
     for j in 0..h {
         for i in 0..w {
             let ray = camera.pixel_centre_ray(i, j);
-            let d = f64::from(scene.depth().values[(j * w + i) as usize]);
+            let d = f64::from(scene.depth().values()[(j * w + i) as usize]);
             let hit = ray_sphere(ray.origin, ray.direction, c, radius);
             let to_c = c - ray.origin;
             let perp = (to_c - to_c.dot(ray.direction) * ray.direction).length();
@@ -140,4 +141,29 @@ pub fn iou(a: &[bool], b: &[bool]) -> f64 {
     let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
     let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
     if union == 0 { 1.0 } else { inter as f64 / union as f64 }
+}
+
+/// Raster position (pixels, y down) of a world point.
+pub fn raster_of(camera: &depth_remap::Camera, world: DVec3) -> glam::DVec2 {
+    let p = camera.camera_from_world().transform_point3(world);
+    let t = camera.tan_half_fov().unwrap();
+    let s = glam::DVec2::new(p.x / (p.z * t), p.y / (p.z * t));
+    let sw = camera.screen_window();
+    let (w, h) = camera.resolution();
+    glam::DVec2::new(
+        (s.x - sw.left) / (sw.right - sw.left) * f64::from(w),
+        (sw.top - s.y) / (sw.top - sw.bottom) * f64::from(h),
+    )
+}
+
+/// The Cornell camera and depth with a flat grey image.
+pub fn grey_cornell(lights: Vec<LiveLight>, grey: u8) -> ViewerScene {
+    ViewerScene::new(
+        cornell_camera(),
+        Rgba8Image::filled(512, 512, [grey, grey, grey, 255]),
+        cornell_depth(),
+        lights,
+        ToneMap::default(),
+    )
+    .unwrap()
 }

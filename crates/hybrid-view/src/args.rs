@@ -1,0 +1,220 @@
+//! The command line (CONTRACTS.md §5): raw flags first (clap), then checked settings.
+
+use clap::{Parser, ValueEnum};
+use glam::DVec3;
+use std::path::PathBuf;
+use viewer::wgpu::TextureFormat;
+use viewer::{CompositeMode, DepthConvention, DepthSettings};
+
+/// Shows a pre-rendered image with live objects co-located in it: each pixel's ray-traced depth
+/// is converted to what the RIB camera's perspective projection writes into a depth buffer, so
+/// the live sphere occludes and is occluded by the pre-rendered scene exactly.
+#[derive(Debug, Parser)]
+#[command(name = "hybrid-view", version, about, long_about = None)]
+pub struct Args {
+    /// The pre-rendered image (TIFF, PNG, JPEG or OpenEXR).
+    pub image: PathBuf,
+    /// Its depth table (`.depth` text, or OpenEXR with a `Z` channel).
+    pub depth: PathBuf,
+    /// The RIB scene it was rendered from (camera, lights, exposure).
+    pub scene: PathBuf,
+
+    /// Render offscreen (no display needed) instead of opening a window.
+    #[arg(long)]
+    pub headless: bool,
+    /// Write the composited frame (PNG) after the last frame.
+    #[arg(long, value_name = "OUT.png")]
+    pub screenshot: Option<PathBuf>,
+    /// Write a black/white PNG, white exactly where a live object is visible.
+    #[arg(long, value_name = "OUT.png")]
+    pub mask: Option<PathBuf>,
+    /// Place the cursor sphere at this scene (world) position.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub sphere: Option<DVec3>,
+    /// The sphere's radius in scene units (default: 3% of its distance from the eye).
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
+    pub radius: Option<f64>,
+    /// How the pre-rendered image enters the frame; both give identical frames.
+    #[arg(long, value_enum, default_value_t = Mode::Fullscreen)]
+    pub mode: Mode,
+    /// Frames to render (headless default 1; in a window, close after N frames).
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u64>,
+
+    /// Colour of the sphere as linear RGB (default: blue plastic).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
+    pub sphere_colour: Option<DVec3>,
+    /// Show the sphere in its constant colour, unlit (for masks and ground-truth checks).
+    #[arg(long)]
+    pub unlit: bool,
+    /// Do not darken the pre-rendered scene where the sphere shadows the dominant light.
+    #[arg(long)]
+    pub no_shadows: bool,
+    /// Fraction of a pixel's value removed in the sphere's full shadow.
+    #[arg(long, value_name = "S", default_value_t = 0.6)]
+    pub shadow_strength: f32,
+    /// Depth buffer (the default reversed-Z float buffer co-locates to float precision).
+    #[arg(long, value_enum, default_value_t = DepthBuffer::Reversed32f)]
+    pub depth_buffer: DepthBuffer,
+    /// GPU backend (default: Vulkan, then GL; `WGPU_BACKEND` also works).
+    #[arg(long, value_enum)]
+    pub backend: Option<Backend>,
+    /// Print the adapter, the depth range, the lights used, what was skipped, and frame times.
+    #[arg(long)]
+    pub stats: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Mode {
+    /// The paper's: one point per pixel.
+    Points,
+    /// Lawlor's: a full-screen pass writing fragment depth (faster).
+    Fullscreen,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DepthBuffer {
+    /// Reversed-Z, 32-bit float.
+    Reversed32f,
+    /// Conventional [0, 1], 32-bit float.
+    Standard32f,
+    /// Conventional [0, 1], 24-bit fixed point.
+    Standard24,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    Vulkan,
+    Gl,
+}
+
+/// `X,Y,Z` (or `R,G,B`): three finite numbers separated by commas.
+pub fn parse_vec3(text: &str) -> Result<DVec3, String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected three comma-separated numbers, got `{text}`"));
+    }
+    let mut v = [0.0; 3];
+    for (slot, part) in v.iter_mut().zip(&parts) {
+        *slot = part.parse::<f64>().map_err(|_| format!("`{part}` is not a number"))?;
+        if !slot.is_finite() {
+            return Err(format!("`{part}` is not finite"));
+        }
+    }
+    Ok(DVec3::from_array(v))
+}
+
+/// Checked settings derived from [`Args`].
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub image: PathBuf,
+    pub depth: PathBuf,
+    pub scene: PathBuf,
+    pub headless: bool,
+    pub screenshot: Option<PathBuf>,
+    pub mask: Option<PathBuf>,
+    pub sphere: Option<DVec3>,
+    pub radius: Option<f64>,
+    pub mode: CompositeMode,
+    pub frames: Option<u64>,
+    pub sphere_colour: Option<DVec3>,
+    pub unlit: bool,
+    pub shadows: Option<f32>,
+    pub depth_settings: DepthSettings,
+    pub backends: viewer::Backends,
+    pub stats: bool,
+}
+
+impl Args {
+    /// Second stage: values that clap cannot check alone.
+    pub fn settings(self) -> Result<Settings, String> {
+        if let Some(r) = self.radius
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(format!("--radius must be a positive number, got {r}"));
+        }
+        if self.frames == Some(0) {
+            return Err("--frames must be at least 1".into());
+        }
+        if !(0.0..=1.0).contains(&self.shadow_strength) {
+            return Err(format!("--shadow-strength must be within [0, 1], got {}", self.shadow_strength));
+        }
+        if let Some(c) = self.sphere_colour
+            && c.min_element() < 0.0
+        {
+            return Err("--sphere-colour components must not be negative".into());
+        }
+        let depth_settings = match self.depth_buffer {
+            DepthBuffer::Reversed32f => DepthSettings::default(),
+            DepthBuffer::Standard32f => {
+                DepthSettings { format: TextureFormat::Depth32Float, convention: DepthConvention::Wgpu }
+            }
+            DepthBuffer::Standard24 => {
+                DepthSettings { format: TextureFormat::Depth24Plus, convention: DepthConvention::Wgpu }
+            }
+        };
+        let backends = match self.backend {
+            None => viewer::Backends::default(),
+            Some(Backend::Vulkan) => viewer::Backends(viewer::wgpu::Backends::VULKAN),
+            Some(Backend::Gl) => viewer::Backends(viewer::wgpu::Backends::GL),
+        };
+        Ok(Settings {
+            image: self.image,
+            depth: self.depth,
+            scene: self.scene,
+            headless: self.headless,
+            screenshot: self.screenshot,
+            mask: self.mask,
+            sphere: self.sphere,
+            radius: self.radius,
+            mode: match self.mode {
+                Mode::Points => CompositeMode::Points,
+                Mode::Fullscreen => CompositeMode::Fullscreen,
+            },
+            frames: self.frames,
+            sphere_colour: self.sphere_colour,
+            unlit: self.unlit,
+            shadows: (!self.no_shadows).then_some(self.shadow_strength),
+            depth_settings,
+            backends,
+            stats: self.stats,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vec3_parses_and_rejects() {
+        assert_eq!(parse_vec3("1,-2.5, 3e-1").unwrap(), DVec3::new(1.0, -2.5, 0.3));
+        assert!(parse_vec3("1,2").is_err());
+        assert!(parse_vec3("1,2,x").is_err());
+        assert!(parse_vec3("1,2,inf").is_err());
+        assert!(parse_vec3("1,2,3,4").is_err());
+    }
+
+    #[test]
+    fn negative_coordinates_parse_as_values() {
+        let args = Args::try_parse_from(["hybrid-view", "a.png", "a.depth", "a.rib", "--sphere", "-1,-2,-3"])
+            .unwrap();
+        assert_eq!(args.sphere, Some(DVec3::new(-1.0, -2.0, -3.0)));
+    }
+
+    #[test]
+    fn second_stage_rejects_bad_values() {
+        let parse = |extra: &[&str]| {
+            let mut v = vec!["hybrid-view", "a.png", "a.depth", "a.rib"];
+            v.extend_from_slice(extra);
+            Args::try_parse_from(v).unwrap().settings()
+        };
+        assert!(parse(&["--radius", "0"]).is_err());
+        assert!(parse(&["--radius", "-1"]).is_err());
+        assert!(parse(&["--frames", "0"]).is_err());
+        assert!(parse(&["--shadow-strength", "2"]).is_err());
+        let s = parse(&["--mode", "points", "--no-shadows"]).unwrap();
+        assert_eq!(s.mode, CompositeMode::Points);
+        assert_eq!(s.shadows, None);
+    }
+}

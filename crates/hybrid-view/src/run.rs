@@ -1,0 +1,229 @@
+//! Loading the inputs and running the viewer, headless or in a window.
+
+use crate::args::Settings;
+use crate::convert::{self, Skipped};
+use depth_remap::Camera;
+use glam::{DVec3, Vec3};
+use std::time::{Duration, Instant};
+use viewer::window::{self, WindowSettings};
+use viewer::{
+    Compositor, CompositorSettings, FrameInfo, Gpu, LiveObjects, LiveUpdate, Material, Rgba8Image,
+    ShadowSettings, Sphere, ViewerError, ViewerScene,
+};
+
+/// Simulated frame rate of headless runs: frame `k` happens at `k / HEADLESS_FRAME_RATE` s.
+pub const HEADLESS_FRAME_RATE: f64 = 60.0;
+
+/// A failure after the command line was accepted: the scene, the image, the depth table or the
+/// rendering (exit code 1, CONTRACTS.md §5).
+#[derive(Debug)]
+pub struct Failure(pub String);
+
+impl From<ViewerError> for Failure {
+    fn from(e: ViewerError) -> Self {
+        Failure(e.to_string())
+    }
+}
+
+/// Everything loaded and checked, ready to show.
+pub struct Prepared {
+    pub scene: ViewerScene,
+    pub compositor: CompositorSettings,
+    pub live: LiveObjects,
+    /// World-space bounds of the scene's shapes (the default device centre of the haptics).
+    pub bounds: Option<(DVec3, DVec3)>,
+    pub skipped: Skipped,
+}
+
+/// Reads the RIB, the image and the depth table and checks they belong together.
+pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
+    let loaded = rib_parser::load_scene(&settings.scene, &rib_parser::LoadOptions::default())
+        .map_err(|e| Failure(e.render().trim_end().to_string()))?;
+    let warnings = loaded.render_warnings();
+    if !warnings.trim().is_empty() {
+        eprint!("{warnings}");
+    }
+    let rib = loaded.scene;
+    let camera = Camera::new(rib.camera.clone())
+        .map_err(|e| Failure(format!("{}: the camera: {e}", settings.scene.display())))?;
+    let tone = convert::tone_map(&rib);
+    // Float images (EXR) from lrt-depth carry the gain already; live objects get gain and gamma.
+    let image = Rgba8Image::read(&settings.image, tone.for_float_image())?;
+    let depth = depth_remap::DepthTable::read(&settings.depth).map_err(|e| Failure(e.to_string()))?;
+    let mut skipped = Skipped::default();
+    let lights = convert::live_lights(&rib, &mut skipped);
+    let bounds = convert::scene_bounds(&rib);
+    // Sizes first, naming the files: the image against its depth table and the RIB's Format.
+    let (iw, ih) = (image.width, image.height);
+    if (depth.width(), depth.height()) != (iw, ih) {
+        return Err(Failure(format!(
+            "size mismatch: the image {} is {iw}x{ih} but the depth table {} is {}x{}",
+            settings.image.display(),
+            settings.depth.display(),
+            depth.width(),
+            depth.height()
+        )));
+    }
+    if camera.resolution() != (iw, ih) {
+        let (cw, ch) = camera.resolution();
+        return Err(Failure(format!(
+            "size mismatch: the image {} is {iw}x{ih} but the Format of {} is {cw}x{ch}",
+            settings.image.display(),
+            settings.scene.display()
+        )));
+    }
+    let scene = ViewerScene::new(camera, image, depth, lights, tone)?;
+    let live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
+    let compositor = CompositorSettings {
+        mode: settings.mode,
+        depth: settings.depth_settings,
+        depth_range: None,
+        shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
+    };
+    Ok(Prepared { scene, compositor, live, bounds, skipped })
+}
+
+/// The sphere at start: where `--sphere` puts it; in a window without `--sphere`, in front of
+/// the surface at the image centre so the keyboard and mouse can move it; headless without
+/// `--sphere`, none (the frame is then the input image).
+fn initial_sphere(settings: &Settings, scene: &ViewerScene) -> Option<Sphere> {
+    let centre = match settings.sphere {
+        Some(c) => c,
+        None if settings.headless => return None,
+        None => default_position(scene),
+    };
+    let camera = scene.camera();
+    let eye_distance = camera.camera_from_world().transform_point3(centre).length();
+    let radius = settings.radius.unwrap_or(if eye_distance > 0.0 { 0.03 * eye_distance } else { 0.1 });
+    let mut material =
+        if settings.unlit { Material::unlit(Vec3::new(0.1, 0.25, 0.9)) } else { Material::default() };
+    if let Some(c) = settings.sphere_colour {
+        material.colour = c.as_vec3();
+    }
+    Some(Sphere { centre, radius, material })
+}
+
+/// A quarter of the way from the surface at the image centre to the eye.
+fn default_position(scene: &ViewerScene) -> DVec3 {
+    let camera = scene.camera();
+    let (w, h) = scene.size();
+    let eye = camera.world_from_camera().transform_point3(DVec3::ZERO);
+    match scene.surface_point(w / 2, h / 2).or_else(|| scene.visible_centroid()) {
+        Some(p) => p + (eye - p) * 0.25,
+        None => {
+            let ray = camera.pixel_centre_ray(w / 2, h / 2);
+            camera.world_from_camera().transform_point3(ray.origin + ray.direction)
+        }
+    }
+}
+
+/// Runs headless: `frames` frames (1 by default) with `updater` moving the live objects in
+/// simulated time, then writes the screenshot and mask of the last frame.
+pub fn headless(
+    settings: &Settings,
+    prepared: Prepared,
+    mut updater: Option<&mut dyn LiveUpdate>,
+) -> Result<(), Failure> {
+    let gpu = Gpu::new(settings.backends)?;
+    let mut compositor = Compositor::new(&gpu, &prepared.scene, prepared.compositor)?;
+    let mut live = prepared.live;
+    let frames = settings.frames.unwrap_or(1);
+    let mut times = Vec::with_capacity(frames.min(1 << 20) as usize);
+    for index in 0..frames {
+        let info = FrameInfo { index, time_s: index as f64 / HEADLESS_FRAME_RATE };
+        if let Some(u) = updater.as_mut() {
+            u.update(&mut live, &info);
+        }
+        let start = Instant::now();
+        compositor.render(&live)?;
+        compositor.wait_idle()?;
+        if times.len() < (1 << 20) {
+            times.push(start.elapsed());
+        }
+    }
+    if settings.screenshot.is_some() || settings.mask.is_some() {
+        let frame = compositor.read_back()?;
+        if let Some(path) = &settings.screenshot {
+            frame.colour.write_png(path)?;
+        }
+        if let Some(path) = &settings.mask {
+            frame.write_mask_png(path)?;
+        }
+    }
+    if settings.stats {
+        print_stats(&compositor, &prepared.scene, &prepared.skipped, &live, &times);
+        if let Some((lo, hi)) = prepared.bounds {
+            eprintln!("scene bounds: {lo} .. {hi}");
+        }
+    }
+    Ok(())
+}
+
+/// Runs in a window until it is closed (or for `--frames` frames).
+pub fn windowed(
+    settings: &Settings,
+    prepared: Prepared,
+    updater: Option<Box<dyn LiveUpdate>>,
+) -> Result<(), Failure> {
+    let scene = prepared.scene;
+    let window_settings = WindowSettings {
+        title: format!("hybrid-view: {}", settings.image.display()),
+        frames: settings.frames,
+        screenshot: settings.screenshot.clone(),
+        mask: settings.mask.clone(),
+        backends: settings.backends,
+    };
+    let outcome = window::run(scene, prepared.compositor, window_settings, prepared.live, updater)?;
+    if settings.stats {
+        eprintln!("adapter: {}", outcome.adapter);
+        eprintln!("frames: {}", outcome.frames);
+        if let Some(s) = outcome.live.sphere {
+            eprintln!("sphere at exit: {},{},{} radius {}", s.centre.x, s.centre.y, s.centre.z, s.radius);
+        }
+    }
+    Ok(())
+}
+
+fn print_stats(
+    compositor: &Compositor,
+    scene: &ViewerScene,
+    skipped: &Skipped,
+    live: &LiveObjects,
+    times: &[Duration],
+) {
+    let p = compositor.projection();
+    let s = compositor.settings();
+    eprintln!("adapter: {}", compositor.gpu().describe());
+    eprintln!("image: {}x{}", scene.size().0, scene.size().1);
+    eprintln!("mode: {}", s.mode.name());
+    let planes = p.planes();
+    eprintln!(
+        "depth buffer: {:?}, {}; near {} far {}",
+        s.depth.format,
+        s.depth.convention,
+        planes.near,
+        if planes.infinite_far { "infinite".to_string() } else { planes.far.to_string() }
+    );
+    eprintln!("lights: {} used by the live objects", scene.lights().len());
+    match (compositor.shadow_light(), s.shadows, &live.sphere) {
+        (Some(k), Some(sh), Some(_)) => eprintln!("shadows: from light {k}, strength {}", sh.strength),
+        (_, None, _) => eprintln!("shadows: off (--no-shadows)"),
+        (_, _, None) => eprintln!("shadows: skipped (no sphere)"),
+        (None, _, _) => eprintln!("shadows: skipped (no light that casts shadows)"),
+    }
+    for w in &skipped.warnings {
+        eprintln!("skipped: {w}");
+    }
+    if !times.is_empty() {
+        let mut sorted: Vec<f64> = times.iter().map(|t| t.as_secs_f64() * 1e3).collect();
+        sorted.sort_by(f64::total_cmp);
+        let mean = sorted.iter().sum::<f64>() / sorted.len() as f64;
+        eprintln!(
+            "frames: {}, frame time (render + wait) mean {:.3} ms, median {:.3} ms, min {:.3} ms",
+            sorted.len(),
+            mean,
+            sorted[sorted.len() / 2],
+            sorted[0]
+        );
+    }
+}

@@ -1,0 +1,421 @@
+//! Surface integrators: `directlighting` (Whitted-style) and `path` (unbiased path tracing with
+//! multiple importance sampling and Russian roulette, the project's ground truth).
+//!
+//! The building blocks are public so that other integrators (the photon mapper) share them:
+//! [`find_surface`] resolves partially transparent surfaces, [`sample_one_light`] and
+//! [`direct_from_light`] estimate direct lighting with multiple importance sampling, and
+//! [`RayCounters`] counts rays for `--stats`.
+
+use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
+use crate::lights::LightSampleContext;
+use crate::materials::Material;
+use crate::math::average;
+use crate::sampling::{Rng, power_heuristic};
+use crate::world::{Ray, SurfaceInteraction, World};
+use glam::Vec3;
+use rib_parser::scene::ShaderCall;
+
+/// Rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounters {
+    pub camera: u64,
+    pub bounce: u64,
+    pub shadow: u64,
+}
+
+impl RayCounters {
+    pub fn add(&mut self, other: &RayCounters) {
+        self.camera += other.camera;
+        self.bounce += other.bounce;
+        self.shadow += other.shadow;
+    }
+
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+}
+
+/// Which integrator renders the image, with its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IntegratorKind {
+    /// Direct lighting from every light, specular reflection and refraction followed to
+    /// `max_depth` (pbrt-v1/LRT `directlighting`, default depth 5).
+    DirectLighting { max_depth: u32 },
+    /// Unidirectional path tracing with next-event estimation and MIS; Russian roulette after
+    /// `rr_depth` bounces; `max_depth` bounces at most (default effectively unbounded).
+    Path { max_depth: u32, rr_depth: u32 },
+}
+
+/// Largest path depth used when a RIB does not limit it: deep enough to be unbiased in
+/// practice (Russian roulette ends paths long before), finite so no path runs forever.
+pub const UNBOUNDED_DEPTH: u32 = 1024;
+
+impl IntegratorKind {
+    /// The integrator named by `SurfaceIntegrator`, with its parameters. Returns the kind and a
+    /// warning when the name is not one of ours.
+    pub fn from_call(call: &ShaderCall) -> (IntegratorKind, Option<String>) {
+        let depth = |default: u32| {
+            call.params
+                .ints("maxdepth")
+                .and_then(|v| v.first().copied())
+                .map(|d| d.max(0) as u32)
+                .or_else(|| {
+                    call.params.float("maxdepth").filter(|d| d.is_finite()).map(|d| d.max(0.0) as u32)
+                })
+                .unwrap_or(default)
+                .min(UNBOUNDED_DEPTH)
+        };
+        let rr = || {
+            call.params
+                .ints("rrdepth")
+                .and_then(|v| v.first().copied())
+                .map(|d| d.max(1) as u32)
+                .unwrap_or(DEFAULT_RR_DEPTH)
+        };
+        match call.name.as_str() {
+            "directlighting" | "whitted" => (IntegratorKind::DirectLighting { max_depth: depth(5) }, None),
+            "path" => (IntegratorKind::Path { max_depth: depth(UNBOUNDED_DEPTH), rr_depth: rr() }, None),
+            other => (
+                IntegratorKind::Path { max_depth: depth(UNBOUNDED_DEPTH), rr_depth: rr() },
+                Some(format!("surface integrator \"{other}\" is not available: using \"path\"")),
+            ),
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            IntegratorKind::DirectLighting { .. } => "directlighting",
+            IntegratorKind::Path { .. } => "path",
+        }
+    }
+}
+
+/// Russian roulette starts after this many bounces by default (as in the Mitsuba reference).
+pub const DEFAULT_RR_DEPTH: u32 = 5;
+
+/// Radiance and coverage of a camera ray.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Radiance {
+    pub rgb: Vec3,
+    pub alpha: f32,
+}
+
+/// The most partially transparent layers a ray passes before it is stopped.
+const MAX_TRANSPARENT_LAYERS: u32 = 256;
+
+/// The first surface along `ray` that the ray stops at, resolving partial opacity
+/// stochastically (fully transparent surfaces are passed; a surface with opacity `Os` stops the
+/// ray with probability `mean(Os)`). Returns the surface and the weight of the choices made.
+pub fn find_surface(
+    world: &World,
+    mut ray: Ray,
+    rng: &mut Rng,
+    counter: &mut u64,
+) -> Option<(SurfaceInteraction, Vec3)> {
+    let mut weight = Vec3::ONE;
+    for _ in 0..MAX_TRANSPARENT_LAYERS {
+        *counter += 1;
+        let hit = world.intersect(&ray)?;
+        let si = world.interaction(&ray, &hit);
+        let opacity = world.material(si.attributes).opacity;
+        if opacity == Vec3::ONE {
+            return Some((si, weight));
+        }
+        let p_stop = average(opacity).clamp(0.0, 1.0);
+        if p_stop > 0.0 && rng.uniform() < p_stop {
+            return Some((si, weight * opacity / p_stop));
+        }
+        if p_stop >= 1.0 {
+            return Some((si, weight));
+        }
+        weight *= (Vec3::ONE - opacity) / (1.0 - p_stop);
+        // Continue on the far side of this surface, same direction.
+        let next = si.spawn_ray(ray.direction);
+        let travelled = hit.t;
+        ray = Ray {
+            origin: next.origin,
+            direction: ray.direction,
+            t_min: 0.0,
+            t_max: if ray.t_max.is_finite() { (ray.t_max - travelled).max(0.0) } else { f32::INFINITY },
+        };
+    }
+    None
+}
+
+fn light_context(si: &SurfaceInteraction) -> LightSampleContext {
+    LightSampleContext { p: si.p, p_error: si.p_error, n: si.ng, p64: si.p64 }
+}
+
+/// How a direct-lighting estimate combines its strategies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectStrategy {
+    /// Light sampling only, unweighted (for lights no BSDF sample can hit: all weights are 1).
+    LightOnly,
+    /// Light sampling weighted by the power heuristic against BSDF sampling that the caller
+    /// does itself (a path tracer's next bounce).
+    LightWithMisWeight,
+    /// Both light and BSDF sampling here, combined with the power heuristic.
+    Both,
+}
+
+/// Light from one light toward `si` (see [`DirectStrategy`]). `pick_probability` is the
+/// probability with which the caller chose this light.
+#[allow(clippy::too_many_arguments)]
+pub fn direct_from_light(
+    world: &World,
+    si: &SurfaceInteraction,
+    bsdf: &Bsdf,
+    light_index: u32,
+    pick_probability: f32,
+    mask: LobeFlags,
+    rng: &mut Rng,
+    counters: &mut RayCounters,
+    strategy: DirectStrategy,
+) -> Vec3 {
+    let light = &world.lights[light_index as usize];
+    let mis = strategy != DirectStrategy::LightOnly && !light.is_delta();
+    let mut total = Vec3::ZERO;
+    let wo = si.wo;
+    if let Some(ls) = light.sample_li(&light_context(si), rng.uniform2()) {
+        let f = bsdf.f(wo, ls.wi, mask) * ls.wi.dot(bsdf.frame.z).abs();
+        if f != Vec3::ZERO && ls.li != Vec3::ZERO {
+            let shadow = match ls.p_light {
+                Some((p, err, n)) => si.spawn_ray_to(p, err, n),
+                None => si.spawn_ray(ls.wi),
+            };
+            counters.shadow += 1;
+            let tr = world.transmittance(&shadow);
+            if tr != Vec3::ZERO {
+                if ls.is_delta {
+                    total += f * ls.li * tr / pick_probability;
+                } else {
+                    let light_pdf = pick_probability * ls.pdf;
+                    let w = if mis { power_heuristic(light_pdf, bsdf.pdf(wo, ls.wi, mask)) } else { 1.0 };
+                    total += f * ls.li * tr * (w / light_pdf);
+                }
+            }
+        }
+    }
+    if strategy == DirectStrategy::Both && !light.is_delta() {
+        // BSDF sampling toward the same light.
+        if let Some(bs) =
+            bsdf.sample(wo, rng.uniform(), rng.uniform2(), TransportMode::Radiance, non_specular(mask))
+        {
+            let f = bs.f * bs.wi.dot(bsdf.frame.z).abs();
+            if f != Vec3::ZERO && bs.pdf > 0.0 {
+                let ray = si.spawn_ray(bs.wi);
+                counters.shadow += 1;
+                if let Some(hit) = world.intersect(&ray) {
+                    let li_si = world.interaction(&ray, &hit);
+                    if li_si.emitter == Some(light_index) {
+                        let le = light.emitted(li_si.ng, li_si.wo);
+                        if le != Vec3::ZERO {
+                            let light_pdf =
+                                pick_probability * light.pdf_li(si.p64, bs.wi, li_si.p64, li_si.ng);
+                            let w = power_heuristic(bs.pdf, light_pdf);
+                            // Partially transparent occluders between are ignored here; they
+                            // are rare and the light-sampling half accounts for them.
+                            total += f * le * (w / bs.pdf);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    total
+}
+
+fn non_specular(mask: LobeFlags) -> LobeFlags {
+    mask & LobeFlags::NON_SPECULAR
+}
+
+/// Next-event estimation with one light chosen from the surface's light set by power, weighted
+/// for MIS against the BSDF sample the caller follows next (which must weight the emitters it
+/// hits with the complementary weight, as [`li`]'s path tracer does).
+pub fn sample_one_light(
+    world: &World,
+    si: &SurfaceInteraction,
+    bsdf: &Bsdf,
+    mask: LobeFlags,
+    rng: &mut Rng,
+    counters: &mut RayCounters,
+) -> Vec3 {
+    let set = world.light_set(si.attributes);
+    let Some((light, p)) = set.pick(rng.uniform()) else { return Vec3::ZERO };
+    direct_from_light(world, si, bsdf, light, p, mask, rng, counters, DirectStrategy::LightWithMisWeight)
+}
+
+/// Emission, self-emission and ambient light at a surface reached by a ray (all but the
+/// emission of lights, which the integrators weight themselves).
+fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
+    let set = world.light_set(si.attributes);
+    material.self_emission(si.ns, si.wo, si.st) + material.ambient_reflectance(si.st) * set.ambient
+}
+
+/// Radiance along a camera ray.
+pub fn li(
+    world: &World,
+    kind: IntegratorKind,
+    ray: Ray,
+    rng: &mut Rng,
+    counters: &mut RayCounters,
+) -> Radiance {
+    match kind {
+        IntegratorKind::DirectLighting { max_depth } => {
+            let mut camera = 0;
+            let r = whitted(world, ray, 0, max_depth, rng, counters, &mut camera);
+            counters.camera += camera.min(1);
+            counters.bounce += camera.saturating_sub(1);
+            r
+        }
+        IntegratorKind::Path { max_depth, rr_depth } => path(world, ray, max_depth, rr_depth, rng, counters),
+    }
+}
+
+fn whitted(
+    world: &World,
+    ray: Ray,
+    depth: u32,
+    max_depth: u32,
+    rng: &mut Rng,
+    counters: &mut RayCounters,
+    rays: &mut u64,
+) -> Radiance {
+    let Some((si, weight)) = find_surface(world, ray, rng, rays) else { return Radiance::default() };
+    let material = world.material(si.attributes);
+    if material.holdout {
+        return Radiance { rgb: Vec3::ZERO, alpha: 0.0 };
+    }
+    let mut l = surface_terms(world, &si, material);
+    if let Some(e) = si.emitter {
+        l += world.lights[e as usize].emitted(si.ng, si.wo);
+    }
+    let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+    if !bsdf.is_black() {
+        if bsdf.has_non_specular() {
+            let set = world.light_set(si.attributes);
+            for &light in &set.lights {
+                l += direct_from_light(
+                    world,
+                    &si,
+                    &bsdf,
+                    light,
+                    1.0,
+                    LobeFlags::ALL,
+                    rng,
+                    counters,
+                    DirectStrategy::Both,
+                );
+            }
+        }
+        if depth < max_depth {
+            for (wi, w, _) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
+                if w == Vec3::ZERO {
+                    continue;
+                }
+                let mut sub = 0;
+                let r = whitted(world, si.spawn_ray(wi), depth + 1, max_depth, rng, counters, &mut sub);
+                counters.bounce += sub;
+                l += w * r.rgb;
+            }
+        }
+    }
+    Radiance { rgb: sanitize(l * weight), alpha: 1.0 }
+}
+
+/// Replaces non-finite or negative values by zero so nothing invalid reaches the film.
+#[inline]
+pub fn sanitize(c: Vec3) -> Vec3 {
+    let f = |v: f32| if v.is_finite() && v > 0.0 { v } else { 0.0 };
+    Vec3::new(f(c.x), f(c.y), f(c.z))
+}
+
+fn path(
+    world: &World,
+    mut ray: Ray,
+    max_depth: u32,
+    rr_depth: u32,
+    rng: &mut Rng,
+    counters: &mut RayCounters,
+) -> Radiance {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut alpha = 0.0;
+    let mut specular_bounce = true;
+    let mut eta_scale = 1.0f32;
+    // The previous vertex (for MIS of emitters hit by BSDF sampling).
+    let mut prev: Option<(glam::DVec3, f32, rib_parser::scene::AttributesId)> = None;
+    let mut depth = 0u32;
+    loop {
+        let mut rays = 0;
+        let found = find_surface(world, ray, rng, &mut rays);
+        if depth == 0 {
+            counters.camera += rays;
+        } else {
+            counters.bounce += rays;
+        }
+        let Some((si, weight)) = found else { break };
+        beta *= weight;
+        let material = world.material(si.attributes);
+        if material.holdout {
+            break;
+        }
+        if depth == 0 {
+            alpha = 1.0;
+        }
+        if let Some(e) = si.emitter {
+            let light = &world.lights[e as usize];
+            let le = light.emitted(si.ng, si.wo);
+            if le != Vec3::ZERO {
+                match prev {
+                    None => l += beta * le,
+                    Some(_) if specular_bounce => l += beta * le,
+                    Some((p_prev, pdf_bsdf, attrs)) => {
+                        let set = world.light_set(attrs);
+                        let pick = set.pmf(e);
+                        if pick > 0.0 {
+                            let light_pdf = pick * light.pdf_li(p_prev, -si.wo, si.p64, si.ng);
+                            l += beta * le * power_heuristic(pdf_bsdf, light_pdf);
+                        }
+                    }
+                }
+            }
+        }
+        l += beta * surface_terms(world, &si, material);
+        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        if bsdf.is_black() || depth >= max_depth {
+            break;
+        }
+        if bsdf.has_non_specular() {
+            l += beta * sample_one_light(world, &si, &bsdf, LobeFlags::ALL, rng, counters);
+        }
+        let Some(bs) =
+            bsdf.sample(si.wo, rng.uniform(), rng.uniform2(), TransportMode::Radiance, LobeFlags::ALL)
+        else {
+            break;
+        };
+        let cos = bs.wi.dot(bsdf.frame.z).abs();
+        beta *= bs.f * (cos / bs.pdf);
+        if !beta.is_finite() || beta == Vec3::ZERO {
+            break;
+        }
+        specular_bounce = bs.is_specular();
+        if bs.flags.intersects(LobeFlags::TRANSMISSION) {
+            eta_scale *= bs.eta * bs.eta;
+        }
+        prev = Some((si.p64, bs.pdf, si.attributes));
+        ray = si.spawn_ray(bs.wi);
+        depth += 1;
+        if depth > rr_depth {
+            let rr_beta = (beta * eta_scale).max_element();
+            if rr_beta < 1.0 {
+                let q = (1.0 - rr_beta).max(0.0);
+                if rng.uniform() < q {
+                    break;
+                }
+                beta /= 1.0 - q;
+            }
+        }
+    }
+    Radiance { rgb: sanitize(l), alpha }
+}

@@ -1,0 +1,229 @@
+//! Floating-point helpers: rounding-error bounds, robust ray spawning, orthonormal frames.
+//!
+//! The renderer has no fixed epsilons. A ray leaving a surface starts at the hit point pushed
+//! along the geometric normal by a conservative bound on the point's rounding error
+//! ([`offset_ray_origin`], as in pbrt-v4), so it can neither re-hit the surface it left nor
+//! tunnel through a neighbour, at any scale.
+
+use glam::{DMat4, DVec3, Vec3};
+
+/// Half an ulp of 1.0 in `f32`: the unit roundoff of one correctly rounded operation.
+pub const MACHINE_EPSILON: f32 = f32::EPSILON * 0.5;
+
+/// `gamma(n) = n u / (1 - n u)`: the bound on the relative error of `n` chained operations.
+#[inline]
+pub fn gamma(n: i32) -> f32 {
+    let nu = n as f32 * MACHINE_EPSILON;
+    nu / (1.0 - nu)
+}
+
+/// The smallest `f32` greater than `v` (infinity stays infinity).
+#[inline]
+pub fn next_float_up(v: f32) -> f32 {
+    if v.is_infinite() && v > 0.0 {
+        return v;
+    }
+    let v = if v == -0.0 { 0.0 } else { v };
+    let bits = v.to_bits();
+    let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
+    f32::from_bits(bits)
+}
+
+/// The largest `f32` smaller than `v` (negative infinity stays).
+#[inline]
+pub fn next_float_down(v: f32) -> f32 {
+    if v.is_infinite() && v < 0.0 {
+        return v;
+    }
+    let v = if v == 0.0 { -0.0 } else { v };
+    let bits = v.to_bits();
+    let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
+    f32::from_bits(bits)
+}
+
+/// Rounds an `f64` point to `f32` and returns it with a per-component bound on the error of the
+/// rounded point relative to the exact surface point: the rounding itself plus `extra_error`
+/// (the error of the `f64` computation, already bounded by the caller).
+#[inline]
+pub fn round_point(p: DVec3, extra_error: DVec3) -> (Vec3, Vec3) {
+    let pf = p.as_vec3();
+    // |p - round(p)| <= ulp/2; the f64 -> f32 subtraction below is exact enough to measure it, and
+    // a generous relative margin covers the f64 error of the caller's arithmetic.
+    let rounding = (p - pf.as_dvec3()).abs();
+    let err = rounding + extra_error + p.abs() * (4.0 * f64::EPSILON);
+    // Round the bound itself up so that it is never an underestimate once in f32.
+    let err32 =
+        Vec3::new(next_float_up(err.x as f32), next_float_up(err.y as f32), next_float_up(err.z as f32));
+    (pf, err32 + Vec3::splat(f32::MIN_POSITIVE))
+}
+
+/// Pushes `p` (with per-component error bound `p_error`) along the geometric normal `n` to the
+/// side `w` points to, far enough that the result is strictly on that side of the true surface,
+/// and rounds each component away from the surface (pbrt-v4 `OffsetRayOrigin`).
+#[inline]
+pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    let d = n.abs().dot(p_error);
+    let mut offset = n * d;
+    if w.dot(n) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = next_float_up(po[i]);
+        } else if offset[i] < 0.0 {
+            po[i] = next_float_down(po[i]);
+        }
+    }
+    po
+}
+
+/// An orthonormal frame around a unit vector `z`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub x: Vec3,
+    pub y: Vec3,
+    pub z: Vec3,
+}
+
+impl Frame {
+    /// A frame whose `z` is `n` (unit length), with a tangent chosen continuously
+    /// (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+    pub fn from_z(n: Vec3) -> Frame {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let x = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let y = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { x, y, z: n }
+    }
+
+    /// A frame with `z = n` and `x` as close as possible to `tangent`.
+    pub fn from_z_and_tangent(n: Vec3, tangent: Vec3) -> Frame {
+        let t = tangent - n * n.dot(tangent);
+        let len = t.length();
+        if !(len > 1e-12) || !len.is_finite() {
+            return Frame::from_z(n);
+        }
+        let x = t / len;
+        Frame { x, y: n.cross(x), z: n }
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.x), v.dot(self.y), v.dot(self.z))
+    }
+
+    #[inline]
+    pub fn from_local(&self, v: Vec3) -> Vec3 {
+        self.x * v.x + self.y * v.y + self.z * v.z
+    }
+}
+
+/// Transforms a point by an affine `f64` matrix.
+#[inline]
+pub fn transform_point(m: &DMat4, p: DVec3) -> DVec3 {
+    m.transform_point3(p)
+}
+
+/// Transforms a direction by the linear part of an affine `f64` matrix.
+#[inline]
+pub fn transform_vector(m: &DMat4, v: DVec3) -> DVec3 {
+    m.transform_vector3(v)
+}
+
+/// Transforms a normal given the inverse of the point transform (normals transform by the
+/// inverse transpose, which keeps them on the same side of the surface under mirroring).
+#[inline]
+pub fn transform_normal(inverse: &DMat4, n: DVec3) -> DVec3 {
+    let m = inverse;
+    DVec3::new(
+        m.x_axis.x * n.x + m.x_axis.y * n.y + m.x_axis.z * n.z,
+        m.y_axis.x * n.x + m.y_axis.y * n.y + m.y_axis.z * n.z,
+        m.z_axis.x * n.x + m.z_axis.y * n.y + m.z_axis.z * n.z,
+    )
+}
+
+/// Per-component absolute bound of the rounding error of `m * p` computed in `f64`.
+#[inline]
+pub fn transform_point_error(m: &DMat4, p: DVec3) -> DVec3 {
+    let a = |row: usize| {
+        let r = m.row(row);
+        (r.x * p.x).abs() + (r.y * p.y).abs() + (r.z * p.z).abs() + r.w.abs()
+    };
+    DVec3::new(a(0), a(1), a(2)) * (4.0 * f64::EPSILON)
+}
+
+/// True when every element of the matrix is finite and the bottom row is `(0, 0, 0, 1)`.
+pub fn is_finite_affine(m: &DMat4) -> bool {
+    m.is_finite() && m.row(3) == glam::DVec4::new(0.0, 0.0, 0.0, 1.0)
+}
+
+/// `x * x`.
+#[inline]
+pub fn sqr<T: std::ops::Mul<Output = T> + Copy>(x: T) -> T {
+    x * x
+}
+
+/// Largest component of the absolute value.
+#[inline]
+pub fn max_abs_component(v: Vec3) -> f32 {
+    v.abs().max_element()
+}
+
+/// Average of the three channels of an RGB value.
+#[inline]
+pub fn average(c: Vec3) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// Relative luminance of linear RGB (Rec. 709 weights).
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// True when all three channels are zero.
+#[inline]
+pub fn is_black(c: Vec3) -> bool {
+    c.x == 0.0 && c.y == 0.0 && c.z == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn next_float_steps_one_ulp() {
+        assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+        assert_eq!(next_float_down(1.0), 1.0 - f32::EPSILON / 2.0);
+        assert!(next_float_up(0.0) > 0.0);
+        assert!(next_float_down(0.0) < 0.0);
+        assert!(next_float_up(-1.0) > -1.0);
+        assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
+    }
+
+    #[test]
+    fn frame_is_orthonormal() {
+        for n in
+            [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.81).normalize(), Vec3::new(0.0, 0.0, -1.0)]
+        {
+            let f = Frame::from_z(n);
+            assert!((f.x.length() - 1.0).abs() < 1e-6);
+            assert!((f.y.length() - 1.0).abs() < 1e-6);
+            assert!(f.x.dot(f.y).abs() < 1e-6 && f.x.dot(f.z).abs() < 1e-6 && f.y.dot(f.z).abs() < 1e-6);
+            let v = Vec3::new(0.2, 0.7, -0.4);
+            assert!((f.from_local(f.to_local(v)) - v).length() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn offset_moves_to_the_requested_side() {
+        let p = Vec3::new(1e5, 2.0, -3.0);
+        let (pf, err) = round_point(p.as_dvec3(), DVec3::ZERO);
+        let n = Vec3::X;
+        let above = offset_ray_origin(pf, err, n, Vec3::X);
+        let below = offset_ray_origin(pf, err, n, -Vec3::X);
+        assert!(above.x > 1e5 && below.x < 1e5);
+    }
+}

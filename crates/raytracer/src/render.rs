@@ -1,0 +1,420 @@
+//! Rendering a scene: camera rays, tiles in parallel, the filtered image and the depth table.
+//!
+//! Determinism: every pixel sample draws its numbers from a generator seeded by
+//! `(seed, pixel, sample index)`, and each output pixel sums the filtered samples of its
+//! neighbourhood in a fixed order. An image is therefore identical for any thread count, any
+//! tiling and any `CropWindow`: the pixels of a crop render are bit for bit the same pixels of the
+//! full-frame render (tiles that cover a frame merge exactly).
+
+use crate::diagnostics::{Diagnostics, Warning};
+use crate::film::{DepthImage, Filter, Image};
+use crate::integrators::{IntegratorKind, RayCounters, li};
+use crate::sampling::Rng;
+use crate::world::{Ray, World, WorldError, WorldStats};
+use depth_remap::camera::WorldRay;
+use depth_remap::{Camera, CameraError};
+use glam::{DMat4, DVec2, DVec3, Vec3};
+use rayon::prelude::*;
+use rib_parser::scene::{LightKind, Scene};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// Called with `(pixels done, pixels total)` as tiles finish.
+pub type ProgressFn = Arc<dyn Fn(u64, u64) + Send + Sync>;
+
+/// How to render, beyond what the scene says.
+#[derive(Clone, Default)]
+pub struct RenderOptions {
+    /// Worker threads (`None`: all cores).
+    pub threads: Option<usize>,
+    /// Samples per pixel, overriding `PixelSamples`.
+    pub spp: Option<u32>,
+    /// Seed of every random number.
+    pub seed: u64,
+    /// Integrator, overriding `SurfaceIntegrator`.
+    pub integrator: Option<IntegratorKind>,
+    /// Compute the depth table (the caller decides from the scene's request or `--depth`).
+    pub depth: bool,
+    pub progress: Option<ProgressFn>,
+}
+
+impl std::fmt::Debug for RenderOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RenderOptions")
+            .field("threads", &self.threads)
+            .field("spp", &self.spp)
+            .field("seed", &self.seed)
+            .field("integrator", &self.integrator)
+            .field("depth", &self.depth)
+            .finish()
+    }
+}
+
+/// What a render measured, for `--stats`.
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub integrator: String,
+    pub samples_per_pixel: u32,
+    pub threads: usize,
+    pub width: u32,
+    pub height: u32,
+    pub world: WorldStats,
+    pub rays: RayCounters,
+    pub depth_rays: u64,
+    pub time_build: Duration,
+    pub time_render: Duration,
+    pub time_depth: Duration,
+    /// What was skipped and why, with counts.
+    pub skipped: Vec<(String, usize)>,
+}
+
+impl RenderStats {
+    /// Rays per second over the render phase (camera, bounce and shadow rays).
+    pub fn rays_per_second(&self) -> f64 {
+        let t = self.time_render.as_secs_f64();
+        if t > 0.0 { self.rays.total() as f64 / t } else { 0.0 }
+    }
+}
+
+/// A finished render.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub image: Image,
+    pub depth: Option<DepthImage>,
+    pub stats: RenderStats,
+    pub warnings: Vec<Warning>,
+}
+
+/// Why a scene cannot be rendered.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RenderError {
+    #[error("invalid camera: {0}")]
+    Camera(#[from] CameraError),
+    #[error("{0}")]
+    World(#[from] WorldError),
+    #[error("the image would have {pixels} pixels, more than the limit of {limit}")]
+    TooLarge { pixels: u64, limit: u64 },
+    #[error("cannot start worker threads: {0}")]
+    Threads(String),
+}
+
+/// Images larger than this are refused rather than allocated.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Pixels per tile side.
+const TILE: u32 = 32;
+
+/// Camera rays in render space, clipped to `Clipping`: depth_remap's world rays (unit length
+/// in world units, so `t` is a distance in scene units) moved to render space.
+#[derive(Clone, Debug)]
+pub struct CameraRays {
+    pub camera: Camera,
+    render_from_world: DMat4,
+    near: f64,
+    far: f64,
+}
+
+impl CameraRays {
+    pub fn new(camera: Camera, render_from_world: &DMat4) -> CameraRays {
+        let c = camera.clipping();
+        let near = if c.near.is_finite() && c.near > 0.0 { c.near } else { 0.0 };
+        let far = if c.far.is_finite() && c.far > near { c.far } else { f64::INFINITY };
+        CameraRays { camera, render_from_world: *render_from_world, near, far }
+    }
+
+    /// The ray through a raster position, in render space, with its `f64` origin.
+    pub fn ray(&self, raster: DVec2) -> Option<(Ray, DVec3)> {
+        let wr = self.camera.world_ray_through_raster(raster);
+        self.to_render(wr, raster)
+    }
+
+    /// *The* ray through the centre of pixel `(i, j)` (depth_remap's definition), in render space.
+    pub fn pixel_centre_ray(&self, i: u32, j: u32) -> Option<(Ray, DVec3)> {
+        let wr = self.camera.pixel_centre_world_ray(i, j);
+        self.to_render(wr, depth_remap::camera::pixel_centre(i, j))
+    }
+
+    fn to_render(&self, wr: WorldRay, raster: DVec2) -> Option<(Ray, DVec3)> {
+        let o = self.render_from_world.transform_point3(wr.origin);
+        if !o.is_finite() || !wr.direction.is_finite() {
+            return None;
+        }
+        // Clipping planes are camera-space z; z grows by `dz_dt` per unit of world distance.
+        let s = self.camera.raster_to_screen(raster);
+        let dz_dt = self.camera.eye_depth_per_radial_at_screen(s.x, s.y);
+        if !(dz_dt > 0.0) || !dz_dt.is_finite() {
+            return None;
+        }
+        let t_near = self.near / dz_dt;
+        let t_far = self.far / dz_dt;
+        let ray = Ray {
+            origin: o.as_vec3(),
+            direction: wr.direction.as_vec3(),
+            t_min: t_near as f32,
+            t_max: if t_far.is_finite() { t_far as f32 } else { f32::INFINITY },
+        };
+        Some((ray, o))
+    }
+}
+
+/// The integrator a scene asks for; without `SurfaceIntegrator`, path tracing when the scene
+/// has area lights (a physically based scene), RenderMan-style direct lighting otherwise.
+pub fn choose_integrator(scene: &Scene, diagnostics: &mut Diagnostics) -> IntegratorKind {
+    match &scene.render.surface_integrator {
+        Some(call) => {
+            let (kind, warning) = IntegratorKind::from_call(call);
+            if let Some(w) = warning {
+                diagnostics.warn_once(Some(&call.loc), w);
+            }
+            kind
+        }
+        None => {
+            if scene.lights.iter().any(|l| matches!(l.kind, LightKind::Area { .. })) {
+                IntegratorKind::Path {
+                    max_depth: crate::integrators::UNBOUNDED_DEPTH,
+                    rr_depth: crate::integrators::DEFAULT_RR_DEPTH,
+                }
+            } else {
+                IntegratorKind::DirectLighting { max_depth: 5 }
+            }
+        }
+    }
+}
+
+/// Strata `(nx, ny)` for `spp` samples: as square as divides `spp` exactly.
+pub fn strata_for(spp: u32) -> (u32, u32) {
+    let spp = spp.max(1);
+    let mut nx = (f64::from(spp).sqrt().floor() as u32).max(1);
+    while !spp.is_multiple_of(nx) {
+        nx -= 1;
+    }
+    (nx, spp / nx)
+}
+
+/// Renders `scene`.
+pub fn render(scene: &Scene, options: &RenderOptions) -> Result<RenderOutput, RenderError> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = options.threads {
+        builder = builder.num_threads(n.max(1));
+    }
+    let pool = builder.build().map_err(|e| RenderError::Threads(e.to_string()))?;
+    let threads = pool.current_num_threads();
+    pool.install(|| render_in_pool(scene, options, threads))
+}
+
+fn render_in_pool(
+    scene: &Scene,
+    options: &RenderOptions,
+    threads: usize,
+) -> Result<RenderOutput, RenderError> {
+    let mut diagnostics = Diagnostics::default();
+    let camera = Camera::new(scene.camera.clone())?;
+    let (full_w, full_h) = camera.resolution();
+    let pixels = u64::from(full_w) * u64::from(full_h);
+    if pixels > MAX_PIXELS {
+        return Err(RenderError::TooLarge { pixels, limit: MAX_PIXELS });
+    }
+
+    let build_start = Instant::now();
+    let world = World::build(scene, camera.eye_position(), &mut diagnostics)?;
+    let time_build = build_start.elapsed();
+    let rays = CameraRays::new(camera, &world.render_from_world);
+
+    let integrator = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
+    let filter = Filter::from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
+        diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
+        Filter { kind: crate::film::FilterKind::Gaussian, x_width: 2.0, y_width: 2.0 }
+    });
+    let (nx, ny) = match options.spp {
+        Some(n) => strata_for(n),
+        None => {
+            let (x, y) = scene.render.pixel_samples;
+            let s = |v: f32| if v.is_finite() { v.round().clamp(1.0, 4096.0) as u32 } else { 1 };
+            (s(x), s(y))
+        }
+    };
+    let spp = nx * ny;
+
+    let (x0, x1, y0, y1) = rays.camera.crop_pixel_bounds();
+    let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+
+    // Image.
+    let render_start = Instant::now();
+    let mut tiles = Vec::new();
+    let mut ty = y0;
+    while ty < y1 {
+        let mut tx = x0;
+        while tx < x1 {
+            tiles.push((tx, ty, (tx + TILE).min(x1), (ty + TILE).min(y1)));
+            tx += TILE;
+        }
+        ty += TILE;
+    }
+    let total = u64::from(w) * u64::from(h);
+    let done = AtomicU64::new(0);
+    let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
+        .par_iter()
+        .map(|&(tx0, ty0, tx1, ty1)| {
+            let r =
+                render_tile(&world, &rays, integrator, &filter, (nx, ny), options.seed, (tx0, ty0, tx1, ty1));
+            let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
+            let d = done.fetch_add(n, Ordering::Relaxed) + n;
+            if let Some(p) = &options.progress {
+                p(d, total);
+            }
+            r
+        })
+        .collect();
+    let mut pixels_out = vec![[0.0f32; 4]; (w * h) as usize];
+    let mut counters = RayCounters::default();
+    for (&(tx0, ty0, tx1, ty1), (tile, c)) in tiles.iter().zip(&tile_results) {
+        counters.add(c);
+        let tw = tx1 - tx0;
+        for y in ty0..ty1 {
+            for x in tx0..tx1 {
+                pixels_out[((y - y0) * w + (x - x0)) as usize] = tile[((y - ty0) * tw + (x - tx0)) as usize];
+            }
+        }
+    }
+    let time_render = render_start.elapsed();
+
+    // Depth: only when asked for.
+    let depth_start = Instant::now();
+    let depth = options.depth.then(|| {
+        let values: Vec<f32> = (y0..y1)
+            .into_par_iter()
+            .flat_map_iter(|j| {
+                let world = &world;
+                let rays = &rays;
+                (x0..x1).map(move |i| depth_of(world, rays, i, j))
+            })
+            .collect();
+        DepthImage { width: w, height: h, x_offset: x0, y_offset: y0, values }
+    });
+    let time_depth = if options.depth { depth_start.elapsed() } else { Duration::ZERO };
+
+    let stats = RenderStats {
+        integrator: integrator.name().to_string(),
+        samples_per_pixel: spp,
+        threads,
+        width: w,
+        height: h,
+        world: world.stats.clone(),
+        rays: counters,
+        depth_rays: if options.depth { total } else { 0 },
+        time_build,
+        time_render,
+        time_depth,
+        skipped: diagnostics.skipped.clone(),
+    };
+    let image = Image {
+        width: w,
+        height: h,
+        x_offset: x0,
+        y_offset: y0,
+        full_width: full_w,
+        full_height: full_h,
+        pixels: pixels_out,
+    };
+    Ok(RenderOutput { image, depth, stats, warnings: diagnostics.warnings })
+}
+
+/// Distance along the pixel-centre ray of pixel `(i, j)` to the first surface it stops at
+/// (fully transparent surfaces, `Opacity 0`, are passed), `inf` for a miss. The distance is
+/// measured in `f64` from the ray's origin to the hit point.
+pub fn depth_of(world: &World, rays: &CameraRays, i: u32, j: u32) -> f32 {
+    let Some((mut ray, origin)) = rays.pixel_centre_ray(i, j) else { return f32::INFINITY };
+    for _ in 0..256 {
+        let Some(hit) = world.intersect(&ray) else { return f32::INFINITY };
+        let si = world.interaction(&ray, &hit);
+        if world.material(si.attributes).opacity != Vec3::ZERO {
+            return (si.p64 - origin).length() as f32;
+        }
+        ray.t_min = hit.t;
+    }
+    f32::INFINITY
+}
+
+/// One sample: raster position and what the integrator returned.
+#[derive(Clone, Copy)]
+struct Sample {
+    x: f32,
+    y: f32,
+    rgb: Vec3,
+    alpha: f32,
+}
+
+/// Renders the pixels `[x0, x1) x [y0, y1)`: samples of the pixels within the filter's reach
+/// (inside or outside the frame), then each pixel's filtered sum in a fixed order.
+fn render_tile(
+    world: &World,
+    rays: &CameraRays,
+    integrator: IntegratorKind,
+    filter: &Filter,
+    (nx, ny): (u32, u32),
+    seed: u64,
+    (x0, y0, x1, y1): (u32, u32, u32, u32),
+) -> (Vec<[f32; 4]>, RayCounters) {
+    let (mx, my) = filter.pixel_margin();
+    let (sx0, sy0) = (x0 as i64 - i64::from(mx), y0 as i64 - i64::from(my));
+    let (sx1, sy1) = (x1 as i64 + i64::from(mx), y1 as i64 + i64::from(my));
+    let sw = (sx1 - sx0) as usize;
+    let spp = (nx * ny) as usize;
+    let mut samples = Vec::with_capacity(sw * (sy1 - sy0) as usize * spp);
+    let mut counters = RayCounters::default();
+    for py in sy0..sy1 {
+        for px in sx0..sx1 {
+            for s in 0..spp as u32 {
+                let mut rng = Rng::for_pixel_sample(seed, px as u32, py as u32, s);
+                let (ix, iy) = (s % nx, s / nx);
+                let jitter = rng.uniform2();
+                let x = px as f64 + (f64::from(ix) + f64::from(jitter.x)) / f64::from(nx);
+                let y = py as f64 + (f64::from(iy) + f64::from(jitter.y)) / f64::from(ny);
+                let r = match rays.ray(DVec2::new(x, y)) {
+                    Some((ray, _)) => li(world, integrator, ray, &mut rng, &mut counters),
+                    None => Default::default(),
+                };
+                samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });
+            }
+        }
+    }
+    let tw = (x1 - x0) as usize;
+    let mut out = vec![[0.0f32; 4]; tw * (y1 - y0) as usize];
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
+            let mut sum = [0.0f64; 4];
+            let mut weight = 0.0f64;
+            for qy in (y as i64 - i64::from(my))..=(y as i64 + i64::from(my)) {
+                for qx in (x as i64 - i64::from(mx))..=(x as i64 + i64::from(mx)) {
+                    let base = (((qy - sy0) as usize) * sw + (qx - sx0) as usize) * spp;
+                    for s in &samples[base..base + spp] {
+                        let wgt = filter.eval(s.x - cx, s.y - cy);
+                        if wgt != 0.0 {
+                            let wgt = f64::from(wgt);
+                            sum[0] += wgt * f64::from(s.rgb.x);
+                            sum[1] += wgt * f64::from(s.rgb.y);
+                            sum[2] += wgt * f64::from(s.rgb.z);
+                            sum[3] += wgt * f64::from(s.alpha);
+                            weight += wgt;
+                        }
+                    }
+                }
+            }
+            let v = if weight != 0.0 {
+                [
+                    (sum[0] / weight) as f32,
+                    (sum[1] / weight) as f32,
+                    (sum[2] / weight) as f32,
+                    (sum[3] / weight) as f32,
+                ]
+            } else {
+                [0.0; 4]
+            };
+            out[(y - y0) as usize * tw + (x - x0) as usize] = v.map(|c| if c.is_finite() { c } else { 0.0 });
+        }
+    }
+    (out, counters)
+}

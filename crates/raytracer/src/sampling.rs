@@ -1,0 +1,276 @@
+//! Random numbers, sample warping and discrete distributions.
+//!
+//! Every pixel sample owns a [`Rng`] seeded by a hash of (seed, pixel, sample index), so an
+//! image is the same whatever the tiling, the thread count or the crop window.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
+
+/// PCG32 (O'Neill 2014): small, fast and statistically sound.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+    inc: u64,
+}
+
+const PCG_MULT: u64 = 0x5851_f42d_4c95_7f2d;
+
+impl Rng {
+    /// A generator for stream `stream` started at `seed`.
+    pub fn new(seed: u64, stream: u64) -> Rng {
+        let mut rng = Rng { state: 0, inc: (stream << 1) | 1 };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(seed);
+        rng.next_u32();
+        rng
+    }
+
+    /// A generator for one pixel sample: independent of every other (pixel, sample) pair.
+    pub fn for_pixel_sample(seed: u64, x: u32, y: u32, sample: u32) -> Rng {
+        let key = mix64(seed ^ mix64((u64::from(x) << 32) | u64::from(y)));
+        Rng::new(mix64(key ^ u64::from(sample).wrapping_mul(0x9e37_79b9_7f4a_7c15)), key)
+    }
+
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(PCG_MULT).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// A uniform float in `[0, 1)`.
+    #[inline]
+    pub fn uniform(&mut self) -> f32 {
+        // 24 random bits: every value is exactly representable and strictly below 1.
+        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    #[inline]
+    pub fn uniform2(&mut self) -> Vec2 {
+        Vec2::new(self.uniform(), self.uniform())
+    }
+
+    /// A uniform integer in `[0, n)` (`n > 0`), without modulo bias worth noticing for small `n`.
+    #[inline]
+    pub fn below(&mut self, n: u32) -> u32 {
+        ((u64::from(self.next_u32()) * u64::from(n)) >> 32) as u32
+    }
+}
+
+/// SplitMix64's finaliser: a good 64-bit mixing function.
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Uniform point on the unit disk, concentric mapping (Shirley and Chiu).
+pub fn sample_concentric_disk(u: Vec2) -> Vec2 {
+    let o = u * 2.0 - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    Vec2::new(theta.cos(), theta.sin()) * r
+}
+
+/// Cosine-weighted direction on the hemisphere around +z.
+pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = sample_concentric_disk(u);
+    let z = (1.0 - d.x * d.x - d.y * d.y).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction on the unit sphere.
+pub fn sample_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Uniform direction in the cone of directions within `acos(cos_max)` of +z.
+pub fn sample_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_theta = (1.0 - u.x) + u.x * cos_max;
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let phi = u.y * 2.0 * PI;
+    Vec3::new(phi.cos() * sin_theta, phi.sin() * sin_theta, cos_theta)
+}
+
+#[inline]
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
+/// Uniform barycentric coordinates on a triangle (Heitz 2019 low-distortion map):
+/// returns `(b0, b1, b2)`.
+pub fn sample_uniform_triangle(u: Vec2) -> [f32; 3] {
+    let (b0, b1);
+    if u.x < u.y {
+        b0 = u.x / 2.0;
+        b1 = u.y - b0;
+    } else {
+        b1 = u.y / 2.0;
+        b0 = u.x - b1;
+    }
+    [b0, b1, 1.0 - b0 - b1]
+}
+
+/// The power heuristic with exponent 2 (Veach), for one sample of each strategy.
+#[inline]
+pub fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
+    let f = pdf_f * pdf_f;
+    let g = pdf_g * pdf_g;
+    if f.is_infinite() {
+        return 1.0;
+    }
+    if f + g == 0.0 { 0.0 } else { f / (f + g) }
+}
+
+/// A piecewise-constant distribution over `n` items (by weight): sampling in `O(log n)`.
+#[derive(Clone, Debug, Default)]
+pub struct Distribution1D {
+    /// Normalised cumulative weights, `cdf[0] = 0`, `cdf[n] = 1`.
+    cdf: Vec<f64>,
+    weights: Vec<f32>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Builds from non-negative weights (negative or non-finite weights count as zero). An
+    /// all-zero distribution samples nothing ([`Distribution1D::sample`] returns `None`).
+    pub fn new(weights: &[f32]) -> Distribution1D {
+        let weights: Vec<f32> =
+            weights.iter().map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 }).collect();
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        cdf.push(0.0);
+        let mut total = 0.0f64;
+        for &w in &weights {
+            total += f64::from(w);
+            cdf.push(total);
+        }
+        if total > 0.0 {
+            for c in &mut cdf {
+                *c /= total;
+            }
+        }
+        Distribution1D { cdf, weights, total }
+    }
+
+    pub fn len(&self) -> usize {
+        self.weights.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.weights.is_empty()
+    }
+
+    /// Sum of the weights.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Picks an item with probability proportional to its weight; returns the index, its
+    /// probability and `u` remapped to `[0, 1)` within the item.
+    pub fn sample(&self, u: f32) -> Option<(usize, f32, f32)> {
+        if self.total <= 0.0 {
+            return None;
+        }
+        let u = f64::from(u);
+        // First index whose cdf is > u, minus one.
+        let n = self.weights.len();
+        let mut lo = 0usize;
+        let mut hi = n;
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.cdf[mid + 1] <= u { lo = mid + 1 } else { hi = mid }
+        }
+        let mut i = lo.min(n - 1);
+        // Never return a zero-weight item (possible at the ends through rounding).
+        while self.weights[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        while self.weights[i] == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        let p = self.pmf(i);
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let remapped = if width > 0.0 { ((u - self.cdf[i]) / width).clamp(0.0, 1.0) } else { 0.5 };
+        Some((i, p, (remapped as f32).min(1.0 - f32::EPSILON / 2.0)))
+    }
+
+    /// Probability of item `i`.
+    pub fn pmf(&self, i: usize) -> f32 {
+        if self.total <= 0.0 || i >= self.weights.len() {
+            return 0.0;
+        }
+        (f64::from(self.weights[i]) / self.total) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rng_streams_differ_and_repeat() {
+        let mut a = Rng::for_pixel_sample(1, 3, 4, 0);
+        let mut b = Rng::for_pixel_sample(1, 3, 4, 1);
+        let mut c = Rng::for_pixel_sample(1, 3, 4, 0);
+        let va: Vec<u32> = (0..8).map(|_| a.next_u32()).collect();
+        let vb: Vec<u32> = (0..8).map(|_| b.next_u32()).collect();
+        let vc: Vec<u32> = (0..8).map(|_| c.next_u32()).collect();
+        assert_ne!(va, vb);
+        assert_eq!(va, vc);
+        let mut r = Rng::new(7, 0);
+        let mean: f32 = (0..100_000).map(|_| r.uniform()).sum::<f32>() / 100_000.0;
+        assert!((mean - 0.5).abs() < 0.01, "mean {mean}");
+    }
+
+    #[test]
+    fn distribution_matches_weights() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0]);
+        assert_eq!(d.pmf(0), 0.25);
+        assert_eq!(d.pmf(1), 0.0);
+        let mut counts = [0u32; 3];
+        let mut r = Rng::new(1, 1);
+        for _ in 0..40_000 {
+            let (i, p, rem) = d.sample(r.uniform()).unwrap();
+            assert!(p > 0.0 && (0.0..1.0).contains(&rem));
+            counts[i] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        assert!((f64::from(counts[2]) / 40_000.0 - 0.75).abs() < 0.02);
+        assert!(Distribution1D::new(&[0.0, f32::NAN]).sample(0.3).is_none());
+    }
+
+    #[test]
+    fn warps_stay_in_domain() {
+        let mut r = Rng::new(3, 9);
+        for _ in 0..10_000 {
+            let u = r.uniform2();
+            let d = sample_cosine_hemisphere(u);
+            assert!(d.z >= 0.0 && (d.length() - 1.0).abs() < 1e-4);
+            let s = sample_uniform_sphere(u);
+            assert!((s.length() - 1.0).abs() < 1e-4);
+            let c = sample_uniform_cone(u, 0.9);
+            assert!(c.z >= 0.9 - 1e-6);
+            let b = sample_uniform_triangle(u);
+            assert!(b.iter().all(|&x| x >= -1e-6) && (b[0] + b[1] + b[2] - 1.0).abs() < 1e-6);
+        }
+    }
+}

@@ -1,0 +1,8 @@
+//! Shapes in their own spaces: watertight triangles and exact quadrics.
+
+pub mod quadric;
+pub mod roots;
+pub mod triangle;
+
+pub use quadric::{DegenerateQuadric, Quadric, QuadricHit, QuadricShape};
+pub use triangle::{RayShear, TriangleHit, barycentric_point, intersect_triangle};

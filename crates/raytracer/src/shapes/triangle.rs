@@ -1,0 +1,175 @@
+//! Watertight ray-triangle intersection (Woop, Benthin and Wald 2013, as in pbrt-v4).
+//!
+//! The ray is translated to the origin and sheared so that it runs along +z; the triangle's
+//! vertices go through the same `f32` steps, so a vertex shared by two triangles is transformed
+//! identically for both. The 2D edge functions are then evaluated in `f64`, where the products of
+//! two `f32` values are exact and the single rounded difference keeps its exact sign: a ray
+//! through a shared edge or vertex is reported by at least one of the triangles that share it.
+
+use crate::math::gamma;
+use glam::{DVec3, Vec3};
+
+/// A ray-triangle hit: the ray parameter and the barycentric coordinates of the hit point
+/// (`b0 + b1 + b2 = 1` in `f64`), plus the sign of the determinant (which side was hit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    pub t: f32,
+    pub b: [f64; 3],
+    /// True when the ray hits the side the triangle's normal `(p1 - p0) x (p2 - p0)` points to.
+    pub front: bool,
+}
+
+/// Precomputed per-ray values of the watertight test (the permutation and shear).
+#[derive(Clone, Copy, Debug)]
+pub struct RayShear {
+    pub origin: Vec3,
+    pub direction: Vec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl RayShear {
+    /// `None` for a zero or non-finite direction.
+    pub fn new(origin: Vec3, direction: Vec3) -> Option<RayShear> {
+        if !(direction.is_finite() && origin.is_finite()) || direction == Vec3::ZERO {
+            return None;
+        }
+        let a = direction.abs();
+        let kz = if a.x > a.y {
+            if a.x > a.z { 0 } else { 2 }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let d = [direction[kx], direction[ky], direction[kz]];
+        Some(RayShear { origin, direction, kx, ky, kz, sx: -d[0] / d[2], sy: -d[1] / d[2], sz: 1.0 / d[2] })
+    }
+
+    /// Translated, permuted and sheared vertex (z not yet scaled).
+    #[inline(always)]
+    fn transform(&self, p: Vec3) -> [f32; 3] {
+        let q = p - self.origin;
+        let (x, y, z) = (q[self.kx], q[self.ky], q[self.kz]);
+        [x + self.sx * z, y + self.sy * z, z]
+    }
+}
+
+/// Intersects the triangle `(p0, p1, p2)` with the ray described by `shear` for parameters in
+/// `(0, t_max)`. Degenerate (zero-area) triangles are never hit.
+#[inline]
+pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max: f32) -> Option<TriangleHit> {
+    let a = shear.transform(p0);
+    let b = shear.transform(p1);
+    let c = shear.transform(p2);
+
+    // Edge functions in f64: exact products, one rounding, so signs are exact.
+    let (ax, ay) = (f64::from(a[0]), f64::from(a[1]));
+    let (bx, by) = (f64::from(b[0]), f64::from(b[1]));
+    let (cx, cy) = (f64::from(c[0]), f64::from(c[1]));
+    let e0 = bx * cy - by * cx;
+    let e1 = cx * ay - cy * ax;
+    let e2 = ax * by - ay * bx;
+    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return None;
+    }
+    let det = e0 + e1 + e2;
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+
+    // Scaled hit distance and the interval test against (0, t_max).
+    let sz = f64::from(shear.sz);
+    let (az, bz, cz) = (f64::from(a[2]) * sz, f64::from(b[2]) * sz, f64::from(c[2]) * sz);
+    let t_scaled = e0 * az + e1 * bz + e2 * cz;
+    let t_max = f64::from(t_max);
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
+        return None;
+    }
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let t = t_scaled * inv_det;
+
+    // Make sure t is conservatively greater than zero (pbrt-v4's bound on the f32 steps above:
+    // translation, shear and z scaling; the f64 edge functions only add a tiny relative error).
+    let max_zt = (az.abs()).max(bz.abs()).max(cz.abs()) as f32;
+    let delta_z = gamma(3) * max_zt;
+    let max_xt = (ax.abs()).max(bx.abs()).max(cx.abs()) as f32;
+    let max_yt = (ay.abs()).max(by.abs()).max(cy.abs()) as f32;
+    let delta_x = gamma(5) * (max_xt + max_zt);
+    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = e0.abs().max(e1.abs()).max(e2.abs()) as f32;
+    let delta_t =
+        3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * (inv_det.abs() as f32);
+    let t32 = t as f32;
+    if !(t32 > delta_t) || !(t32 < t_max as f32 || t_max.is_infinite()) {
+        return None;
+    }
+    // Which side was hit, from the geometric normal (only computed for accepted hits).
+    let n = (p1 - p0).cross(p2 - p0);
+    let front = n.dot(shear.direction) < 0.0;
+    Some(TriangleHit { t: t32, b: [e0 * inv_det, e1 * inv_det, e2 * inv_det], front })
+}
+
+/// The hit point `b0 p0 + b1 p1 + b2 p2` in `f64`, with an absolute bound on its `f64` error.
+#[inline]
+pub fn barycentric_point(b: [f64; 3], p0: Vec3, p1: Vec3, p2: Vec3) -> (DVec3, DVec3) {
+    let (q0, q1, q2) = (p0.as_dvec3(), p1.as_dvec3(), p2.as_dvec3());
+    let p = q0 * b[0] + q1 * b[1] + q2 * b[2];
+    let abs_sum = (q0 * b[0]).abs() + (q1 * b[1]).abs() + (q2 * b[2]).abs();
+    // The barycentrics sum to one within a few f64 ulps; the combination adds a few more.
+    (p, abs_sum * (8.0 * f64::EPSILON))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hit(o: Vec3, d: Vec3, p: [Vec3; 3]) -> Option<TriangleHit> {
+        intersect_triangle(&RayShear::new(o, d).unwrap(), p[0], p[1], p[2], f32::INFINITY)
+    }
+
+    #[test]
+    fn hits_and_misses() {
+        let tri = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let h = hit(Vec3::new(0.25, 0.25, 2.0), -Vec3::Z, tri).unwrap();
+        assert!((h.t - 2.0).abs() < 1e-6);
+        let p = barycentric_point(h.b, tri[0], tri[1], tri[2]).0;
+        assert!((p - DVec3::new(0.25, 0.25, 0.0)).length() < 1e-7);
+        // Normal is +z; a ray coming from +z hits the front.
+        assert!(h.front);
+        let back = hit(Vec3::new(0.25, 0.25, -2.0), Vec3::Z, tri).unwrap();
+        assert!(!back.front);
+        assert!(hit(Vec3::new(0.75, 0.75, 2.0), -Vec3::Z, tri).is_none());
+        // Behind the origin.
+        assert!(hit(Vec3::new(0.25, 0.25, -2.0), -Vec3::Z, tri).is_none());
+        // Degenerate triangle.
+        let degenerate = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert!(hit(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z, degenerate).is_none());
+    }
+
+    #[test]
+    fn shared_edge_is_watertight() {
+        // Two triangles sharing the diagonal of a square; rays aimed exactly at the diagonal.
+        let a = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)];
+        let b = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let o = Vec3::new(0.1234, -0.771, 3.3);
+        // Interior points of the diagonal (its ends are corners of the open square, where a ray
+        // rounded to f32 may pass just outside).
+        for i in 1..1000 {
+            let s = i as f32 / 1000.0;
+            let target = Vec3::new(s, s, 0.0);
+            let d = target - o;
+            assert!(hit(o, d, a).is_some() || hit(o, d, b).is_some(), "leak at {s}");
+        }
+    }
+}
