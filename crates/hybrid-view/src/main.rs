@@ -9,12 +9,17 @@
 
 mod args;
 mod convert;
+mod haptic;
 mod run;
 
 use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // `--list-devices` needs no image, depth table or scene.
+    if std::env::args_os().skip(1).any(|a| a == "--list-devices") {
+        return haptic::list_devices();
+    }
     let args = match args::Args::try_parse() {
         Ok(a) => a,
         Err(e) => {
@@ -31,12 +36,10 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = run::prepare(&settings).and_then(|prepared| {
-        if settings.headless {
-            run::headless(&settings, prepared, None)
-        } else {
-            run::windowed(&settings, prepared, None)
-        }
+    let result = run::prepare(&settings).and_then(|prepared| match &settings.haptics {
+        Some(haptics) => haptic::run(&settings, haptics, prepared),
+        None if settings.headless => run::headless(&settings, prepared, None),
+        None => run::windowed(&settings, prepared, None),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,
