@@ -76,14 +76,14 @@ pub struct Args {
     pub force_log: Option<PathBuf>,
     /// Scene units per metre of device travel, `scene = centre + gain * device` (default: the
     /// device's workspace covers the scene).
-    #[arg(long, value_name = "G")]
+    #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gain: Option<f64>,
     /// Scene position of the device's origin (default: the centre of the scene's bounds).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     pub centre: Option<DVec3>,
     /// Stiffness in N/m of device travel for surfaces whose RIB gives no
     /// `Attribute "haptic" "float stiffness"` (default: half the device's maximum).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
     pub stiffness: Option<f64>,
     /// How the SpaceMouse cap drives the device: its deflection is a velocity or a position.
     #[arg(long, value_enum, default_value_t = SpaceMouseMode::Rate)]

@@ -3,7 +3,8 @@
 //! The pre-rendered image is shown pixel for pixel; live objects (the cursor sphere) are drawn
 //! with the RIB camera's projection and lit by its lights, and occlude and are occluded by the
 //! pre-rendered scene through its converted depth table. `--headless` renders offscreen and
-//! writes exactly what the window would show.
+//! writes exactly what the window would show. With `--device`, a haptic device drives the
+//! sphere through the haptics crate's proxy (see `haptic.rs`).
 //!
 //! Exit codes: 0 success, 1 invalid input or failed rendering, 2 bad command line.
 
