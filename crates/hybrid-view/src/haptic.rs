@@ -241,3 +241,105 @@ impl LiveUpdate for LiveUpdater {
         self.failed
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haptics::geometry::{CollisionMesh, MaterialId};
+    use haptics::material::MaterialSpec;
+    use haptics::scene::SceneGeometry;
+    use std::time::{Duration, Instant};
+
+    /// A floor at y = 0 and the real-time thread with the simulated device on manual input.
+    fn floor_session() -> (Rc<RefCell<HapticThread>>, ManualInputWriter, WorkspaceMapping) {
+        let mut mesh = CollisionMesh::new(DVec3::ZERO);
+        let p = [
+            DVec3::new(-1.0, 0.0, -1.0),
+            DVec3::new(1.0, 0.0, -1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(-1.0, 0.0, 1.0),
+        ];
+        mesh.push_indexed(&p, &[[0, 2, 1], [0, 3, 2]], None, MaterialId(0)).unwrap();
+        let geometry = SceneGeometry {
+            mesh,
+            materials: vec![MaterialSpec::default()],
+            bounds: Some((DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0))),
+            untouchable_shapes: 0,
+            warnings: Vec::new(),
+        };
+        let config = SessionConfig {
+            device: DeviceChoice::Simulated,
+            trajectory: None,
+            gain: Some(10.0),
+            centre: Some(DVec3::new(0.0, 0.5, 0.0)),
+            default_stiffness: None,
+            proxy_radius: 0.05,
+            rate_hz: 1000.0,
+        };
+        let mut session = Session::new(geometry, config).unwrap();
+        let manual = session.manual_input().unwrap();
+        let mapping = session.mapping();
+        let thread = session.spawn(ThreadConfig::default(), None).unwrap();
+        (Rc::new(RefCell::new(thread)), manual, mapping)
+    }
+
+    #[test]
+    fn the_keyboard_moves_the_device_and_the_sphere_shows_the_proxy() {
+        let (thread, manual, mapping) = floor_session();
+        let mut updater = LiveUpdater {
+            thread: Rc::clone(&thread),
+            manual: Some(manual),
+            mapping,
+            device: DVec3::ZERO,
+            drawn: None,
+            radius: 0.05,
+            material: viewer::Material::default(),
+            fixed: None,
+            failed: false,
+        };
+        assert!(updater.keyboard_moves_sphere());
+        let mut live = LiveObjects {
+            sphere: Some(Sphere {
+                centre: mapping.centre,
+                radius: 0.05,
+                material: viewer::Material::default(),
+            }),
+            meshes: Vec::new(),
+        };
+        let frame = FrameInfo { index: 0, time_s: 0.0 };
+        // Frames until the proxy settles where `check` wants it.
+        let mut settle = |live: &mut LiveObjects, check: &dyn Fn(DVec3) -> bool| {
+            let deadline = Instant::now() + Duration::from_secs(10);
+            loop {
+                updater.update(live, &frame);
+                let c = live.sphere.as_ref().unwrap().centre;
+                if check(c) {
+                    return c;
+                }
+                assert!(Instant::now() < deadline, "the sphere stayed at {c}");
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        };
+        // Wait for the loop's first ticks (before them the sphere shows the device's mapping).
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while thread.borrow_mut().state().status != ThreadStatus::Running {
+            assert!(Instant::now() < deadline, "the haptic loop did not start");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        settle(&mut live, &|c| (c - mapping.centre).length() < 1e-12);
+        // The keyboard moves the sphere 0.3 down (0.03 m of device travel): it follows.
+        live.sphere.as_mut().unwrap().centre.y -= 0.3;
+        let c = settle(&mut live, &|c| (c.y - 0.2).abs() < 1e-9);
+        assert!((c - DVec3::new(0.0, 0.2, 0.0)).length() < 1e-9);
+        // Another 0.3 down would put it 0.1 under the floor: the proxy stops on it.
+        live.sphere.as_mut().unwrap().centre.y -= 0.3;
+        settle(&mut live, &|c| (c.y - 0.05).abs() < 1e-9);
+        let state = thread.borrow_mut().state();
+        // The device is 0.1 scene units (1 cm) below the proxy: 1000 N/m * 1 cm = 10 N, limited
+        // to the simulated device's 8 N.
+        assert!(state.contacts > 0 && state.force.y > 0.0, "{state:?}");
+        drop(updater);
+        let thread = Rc::try_unwrap(thread).unwrap().into_inner();
+        thread.stop().unwrap();
+    }
+}
