@@ -172,3 +172,71 @@ pub fn scene_bounds(scene: &Scene) -> Option<(DVec3, DVec3)> {
     }
     (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(rib: &str) -> Scene {
+        rib_parser::load_bytes("test.rib", rib.as_bytes().to_vec(), &rib_parser::LoadOptions::default())
+            .expect("a valid scene")
+            .scene
+    }
+
+    #[test]
+    fn cornell_area_light_becomes_its_centroid_facing_down() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/cornell/cornell.rib");
+        let loaded = rib_parser::load_scene(std::path::Path::new(path), &Default::default()).unwrap();
+        let mut skipped = Skipped::default();
+        let lights = live_lights(&loaded.scene, &mut skipped);
+        assert_eq!(lights.len(), 1, "{skipped:?}");
+        let LiveLight::Area { centroid, normal, radiance, area, radius, .. } = &lights[0] else {
+            panic!("not an area light: {:?}", lights[0]);
+        };
+        assert!((*centroid - DVec3::new(0.0, 0.99, 0.01)).length() < 1e-6, "{centroid}");
+        assert!((normal.unwrap() - DVec3::NEG_Y).length() < 1e-9);
+        assert!((area - 0.46 * 0.38).abs() < 1e-6);
+        assert!((radius - (0.46f64 * 0.38 / std::f64::consts::PI).sqrt()).abs() < 1e-6);
+        assert!((radiance.x - 18.387).abs() < 1e-4);
+        assert_eq!(tone_map(&loaded.scene), ToneMap { gain: 1.0, gamma: 1.0 });
+    }
+
+    #[test]
+    fn standard_lights_convert_and_unknown_ones_warn() {
+        let s = scene(
+            r#"Format 8 8 1
+            Exposure 2 2.2
+            WorldBegin
+              LightSource "ambientlight" 1 "intensity" [0.5]
+              LightSource "distantlight" 2 "from" [0 1 0] "to" [0 0 0] "intensity" [3]
+              LightSource "pointlight" 3 "from" [1 2 3] "intensity" [4] "lightcolor" [1 0.5 0.25]
+              LightSource "spotlight" 4 "from" [0 5 0] "to" [0 0 0] "coneangle" [0.5] "conedeltaangle" [0.1]
+              LightSource "mysterylight" 5
+              AttributeBegin
+                AreaLightSource "arealight" 6 "intensity" [2]
+                Sphere 0.5 -0.5 0.5 360
+              AttributeEnd
+            WorldEnd
+            "#,
+        );
+        let mut skipped = Skipped::default();
+        let lights = live_lights(&s, &mut skipped);
+        assert_eq!(skipped.warnings.len(), 1, "{skipped:?}");
+        assert!(skipped.warnings[0].contains("mysterylight"));
+        assert_eq!(lights.len(), 5);
+        assert_eq!(lights[0], LiveLight::Ambient { colour: Vec3::splat(0.5) });
+        let LiveLight::Distant { direction, colour } = &lights[1] else { panic!() };
+        assert!((*direction - DVec3::NEG_Y).length() < 1e-12 && *colour == Vec3::splat(3.0));
+        assert_eq!(
+            lights[2],
+            LiveLight::Point { position: DVec3::new(1.0, 2.0, 3.0), colour: Vec3::new(4.0, 2.0, 1.0) }
+        );
+        let LiveLight::Spot { axis, cone_angle, .. } = &lights[3] else { panic!() };
+        assert!((*axis - DVec3::NEG_Y).length() < 1e-12 && (cone_angle - 0.5).abs() < 1e-6);
+        // A sphere emitter: no single normal, area about 4 pi r^2.
+        let LiveLight::Area { normal, area, centroid, .. } = &lights[4] else { panic!() };
+        assert!(normal.is_none() && centroid.length() < 1e-6);
+        assert!((area - std::f64::consts::PI).abs() < 0.01 * std::f64::consts::PI, "{area}");
+        assert_eq!(tone_map(&s), ToneMap { gain: 2.0, gamma: 2.2 });
+    }
+}

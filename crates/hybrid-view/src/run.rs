@@ -49,7 +49,8 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let camera = Camera::new(rib.camera.clone())
         .map_err(|e| Failure(format!("{}: the camera: {e}", settings.scene.display())))?;
     let tone = convert::tone_map(&rib);
-    let image = Rgba8Image::read(&settings.image, tone)?;
+    // Float images (EXR) from lrt-depth carry the gain already; live objects get gain and gamma.
+    let image = Rgba8Image::read(&settings.image, tone.for_float_image())?;
     let depth = depth_remap::DepthTable::read(&settings.depth).map_err(|e| Failure(e.to_string()))?;
     let mut skipped = Skipped::default();
     let lights = convert::live_lights(&rib, &mut skipped);

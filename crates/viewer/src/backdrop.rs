@@ -2,10 +2,15 @@
 //! `depth_remap::DepthTable`).
 //!
 //! Image files: PNG, JPEG and TIFF are decoded to 8-bit RGBA and their values copied through
-//! untouched (16-bit files are reduced to 8 bits by `image`'s rounding, `round(v / 257)`).
-//! OpenEXR images hold linear radiance and are tone-mapped exactly the way `lrt-depth` writes
-//! its 8-bit outputs: `byte = round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` per channel,
-//! with the RIB's `Exposure gain gamma` ([`ToneMap`]); alpha is 255.
+//! untouched (16-bit files are reduced to 8 bits by `image`'s rounding, `round(v / 257)`;
+//! 32-bit float TIFFs are tone-mapped like EXRs).
+//! OpenEXR images hold linear values and are tone-mapped the way `lrt-depth` writes its 8-bit
+//! outputs: `byte = round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` per channel with the
+//! given [`ToneMap`]; alpha is 255. `lrt-depth` writes float outputs with `Exposure`'s gain
+//! already applied, so for its EXRs the caller passes `gain = 1` and the RIB's gamma
+//! ([`ToneMap::for_float_image`]). The one difference from `lrt-depth`'s own 8-bit files is
+//! `Quantize`'s dither (default amplitude 0.5), which it adds before rounding and the viewer
+//! does not: a value may differ by one step where the dither crossed a rounding boundary.
 
 use crate::error::ViewerError;
 use std::path::Path;
@@ -28,6 +33,12 @@ impl Default for ToneMap {
 }
 
 impl ToneMap {
+    /// The tone map for a float image written with this exposure: `lrt-depth` applies the gain
+    /// to float outputs already, so only the gamma is left.
+    pub fn for_float_image(self) -> ToneMap {
+        ToneMap { gain: 1.0, gamma: self.gamma }
+    }
+
     /// The 8-bit value of a linear channel value: `round(255 * clamp((gain v)^(1/gamma), 0, 1))`.
     /// NaN maps to 0.
     pub fn to_byte(self, v: f32) -> u8 {
@@ -56,10 +67,12 @@ impl Rgba8Image {
     }
 
     /// Reads a PNG, JPEG, TIFF or OpenEXR file (by content for the first three, by the `.exr`
-    /// extension for the last). EXR values are tone-mapped with `tone_map`.
+    /// extension for the last). Float images (EXR, 32-bit float TIFF) are tone-mapped with
+    /// `tone_map`; 8-bit values are copied through; 16-bit values become `round(v / 257)`.
     pub fn read(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
         let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        let image = if is_exr { read_exr_rgba(path, tone_map)? } else { read_8bit(path)? };
+        let image =
+            if is_exr { read_exr_rgba(path, tone_map)? } else { read_integer_or_float(path, tone_map)? };
         check_size(path, image.width, image.height)?;
         Ok(image)
     }
@@ -80,7 +93,7 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<(), ViewerError> {
     Ok(())
 }
 
-fn read_8bit(path: &Path) -> Result<Rgba8Image, ViewerError> {
+fn read_integer_or_float(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
     let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
     let reader = image::ImageReader::open(path)
         .map_err(|e| ViewerError::Io { path: path.to_path_buf(), source: e })?
@@ -94,6 +107,15 @@ fn read_8bit(path: &Path) -> Result<Rgba8Image, ViewerError> {
     limits.max_alloc = Some(u64::from(MAX_IMAGE_SIDE) * u64::from(MAX_IMAGE_SIDE) * 8);
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| bad(format!("cannot decode the image: {e}")))?;
+    if matches!(decoded, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)) {
+        // A float TIFF holds linear values, like an EXR.
+        let linear = decoded.to_rgba32f();
+        let pixels = linear
+            .pixels()
+            .flat_map(|p| [tone_map.to_byte(p.0[0]), tone_map.to_byte(p.0[1]), tone_map.to_byte(p.0[2]), 255])
+            .collect();
+        return Ok(Rgba8Image { width: linear.width(), height: linear.height(), pixels });
+    }
     let rgba = decoded.to_rgba8();
     Ok(Rgba8Image { width: rgba.width(), height: rgba.height(), pixels: rgba.into_raw() })
 }
@@ -173,5 +195,43 @@ mod tests {
         assert_eq!(t.to_byte(f32::NAN), 0);
         let g = ToneMap { gain: 2.0, gamma: 2.2 };
         assert_eq!(g.to_byte(0.25), ((0.5f32).powf(1.0 / 2.2) * 255.0).round() as u8);
+    }
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("viewer-backdrop-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn float_images_are_tone_mapped_and_8bit_images_copied() {
+        let dir = scratch("read");
+        let value = |x: usize, y: usize| (x as f32 * 0.3, y as f32 * 0.45, 1.7 - x as f32 * 0.2);
+        let exr_path = dir.join("a.exr");
+        exr::prelude::write_rgb_file(&exr_path, 5, 3, value).unwrap();
+        let tone = ToneMap { gain: 1.5, gamma: 2.2 };
+        let img = Rgba8Image::read(&exr_path, tone).unwrap();
+        assert_eq!((img.width, img.height), (5, 3));
+        for y in 0..3 {
+            for x in 0..5 {
+                let (r, g, b) = value(x, y);
+                let k = (y * 5 + x) * 4;
+                assert_eq!(img.pixels[k..k + 4], [tone.to_byte(r), tone.to_byte(g), tone.to_byte(b), 255]);
+            }
+        }
+        let png_path = dir.join("a.png");
+        let rgba = image::RgbaImage::from_fn(4, 2, |x, y| image::Rgba([x as u8 * 60, y as u8 * 200, 7, 255]));
+        rgba.save(&png_path).unwrap();
+        assert_eq!(Rgba8Image::read(&png_path, tone).unwrap().pixels, rgba.into_raw());
+        let png16 = dir.join("b.png");
+        let wide = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(2, 1, |x, _| {
+            image::Rgb([x as u16 * 40000, 257, 65535])
+        });
+        wide.save(&png16).unwrap();
+        assert_eq!(Rgba8Image::read(&png16, tone).unwrap().pixels, vec![0, 1, 255, 255, 156, 1, 255, 255]);
+        assert!(Rgba8Image::read(&dir.join("missing.png"), tone).is_err());
+        std::fs::write(dir.join("junk.png"), b"not an image").unwrap();
+        assert!(Rgba8Image::read(&dir.join("junk.png"), tone).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
