@@ -53,6 +53,7 @@ pub mod materials;
 pub mod math;
 pub mod output;
 pub mod render;
+pub mod sampler;
 pub mod sampling;
 pub mod shapes;
 #[doc(hidden)]
