@@ -199,9 +199,13 @@ pub fn direct_from_light(
     }
     if strategy == DirectStrategy::Both && !light.is_delta() {
         // BSDF sampling toward the same light.
-        if let Some(bs) =
-            bsdf.sample(wo, sampler.uniform(), sampler.uniform2(), TransportMode::Radiance, non_specular(mask))
-        {
+        if let Some(bs) = bsdf.sample(
+            wo,
+            sampler.uniform(),
+            sampler.uniform2(),
+            TransportMode::Radiance,
+            non_specular(mask),
+        ) {
             let f = bs.f * bs.wi.dot(bsdf.frame.z).abs();
             if f != Vec3::ZERO && bs.pdf > 0.0 {
                 let ray = si.spawn_ray(bs.wi);
@@ -269,7 +273,9 @@ pub fn li(
             counters.bounce += camera.saturating_sub(1);
             r
         }
-        IntegratorKind::Path { max_depth, rr_depth } => path(world, ray, max_depth, rr_depth, sampler, counters),
+        IntegratorKind::Path { max_depth, rr_depth } => {
+            path(world, ray, max_depth, rr_depth, sampler, counters)
+        }
     }
 }
 
@@ -390,9 +396,13 @@ fn path(
         if bsdf.has_non_specular() {
             l += beta * sample_one_light(world, &si, &bsdf, LobeFlags::ALL, sampler, counters);
         }
-        let Some(bs) =
-            bsdf.sample(si.wo, sampler.uniform(), sampler.uniform2(), TransportMode::Radiance, LobeFlags::ALL)
-        else {
+        let Some(bs) = bsdf.sample(
+            si.wo,
+            sampler.uniform(),
+            sampler.uniform2(),
+            TransportMode::Radiance,
+            LobeFlags::ALL,
+        ) else {
             break;
         };
         let cos = bs.wi.dot(bsdf.frame.z).abs();

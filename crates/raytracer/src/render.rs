@@ -261,8 +261,7 @@ fn render_in_pool(
     let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
         .par_iter()
         .map(|&(tx0, ty0, tx1, ty1)| {
-            let r =
-                render_tile(&world, &rays, integrator, &filter, spp, options.seed, (tx0, ty0, tx1, ty1));
+            let r = render_tile(&world, &rays, integrator, &filter, spp, options.seed, (tx0, ty0, tx1, ty1));
             let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = &options.progress {

@@ -16,8 +16,11 @@
 use crate::sampling::{Rng, mix64};
 use glam::Vec2;
 
-/// Pairs of dimensions drawn from scrambled Sobol points before switching to PCG.
-pub const SOBOL_PAIRS: u32 = 32;
+/// Pairs of dimensions drawn from scrambled Sobol points before switching to PCG: the pixel
+/// position and the first two bounces of a path (about 3.5 pairs each: light choice and
+/// position, BSDF lobe and direction, Russian roulette). Deeper dimensions gain little from
+/// stratification and the scrambling costs more than PCG.
+pub const SOBOL_PAIRS: u32 = 8;
 
 /// Random numbers for one sample of one pixel.
 #[derive(Clone, Debug)]
@@ -46,17 +49,18 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
     laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// The second dimension of the Sobol sequence (direction numbers `v_k = v_{k-1} ^ v_{k-1} >> 1`).
+/// The second dimension of the Sobol sequence, bit-reversed (direction numbers
+/// `v_k = v_{k-1} ^ v_{k-1} >> 1`, built here from the low end).
 #[inline]
-fn sobol_1(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
+fn sobol_1_reversed(mut i: u32) -> u32 {
+    let mut v = 1u32;
     let mut r = 0;
     while i != 0 {
         if i & 1 != 0 {
             r ^= v;
         }
         i >>= 1;
-        v ^= v >> 1;
+        v ^= v << 1;
     }
     r
 }
@@ -95,8 +99,12 @@ impl Sampler {
         self.pair += 1;
         let h = mix64(self.pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         let (s0, s1, s2) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
+        // A shuffled index, then both coordinates scrambled; dimension 0 of Sobol is the index
+        // bit-reversed, so its scramble needs no reversal going in.
         let i = owen_scramble(self.index, s0);
-        Vec2::new(to_unit(owen_scramble(i.reverse_bits(), s1)), to_unit(owen_scramble(sobol_1(i), s2)))
+        let x = laine_karras(i, s1).reverse_bits();
+        let y = laine_karras(sobol_1_reversed(i), s2).reverse_bits();
+        Vec2::new(to_unit(x), to_unit(y))
     }
 
     /// The next dimension (half of a pair; the other half serves the next call).

@@ -55,7 +55,8 @@ impl RayShear {
     /// Translated, permuted and sheared vertex (z not yet scaled).
     #[inline(always)]
     fn transform(&self, p: Vec3) -> [f32; 3] {
-        let q = p - self.origin;
+        // Index an array (a plain load) rather than a Vec3 (a branch per component).
+        let q = (p - self.origin).to_array();
         let (x, y, z) = (q[self.kx], q[self.ky], q[self.kz]);
         [x + self.sx * z, y + self.sy * z, z]
     }
