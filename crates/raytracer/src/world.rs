@@ -952,6 +952,28 @@ impl World {
         *t_max = tray.t_max;
     }
 
+    /// For benchmarks: the BVH and the triangles (in BVH slot order) of a one-level world
+    /// (no object instances, no quadrics), so that obvhs' own traversal can run on the same tree.
+    #[doc(hidden)]
+    pub fn single_level_triangles(&self) -> Option<(&Bvh, Vec<[Vec3; 3]>)> {
+        if self.tlas.is_some() || self.instances.len() != 1 || !self.instances[0].identity {
+            return None;
+        }
+        let blas = &self.blases[self.instances[0].blas as usize];
+        if !blas.quadrics.is_empty() {
+            return None;
+        }
+        let tris = blas
+            .prims
+            .iter()
+            .map(|p| match p {
+                Prim::Triangle(i) => blas.triangles[*i as usize].p,
+                Prim::Quadric(_) => [Vec3::ZERO; 3],
+            })
+            .collect();
+        Some((&blas.bvh, tris))
+    }
+
     /// Fraction of light passing along the segment `ray` (origin + t direction, `t` in
     /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
     /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
