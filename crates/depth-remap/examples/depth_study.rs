@@ -24,7 +24,10 @@ fn paper_check() {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for d in [1.0, 2.0, 10.0, 50.0, 100.0] {
-        let c = paper_colocation(d, 1.0, 100.0);
+        let mut c = paper_colocation(d, 1.0, 100.0);
+        // Print -0 as 0.
+        c.polygon_window += 0.0;
+        c.printed_point_ndc += 0.0;
         let printed = if c.printed_point_visible {
             format!("{:.6} (window {:.6})", c.printed_point_ndc, gl_window_from_ndc(c.printed_point_ndc))
         } else {

@@ -130,24 +130,21 @@ const DIGIT_PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
 6061626364656667686970717273747576777879\
 8081828384858687888990919293949596979899";
 
-/// Writes the decimal digits of `n` to the end of `buffer`; returns the index of the first.
-fn write_digits(mut n: u64, buffer: &mut [u8; 20]) -> usize {
-    let mut at = buffer.len();
-    while n >= 100 {
-        let pair = (n % 100) as usize * 2;
-        n /= 100;
+/// Writes the `count` low decimal digits of `value` (zero-padded) to `text[end - count..end]`.
+#[inline]
+fn write_digits_at(mut value: u64, count: usize, text: &mut [u8; 32], end: usize) {
+    let stop = end - count;
+    let mut at = end;
+    while at >= stop + 2 {
+        let pair = (value % 100) as usize * 2;
+        value /= 100;
         at -= 2;
-        buffer[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        text[at] = DIGIT_PAIRS[pair];
+        text[at + 1] = DIGIT_PAIRS[pair + 1];
     }
-    if n >= 10 {
-        let pair = n as usize * 2;
-        at -= 2;
-        buffer[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
-    } else {
-        at -= 1;
-        buffer[at] = b'0' + n as u8;
+    if at > stop {
+        text[at - 1] = b'0' + (value % 10) as u8;
     }
-    at
 }
 
 /// Whether a decimal whose first significant digit has exponent `x` is written plainly.
@@ -179,38 +176,71 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
         push_f32_std(out, v);
         return;
     };
-    let mut buffer = [0u8; 20];
-    let first = write_digits(digits, &mut buffer);
-    let digits = &buffer[first..];
-    let n = digits.len() as i32;
-    let x = exponent + n - 1;
+    // Assemble the text in a local buffer and append a fixed 32 bytes, then cut back: a
+    // fixed-size copy is inlined, a variable-length one is a call to memcpy per value.
+    let mut text = [0u8; 32];
+    let length = format_decimal(digits, exponent, &mut text);
+    let start = out.len();
+    out.extend_from_slice(&text);
+    out.truncate(start + length);
+}
+
+/// Copies 16 bytes `source[from..from + 16]` to `text[at..at + 16]`. A fixed-size copy is two
+/// register moves; copies of a variable number of bytes become calls to memcpy or memmove,
+/// which cost more than the rest of the formatting.
+#[inline]
+fn copy16(text: &mut [u8; 32], at: usize, source: &[u8; 32], from: usize) {
+    if let (Some(destination), Some(chunk)) = (text.get_mut(at..at + 16), source.get(from..from + 16)) {
+        let chunk: &[u8; 16] = chunk.try_into().unwrap_or(&[b'0'; 16]);
+        destination.copy_from_slice(chunk);
+    }
+}
+
+/// Writes `digits * 10^exponent` in the notation of [`push_f32`] to the start of `text`;
+/// returns the length. `digits` has at most 10 digits and the exponent is within f32's range,
+/// so the longest text is 16 bytes (`1234567800000000`, the widest plain integer).
+fn format_decimal(digits: u64, exponent: i32, text: &mut [u8; 32]) -> usize {
+    let n = digits.ilog10() as usize + 1;
+    let x = exponent + n as i32 - 1;
+    // The digits left-aligned, followed by zeros (which serve as trailing zeros too).
+    let mut all = [b'0'; 32];
+    write_digits_at(digits, n, &mut all, n);
     if plain_notation(x) {
         if exponent >= 0 {
-            out.extend_from_slice(digits);
-            out.resize(out.len() + exponent as usize, b'0');
+            copy16(text, 0, &all, 0);
+            n + exponent as usize
         } else if x >= 0 {
             let integer = (x + 1) as usize;
-            out.extend_from_slice(&digits[..integer]);
-            out.push(b'.');
-            out.extend_from_slice(&digits[integer..]);
+            copy16(text, 0, &all, 0);
+            text[integer] = b'.';
+            copy16(text, integer + 1, &all, integer);
+            n + 1
         } else {
-            out.extend_from_slice(b"0.");
-            out.resize(out.len() + (-x - 1) as usize, b'0');
-            out.extend_from_slice(digits);
+            let zeros = (-x - 1) as usize;
+            text[0] = b'0';
+            text[1] = b'.';
+            copy16(text, 2, &[b'0'; 32], 0);
+            copy16(text, 2 + zeros, &all, 0);
+            2 + zeros + n
         }
     } else {
-        out.push(digits[0]);
+        text[0] = all[0];
+        let mut at = 1;
         if n > 1 {
-            out.push(b'.');
-            out.extend_from_slice(&digits[1..]);
+            text[1] = b'.';
+            copy16(text, 2, &all, 1);
+            at = n + 1;
         }
-        out.push(b'e');
+        text[at] = b'e';
+        at += 1;
         if x < 0 {
-            out.push(b'-');
+            text[at] = b'-';
+            at += 1;
         }
-        let mut exponent_buffer = [0u8; 20];
-        let first = write_digits(u64::from(x.unsigned_abs()), &mut exponent_buffer);
-        out.extend_from_slice(&exponent_buffer[first..]);
+        let e = x.unsigned_abs() as usize;
+        let e_digits = if e >= 10 { 2 } else { 1 };
+        write_digits_at(e as u64, e_digits, text, at + e_digits);
+        at + e_digits
     }
 }
 

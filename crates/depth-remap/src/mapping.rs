@@ -271,12 +271,10 @@ impl DepthMapping {
     /// NDC depth of a point at planar eye depth `eye_depth` (`-z_eye`), unclamped, in `f64`.
     #[inline]
     pub fn ndc_depth(&self, eye_depth: f64) -> f64 {
-        if self.perspective {
-            // z_clip = z_offset - z_scale * d with a single rounding, then one division.
-            (-self.z_scale).mul_add(eye_depth, self.z_offset) / eye_depth
-        } else {
-            (-self.z_scale).mul_add(eye_depth, self.z_offset)
-        }
+        // z_clip = z_offset - z_scale * d without cancellation error (it cancels at the zero of
+        // NDC depth), then one division.
+        let z_clip = (-self.z_scale).mul_add(eye_depth, self.z_offset);
+        if self.perspective { z_clip / eye_depth } else { z_clip }
     }
 
     /// Window depth (what the depth buffer stores, before quantisation) of a point at planar

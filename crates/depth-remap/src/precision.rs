@@ -51,7 +51,7 @@ fn jitter(k: u64) -> f64 {
 
 /// The smallest separation `delta` such that a surface at any depth `x` near `d` (sampled over
 /// several quantisation steps around `d`) is stored strictly nearer than one at `x + delta`.
-/// `None` when no separation up to `d` itself (or up to the far plane) suffices.
+/// `None` when no separation up to a quarter of `min(d, far - d)` suffices.
 pub fn min_separation(
     mapping: &DepthMapping,
     format: DepthBufferFormat,
@@ -75,17 +75,40 @@ pub fn min_separation(
     if step >= limit {
         return None;
     }
-    // Samples spread over about eight steps (and at least a relative 1e-6), jittered so they
-    // fall at every phase of the quantisation.
-    let span = (8.0 * step).max(d * 1e-6);
+    // Samples spread over several quantisation steps, jittered so they fall at every phase of
+    // the quantisation. The first guess of the step can be too small (d may sit just below a
+    // step boundary), so the span grows until it covers at least eight times the answer.
+    // Samples and their partners stay within `limit / 2` of d, so inside the near and far planes.
+    let max_span = limit / 2.0;
+    let mut span = (8.0 * step).max(d * 1e-6).min(max_span);
+    for _ in 0..8 {
+        let delta = separation_over(&key, d, span, samples, step, max_span / 2.0)?;
+        if span >= 8.0 * delta || span >= max_span {
+            return Some(delta);
+        }
+        span = (16.0 * delta).min(max_span);
+    }
+    None
+}
+
+/// The smallest separation that orders every sample in `d ± span / 2` against the surface
+/// `delta` behind it, by bisection in log space; `None` past `limit`.
+fn separation_over(
+    key: &impl Fn(f64) -> i64,
+    d: f64,
+    span: f64,
+    samples: usize,
+    first_guess: f64,
+    limit: f64,
+) -> Option<f64> {
     let points: Vec<(f64, i64)> = (0..samples)
         .map(|k| {
-            let x = d + span * ((k as f64 + jitter(k as u64)) / samples as f64);
+            let x = d + span * ((k as f64 + jitter(k as u64)) / samples as f64 - 0.5);
             (x, key(x))
         })
         .collect();
     let ordered = |delta: f64| points.iter().all(|&(x, kx)| kx < key(x + delta));
-    let mut high = step;
+    let mut high = first_guess;
     while !ordered(high) {
         high *= 2.0;
         if high > limit {
@@ -93,14 +116,10 @@ pub fn min_separation(
         }
     }
     let mut low = high / 2.0;
-    if ordered(low) {
-        // Shrink until it fails (rare: the first guess was generous).
-        while low > d * 1e-12 && ordered(low) {
-            high = low;
-            low /= 2.0;
-        }
+    while low > d * 1e-12 && ordered(low) {
+        high = low;
+        low /= 2.0;
     }
-    // Bisection in log space between a failing `low` and a passing `high`.
     for _ in 0..40 {
         let mid = (low * high).sqrt();
         if ordered(mid) {

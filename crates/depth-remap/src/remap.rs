@@ -196,10 +196,12 @@ pub fn remap_depth_table(
 
 impl Camera {
     /// Window depth (rounded once to `f32`, clamped) of pixel `(i, j)` holding `radial`: the
-    /// single-pixel form of [`remap_depth_table`].
+    /// single-pixel form of [`remap_depth_table`], with `mapping` from
+    /// [`Camera::depth_mapping`]. A miss (`inf`), and anything that is not a depth (`nan`, a
+    /// negative), gives the far value.
     pub fn window_depth_from_radial(&self, i: u32, j: u32, radial: f32, mapping: &DepthMapping) -> f32 {
         let convention = mapping.convention();
-        if radial == f32::INFINITY {
+        if radial == f32::INFINITY || !crate::table::is_depth(radial) {
             return convention.far_window_depth();
         }
         let d = f64::from(radial) * self.eye_depth_per_radial(i, j);
@@ -263,11 +265,24 @@ pub struct NearFarPolicy {
     pub infinite_far: bool,
 }
 
+impl NearFarPolicy {
+    /// The margins that suit a convention. Reversed-Z with `[0, 1]` NDC keeps the same relative
+    /// precision wherever the planes are, so live objects get room: near at 1/64 of the nearest
+    /// surface and an infinite far plane. Every other convention loses precision in proportion
+    /// to `far / near`: near at half the nearest surface, far at twice the farthest.
+    pub fn for_convention(convention: DepthConvention) -> Self {
+        if convention == DepthConvention::WgpuReversed {
+            NearFarPolicy { near_factor: 1.0 / 64.0, far_factor: 2.0, infinite_far: true }
+        } else {
+            NearFarPolicy { near_factor: 0.5, far_factor: 2.0, infinite_far: false }
+        }
+    }
+}
+
 impl Default for NearFarPolicy {
-    /// Near at half the nearest surface, far at twice the farthest, infinite far plane (the
-    /// viewer's reversed-Z default, whose precision does not depend on far).
+    /// The viewer's default: [`NearFarPolicy::for_convention`] of reversed-Z.
     fn default() -> Self {
-        NearFarPolicy { near_factor: 0.5, far_factor: 2.0, infinite_far: true }
+        NearFarPolicy::for_convention(DepthConvention::WgpuReversed)
     }
 }
 

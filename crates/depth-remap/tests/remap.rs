@@ -109,12 +109,19 @@ fn clamping_is_counted() {
     assert_eq!(remapped.stats, RemapStats { misses: 61, clamped_near: 1, clamped_far: 1 });
     assert_eq!(&remapped.values[..3], &[0.0, 1.0, remapped.values[2]]);
     assert!(remapped.values[2] > 0.0 && remapped.values[2] < 1.0);
+    // Values that are not depths never reach a table, and the single-pixel form refuses them.
+    for bad in [f32::NAN, -1.0, f32::NEG_INFINITY] {
+        assert_eq!(camera.window_depth_from_radial(0, 0, bad, &mapping), 1.0);
+    }
 }
 
 #[test]
 fn near_and_far_come_from_the_data_and_clipping() {
     let range = EyeDepthRange { min: 3.0, max: 40.0 };
-    let policy = NearFarPolicy::default();
+    let policy = NearFarPolicy::for_convention(DepthConvention::Gl);
+    assert_eq!(policy, NearFarPolicy { near_factor: 0.5, far_factor: 2.0, infinite_far: false });
+    let reversed = choose_near_far(Some(range), Clipping::default(), NearFarPolicy::default());
+    assert_eq!((reversed.near, reversed.infinite_far), (3.0 / 64.0, true));
     let planes = choose_near_far(Some(range), Clipping::default(), policy);
     assert!(planes.near <= 1.5 && planes.near > 1.5 * (1.0 - 1e-7));
     assert!(planes.far >= 80.0 && planes.far < 80.0 * (1.0 + 1e-7));
@@ -132,7 +139,7 @@ fn near_and_far_come_from_the_data_and_clipping() {
     // Nonsense clipping still gives valid planes.
     let odd = choose_near_far(Some(range), Clipping { near: 10.0, far: 5.0 }, policy);
     assert!(odd.near > 0.0 && odd.far > odd.near);
-    // The sphere scene: near at half the nearest surface.
+    // The sphere scene: the nearest surface is the sphere's front.
     let camera = camera(40, 30, None);
     let table = sphere_table(&camera, (0, 0), (40, 30));
     let range = camera.eye_depth_range(&table).unwrap().unwrap();

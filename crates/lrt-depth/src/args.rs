@@ -56,9 +56,8 @@ pub enum Mode {
     Render,
 }
 
-/// Checked settings for one run. `output`, `spp` and `threads` are read by the render path.
+/// Checked settings for one run.
 #[derive(Clone, Debug)]
-#[allow(dead_code)]
 pub struct Settings {
     pub scene: PathBuf,
     pub mode: Mode,

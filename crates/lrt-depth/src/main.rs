@@ -4,6 +4,7 @@
 
 mod args;
 mod check;
+mod render;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -26,15 +27,6 @@ fn main() -> ExitCode {
     };
     match settings.mode {
         args::Mode::Check => check::run(&settings),
-        args::Mode::Render => {
-            // Parse first, so scene errors are reported the same way in both modes.
-            if let Err(code) = check::load(&settings) {
-                return code;
-            }
-            eprintln!(
-                "lrt-depth: error: rendering is not available yet (the ray tracer has not landed); use --check"
-            );
-            ExitCode::from(1)
-        }
+        args::Mode::Render => render::run(&settings),
     }
 }

@@ -59,6 +59,7 @@ const POW10_F64: [f64; 23] = [
 
 impl Num {
     /// The value rounded once to `f32`.
+    #[inline]
     pub(crate) fn to_f32(self, src: &[u8]) -> f32 {
         match self {
             Num::Decimal { negative, mantissa, exp10, exact, start, end, .. } => {
@@ -73,7 +74,7 @@ impl Num {
                     };
                     if negative { -v } else { v }
                 } else {
-                    parse_text(&src[start..end]).unwrap_or(f32::NAN)
+                    parse_slow(&src[start..end])
                 }
             }
             Num::Int(i) => i as f32,
@@ -83,6 +84,7 @@ impl Num {
     }
 
     /// The value rounded once to `f64`.
+    #[inline]
     pub(crate) fn to_f64(self, src: &[u8]) -> f64 {
         match self {
             Num::Decimal { negative, mantissa, exp10, exact, start, end, .. } => {
@@ -95,7 +97,7 @@ impl Num {
                     };
                     if negative { -v } else { v }
                 } else {
-                    parse_text(&src[start..end]).unwrap_or(f64::NAN)
+                    parse_slow(&src[start..end])
                 }
             }
             Num::Int(i) => f64::from(i),
@@ -106,6 +108,7 @@ impl Num {
 
     /// The value as an integer: integers as written, and floats with an integral value (binary
     /// writers sometimes encode counts as floats).
+    #[inline]
     pub(crate) fn to_i32(self, src: &[u8]) -> Option<i32> {
         match self {
             Num::Decimal { negative, mantissa, integer: true, exact: true, .. } => {
@@ -121,8 +124,13 @@ impl Num {
     }
 }
 
-fn parse_text<T: std::str::FromStr>(text: &[u8]) -> Option<T> {
-    std::str::from_utf8(text).ok()?.parse().ok()
+/// The full (correctly rounded) conversion for numbers the fast path cannot take: more than
+/// 7 (f32) or 15 (f64) significant digits, or large exponents. The lexer only makes number
+/// tokens of ASCII digits, signs, `.` and exponents, which `str::parse` accepts.
+#[cold]
+#[inline(never)]
+fn parse_slow<T: std::str::FromStr + From<f32>>(text: &[u8]) -> T {
+    std::str::from_utf8(text).ok().and_then(|t| t.parse().ok()).unwrap_or(T::from(f32::NAN))
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -140,6 +148,15 @@ pub(crate) struct Token {
     pub kind: TokenKind,
     /// Byte offset of the first byte of the token.
     pub start: usize,
+}
+
+/// How [`Lexer::read_number_array`] stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ArrayRead {
+    /// The array is complete (its `]` is consumed).
+    Closed,
+    /// Something else comes next; the general path takes over.
+    Interrupted,
 }
 
 /// A byte sequence that is not a token. The lexer has already skipped past it.
@@ -161,7 +178,7 @@ pub(crate) struct BinaryTables {
 const MAX_DEFINED_STRINGS: usize = 1 << 20;
 
 pub(crate) struct Lexer {
-    bytes: Arc<[u8]>,
+    bytes: Arc<Vec<u8>>,
     pos: usize,
     end: usize,
     tables: BinaryTables,
@@ -175,19 +192,19 @@ fn is_delimiter(b: u8) -> bool {
 }
 
 impl Lexer {
-    pub(crate) fn new(bytes: Arc<[u8]>) -> Lexer {
+    pub(crate) fn new(bytes: Arc<Vec<u8>>) -> Lexer {
         let end = bytes.len();
         Lexer::with_range(bytes, 0, end, BinaryTables::default())
     }
 
     /// A lexer over `bytes[start..end]` (an inline archive) with the binary definitions that were
     /// in effect where the range starts.
-    pub(crate) fn with_range(bytes: Arc<[u8]>, start: usize, end: usize, tables: BinaryTables) -> Lexer {
+    pub(crate) fn with_range(bytes: Arc<Vec<u8>>, start: usize, end: usize, tables: BinaryTables) -> Lexer {
         let end = end.min(bytes.len());
         Lexer { bytes, pos: start.min(end), end, tables, array_remaining: None, peeked: Default::default() }
     }
 
-    pub(crate) fn bytes(&self) -> &Arc<[u8]> {
+    pub(crate) fn bytes(&self) -> &Arc<Vec<u8>> {
         &self.bytes
     }
 
@@ -214,6 +231,128 @@ impl Lexer {
             self.peeked.push_back(t);
         }
         &self.peeked[n]
+    }
+
+    /// The fast path for the elements of a number array whose `[` was read: converts numbers
+    /// straight into `out` up to and including the closing `]` (or the end of a binary float
+    /// array). Stops before anything else (another token, a number `convert` refuses, `max`
+    /// elements), leaving it to the caller's general path.
+    pub(crate) fn read_number_array<T>(
+        &mut self,
+        out: &mut Vec<T>,
+        max: usize,
+        convert: impl Fn(Num, &[u8]) -> Option<T>,
+    ) -> Result<ArrayRead, LexError> {
+        if !self.peeked.is_empty() {
+            return Ok(ArrayRead::Interrupted);
+        }
+        loop {
+            if out.len() >= max {
+                return Ok(ArrayRead::Interrupted);
+            }
+            if let Some(remaining) = self.array_remaining {
+                let take = remaining.min(max - out.len());
+                out.reserve(take);
+                for k in 0..take {
+                    let at = self.pos;
+                    let word = [self.bytes[at], self.bytes[at + 1], self.bytes[at + 2], self.bytes[at + 3]];
+                    match convert(Num::F32(f32::from_be_bytes(word)), &self.bytes) {
+                        Some(v) => out.push(v),
+                        None => {
+                            self.array_remaining = Some(remaining - k);
+                            return Ok(ArrayRead::Interrupted);
+                        }
+                    }
+                    self.pos += 4;
+                }
+                if take < remaining {
+                    self.array_remaining = Some(remaining - take);
+                    return Ok(ArrayRead::Interrupted);
+                }
+                self.array_remaining = None;
+                return Ok(ArrayRead::Closed);
+            }
+            let (i, b) = {
+                let bytes = &*self.bytes;
+                let mut i = self.pos;
+                loop {
+                    while i < self.end && matches!(bytes[i], b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c) {
+                        i += 1;
+                    }
+                    if i < self.end && bytes[i] == b'#' {
+                        while i < self.end && bytes[i] != b'\n' && bytes[i] != b'\r' {
+                            i += 1;
+                        }
+                        continue;
+                    }
+                    break;
+                }
+                self.pos = i;
+                if i >= self.end {
+                    return Ok(ArrayRead::Interrupted);
+                }
+                (i, bytes[i])
+            };
+            let token = match b {
+                b']' => {
+                    self.pos = i + 1;
+                    return Ok(ArrayRead::Closed);
+                }
+                b'0'..=b'9' | b'-' | b'+' | b'.' => {
+                    let n = self.lex_number(i)?;
+                    match convert(n, &self.bytes) {
+                        Some(v) => {
+                            out.push(v);
+                            continue;
+                        }
+                        None => Token { kind: TokenKind::Number(n), start: i },
+                    }
+                }
+                // Binary integers and floats, decoded in place (meshes written in binary RIB
+                // hold millions of them).
+                0x80..=0x83 | 0xa4 if i + 5 <= self.end => {
+                    let n = if b == 0xa4 {
+                        let w = [self.bytes[i + 1], self.bytes[i + 2], self.bytes[i + 3], self.bytes[i + 4]];
+                        self.pos = i + 5;
+                        Num::F32(f32::from_be_bytes(w))
+                    } else {
+                        let len = usize::from(b - 0x80) + 1;
+                        let mut v: u32 = 0;
+                        for k in 0..len {
+                            v = (v << 8) | u32::from(self.bytes[i + 1 + k]);
+                        }
+                        let shift = 32 - 8 * len as u32;
+                        self.pos = i + 1 + len;
+                        Num::Int(((v << shift) as i32) >> shift)
+                    };
+                    match convert(n, &self.bytes) {
+                        Some(v) => {
+                            out.push(v);
+                            continue;
+                        }
+                        None => Token { kind: TokenKind::Number(n), start: i },
+                    }
+                }
+                0x80.. => match self.scan_binary(i)? {
+                    Some(t) => t,
+                    None => continue,
+                },
+                _ => return Ok(ArrayRead::Interrupted),
+            };
+            match token.kind {
+                TokenKind::Number(n) => match convert(n, &self.bytes) {
+                    Some(v) => out.push(v),
+                    None => {
+                        self.unread(token);
+                        return Ok(ArrayRead::Interrupted);
+                    }
+                },
+                _ => {
+                    self.unread(token);
+                    return Ok(ArrayRead::Interrupted);
+                }
+            }
+        }
     }
 
     fn err(&self, offset: usize, message: impl Into<String>) -> LexError {
@@ -298,6 +437,13 @@ impl Lexer {
     }
 
     fn scan_number(&mut self, start: usize) -> Result<Token, LexError> {
+        let n = self.lex_number(start)?;
+        Ok(Token { kind: TokenKind::Number(n), start })
+    }
+
+    /// Scans an ASCII number starting at `start` into its decimal mantissa and exponent.
+    #[inline]
+    fn lex_number(&mut self, start: usize) -> Result<Num, LexError> {
         let bytes = &*self.bytes;
         let end = self.end;
         let mut i = start;
@@ -368,18 +514,7 @@ impl Lexer {
             return Err(self.err(start, format!("'{text}' is not a number")));
         }
         self.pos = i;
-        Ok(Token {
-            kind: TokenKind::Number(Num::Decimal {
-                negative,
-                mantissa,
-                exp10,
-                integer,
-                exact,
-                start,
-                end: i,
-            }),
-            start,
-        })
+        Ok(Num::Decimal { negative, mantissa, exp10, integer, exact, start, end: i })
     }
 
     fn scan_string(&mut self, start: usize) -> Result<Token, LexError> {
@@ -583,8 +718,8 @@ impl Lexer {
 mod tests {
     use super::*;
 
-    fn lex(src: &[u8]) -> (Vec<Result<TokenKind, String>>, Arc<[u8]>) {
-        let bytes: Arc<[u8]> = Arc::from(src);
+    fn lex(src: &[u8]) -> (Vec<Result<TokenKind, String>>, Arc<Vec<u8>>) {
+        let bytes = Arc::new(src.to_vec());
         let mut l = Lexer::new(bytes.clone());
         let mut out = Vec::new();
         loop {

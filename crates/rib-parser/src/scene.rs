@@ -383,6 +383,8 @@ pub struct Attributes {
     /// Our `Attribute "haptic"` namespace, decoded.
     pub haptic: HapticMaterial,
     /// Every `Attribute` call in effect, in order (including `"identifier"` and `"haptic"`).
+    /// A parameter set again in the same namespace replaces its earlier value (the earlier
+    /// call keeps its other parameters; a call left without parameters is dropped).
     pub user: Vec<AttributeCall>,
     /// `ShadingRate`.
     pub shading_rate: f32,

@@ -14,8 +14,9 @@ pub struct SourceFile {
     /// The file's path on the (possibly virtual) file system, used to resolve relative archive
     /// names; `None` for standard input and in-memory sources.
     pub path: Option<PathBuf>,
-    /// The RIB bytes, decompressed when the file was gzip.
-    pub bytes: Arc<[u8]>,
+    /// The RIB bytes, decompressed when the file was gzip (shared with the lexers reading them,
+    /// without a copy).
+    pub bytes: Arc<Vec<u8>>,
     /// True when the file was gzip-compressed (detected by its magic bytes, not its name).
     pub was_gzip: bool,
     line_starts: OnceLock<Vec<usize>>,
@@ -23,7 +24,7 @@ pub struct SourceFile {
 
 impl SourceFile {
     pub fn new(name: impl Into<Arc<str>>, path: Option<PathBuf>, bytes: Vec<u8>, was_gzip: bool) -> Self {
-        SourceFile { name: name.into(), path, bytes: bytes.into(), was_gzip, line_starts: OnceLock::new() }
+        SourceFile { name: name.into(), path, bytes: Arc::new(bytes), was_gzip, line_starts: OnceLock::new() }
     }
 
     /// Byte offsets where lines start; built on first use (most runs need no locations at all

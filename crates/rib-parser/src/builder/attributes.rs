@@ -107,6 +107,11 @@ pub(crate) fn apply(a: &mut Attributes, op: &AttrOp, coordsys_left_handed: bool)
                     h.dynamic_friction = Some(v);
                 }
             }
+            // An attribute set again replaces its earlier value: keep only what is in effect.
+            for earlier in a.user.iter_mut().filter(|c| c.namespace == call.namespace) {
+                earlier.params.0.retain(|p| call.params.get(&p.name).is_none());
+            }
+            a.user.retain(|c| !c.params.0.is_empty());
             a.user.push(call.clone());
         }
     }

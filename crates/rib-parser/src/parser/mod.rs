@@ -15,7 +15,7 @@ mod geometry;
 mod requests;
 
 use crate::diagnostics::{DiagnosticKind, Diagnostics};
-use crate::lexer::{LexError, Lexer, Num, Text, Token, TokenKind};
+use crate::lexer::{ArrayRead, LexError, Lexer, Num, Text, Token, TokenKind};
 use crate::limits::Limits;
 use crate::params::{self, ClassCounts, DeclTable};
 use crate::scene::{FileLoc, Param, ParamDecl, ParamList, ParamType, ParamValues, StorageClass};
@@ -332,7 +332,7 @@ impl Reader {
 
     /// The source bytes of the current input (a cheap `Arc` clone, so values can be read out of
     /// them while the lexer moves on).
-    fn bytes(&mut self) -> Arc<[u8]> {
+    fn bytes(&mut self) -> Arc<Vec<u8>> {
         self.input().lexer.bytes().clone()
     }
 
@@ -344,11 +344,11 @@ impl Reader {
             return input.source.loc(offset);
         }
         let bytes = &input.source.bytes[c.offset..offset.min(input.source.bytes.len())];
-        for (i, &b) in bytes.iter().enumerate() {
-            if b == b'\n' {
-                c.line = c.line.saturating_add(1);
-                c.line_start = c.offset + i + 1;
-            }
+        // Counting and finding the last newline separately lets both loops vectorise.
+        let newlines = bytes.iter().filter(|&&b| b == b'\n').count();
+        if let Some(last) = bytes.iter().rposition(|&b| b == b'\n') {
+            c.line = c.line.saturating_add(u32::try_from(newlines).unwrap_or(u32::MAX));
+            c.line_start = c.offset + last + 1;
         }
         c.offset = offset;
         let column = u32::try_from(offset - c.line_start + 1).unwrap_or(u32::MAX);
@@ -654,6 +654,14 @@ impl Reader {
     fn read_float_elements(&mut self, out: &mut Vec<f32>, request: &str, what: &str) -> PResult<()> {
         let bytes = self.bytes();
         let max = self.options.limits.max_array_len;
+        match self.input().lexer.read_number_array(out, max, |n, b| Some(n.to_f32(b))) {
+            Ok(ArrayRead::Closed) => return Ok(()),
+            Ok(ArrayRead::Interrupted) => {}
+            Err(e) => {
+                self.report_lex_error(e);
+                return Err(Stop);
+            }
+        }
         loop {
             let tok = self.tok()?;
             match tok.kind {
@@ -672,6 +680,14 @@ impl Reader {
     fn read_int_elements(&mut self, out: &mut Vec<i32>, request: &str, what: &str) -> PResult<()> {
         let bytes = self.bytes();
         let max = self.options.limits.max_array_len;
+        match self.input().lexer.read_number_array(out, max, |n, b| n.to_i32(b)) {
+            Ok(ArrayRead::Closed) => return Ok(()),
+            Ok(ArrayRead::Interrupted) => {}
+            Err(e) => {
+                self.report_lex_error(e);
+                return Err(Stop);
+            }
+        }
         loop {
             let tok = self.tok()?;
             match tok.kind {
