@@ -80,8 +80,11 @@ pub struct Session {
     manual: Option<crate::device::ManualInputWriter>,
     rate_hz: f64,
     trajectory_span: Option<(f64, f64)>,
-    /// Notes for the user: materials corrected, shapes skipped, defaults chosen.
-    pub notes: Vec<String>,
+    /// Problems the user should hear about: shapes that cannot be touched, materials
+    /// corrected, a stiffness above the device's limit.
+    pub warnings: Vec<String>,
+    /// What was decided: the gain chosen, the triangle count and BVH build time.
+    pub info: Vec<String>,
 }
 
 impl Session {
@@ -93,7 +96,14 @@ impl Session {
                 config.proxy_radius
             )));
         }
-        let mut notes: Vec<String> = geometry.warnings.clone();
+        let mut warnings: Vec<String> = geometry.warnings.clone();
+        let mut info: Vec<String> = Vec::new();
+        if geometry.untouchable_shapes > 0 {
+            info.push(format!(
+                "haptics: {} surfaces with stiffness 0 cannot be felt",
+                geometry.untouchable_shapes
+            ));
+        }
         let mut manual = None;
         let mut trajectory_span = None;
         let device: Box<dyn HapticDevice> = match &config.device {
@@ -125,7 +135,7 @@ impl Session {
             None => {
                 let radius = geometry.radius();
                 let gain = if radius > 0.0 { radius / specs.workspace_radius } else { 1.0 };
-                notes.push(format!(
+                info.push(format!(
                     "haptics: gain {gain} scene units per metre (the {} m workspace covers the scene's radius {radius})",
                     specs.workspace_radius
                 ));
@@ -141,25 +151,31 @@ impl Session {
                 )));
             }
             if k > specs.max_stiffness {
-                notes.push(format!(
+                warnings.push(format!(
                     "haptics: stiffness {k} N/m exceeds the {}'s maximum; using {} N/m",
                     specs.name, specs.max_stiffness
                 ));
             }
             defaults.stiffness = k.min(specs.max_stiffness);
         }
-        let (materials, warnings) =
+        let (materials, corrections) =
             MaterialTable::resolve(&geometry.materials, defaults, specs.max_stiffness);
-        notes.extend(warnings.iter().map(|w| format!("haptics: {w}")));
+        warnings.extend(corrections.iter().map(|w| format!("haptics: {w}")));
         let world = Arc::new(CollisionWorld::new(geometry.mesh));
-        notes.push(format!(
+        info.push(format!(
+            "haptics: {} ({}), mapping centre {centre}, gain {gain}; stiffness {} N/m where none is given",
+            specs.name,
+            if specs.has_force_output { "force output" } else { "input only" },
+            defaults.stiffness
+        ));
+        info.push(format!(
             "haptics: {} triangles, BVH built in {:.1} ms",
             world.mesh().triangle_count(),
             world.build_time().as_secs_f64() * 1e3
         ));
         let renderer =
             HapticRenderer::new(world, materials, &specs, mapping, RenderSettings::new(config.proxy_radius));
-        Ok(Session { device, renderer, manual, rate_hz: config.rate_hz, trajectory_span, notes })
+        Ok(Session { device, renderer, manual, rate_hz: config.rate_hz, trajectory_span, warnings, info })
     }
 
     /// The device-to-scene mapping in effect.
@@ -182,10 +198,15 @@ impl Session {
         self.trajectory_span
     }
 
-    /// Starts the real-time loop.
-    pub fn spawn(self, mut config: ThreadConfig) -> Result<HapticThread, HapticError> {
+    /// Starts the real-time loop, writing every tick to `force_log` when given.
+    pub fn spawn(
+        self,
+        mut config: ThreadConfig,
+        force_log: Option<&Path>,
+    ) -> Result<HapticThread, HapticError> {
         config.rate_hz = self.rate_hz;
-        HapticThread::spawn(self.device, self.renderer, config)
+        let log = force_log.map(ForceLogWriter::create).transpose()?;
+        HapticThread::spawn_logged(self.device, self.renderer, config, log)
     }
 
     /// Runs the loop in simulated time from `start` to `end` (seconds), writing the force log
@@ -289,9 +310,9 @@ mod tests {
         assert!((session.mapping().gain - radius / 0.08).abs() < 1e-12);
         assert_eq!(session.mapping().centre, DVec3::ZERO);
         assert!(
-            session.notes.iter().any(|n| n.contains("exceeds the device's maximum")),
+            session.warnings.iter().any(|n| n.contains("exceeds the device's maximum")),
             "{:?}",
-            session.notes
+            session.warnings
         );
         assert!(session.manual_input().is_some());
     }

@@ -4,7 +4,8 @@
 //! pixel (a `textureLoad` copy into a unorm surface: no filtering, no colour-space change), so
 //! what a headless run writes is exactly what the window shows.
 //!
-//! Controls when no [`LiveUpdate`] drives the sphere (keys act on the sphere, in camera axes):
+//! Controls when no [`LiveUpdate`] drives the sphere, or when the one that does asks for them
+//! ([`LiveUpdate::keyboard_moves_sphere`]; keys act on the sphere, in camera axes):
 //! - mouse: left-drag moves the sphere under the cursor at its current depth; the wheel moves
 //!   it along the view direction;
 //! - arrows or `W`/`A`/`S`/`D`: move in the image plane; `Q`/`E` or `PageUp`/`PageDown`: move
@@ -247,6 +248,9 @@ impl App {
         let info = FrameInfo { index: self.frames, time_s: start.elapsed().as_secs_f64() };
         if let Some(updater) = self.updater.as_mut() {
             updater.update(&mut self.live, &info);
+            if updater.wants_exit() {
+                event_loop.exit();
+            }
         }
         let Some(p) = self.presenter.as_mut() else { return Ok(()) };
         p.compositor.render(&self.live)?;
@@ -362,8 +366,14 @@ impl App {
         }
     }
 
+    /// Whether the keyboard and mouse move the sphere: always without an updater, and with one
+    /// that asks for it.
+    fn keyboard_moves_sphere(&self) -> bool {
+        self.updater.as_ref().is_none_or(|u| u.keyboard_moves_sphere())
+    }
+
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) {
-        let manual = self.updater.is_none();
+        let manual = self.keyboard_moves_sphere();
         let step = self.step();
         match key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
@@ -453,7 +463,7 @@ impl ApplicationHandler for App {
                 self.key(event_loop, &event.logical_key);
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.dragging = state == ElementState::Pressed && self.updater.is_none();
+                self.dragging = state == ElementState::Pressed && self.keyboard_moves_sphere();
                 if let (true, Some(c)) = (self.dragging, self.cursor) {
                     self.drag_to(c);
                 }
@@ -465,7 +475,7 @@ impl ApplicationHandler for App {
                     self.drag_to(c);
                 }
             }
-            WindowEvent::MouseWheel { delta, .. } if self.updater.is_none() => {
+            WindowEvent::MouseWheel { delta, .. } if self.keyboard_moves_sphere() => {
                 let lines = match delta {
                     MouseScrollDelta::LineDelta(_, y) => f64::from(y),
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
