@@ -60,8 +60,8 @@ mod trim;
 
 pub use mesh::TriangleMesh;
 pub use placed::{
-    MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, tessellate_placed, tessellate_scene,
-    tessellate_scene_filtered,
+    MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,
+    tessellate_scene, tessellate_scene_filtered,
 };
 
 use crate::scene::Shape;
