@@ -10,7 +10,7 @@ use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{IntegratorKind, RayCounters, li};
 use crate::sampling::Rng;
-use crate::world::{Ray, World, WorldError, WorldStats};
+use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
 use depth_remap::{Camera, CameraError};
 use glam::{DMat4, DVec2, DVec3, Vec3};
@@ -159,6 +159,20 @@ impl CameraRays {
     }
 }
 
+/// The size of a pixel for the tessellation: the smaller pixel dimension, as an angle for a
+/// perspective camera or a length for an orthographic one (a rigid camera transform assumed).
+pub fn pixel_footprint(camera: &Camera) -> PixelFootprint {
+    let (w, h) = camera.resolution();
+    let sw = camera.screen_window();
+    let per_pixel =
+        ((sw.right - sw.left).abs() / f64::from(w)).min((sw.top - sw.bottom).abs() / f64::from(h));
+    match camera.tan_half_fov() {
+        // Screen units are tan(fov/2) per unit at the centre; an angle is at least that small.
+        Some(t) => PixelFootprint::Perspective { radians_per_pixel: (per_pixel * t).atan() },
+        None => PixelFootprint::Orthographic { size: per_pixel },
+    }
+}
+
 /// The integrator a scene asks for; without `SurfaceIntegrator`, path tracing when the scene
 /// has area lights (a physically based scene), RenderMan-style direct lighting otherwise.
 pub fn choose_integrator(scene: &Scene, diagnostics: &mut Diagnostics) -> IntegratorKind {
@@ -218,7 +232,7 @@ fn render_in_pool(
     }
 
     let build_start = Instant::now();
-    let world = World::build(scene, camera.eye_position(), &mut diagnostics)?;
+    let world = World::build(scene, camera.eye_position(), pixel_footprint(&camera), &mut diagnostics)?;
     let time_build = build_start.elapsed();
     let rays = CameraRays::new(camera, &world.render_from_world);
 

@@ -74,7 +74,13 @@ fn closed_meshes_do_not_leak() {
             let scene = b.build();
             // The eye is the render-space origin: put it at the world origin so that points are
             // in world coordinates.
-            let world = World::build(&scene, DVec3::ZERO, &mut Diagnostics::default()).unwrap();
+            let world = World::build(
+                &scene,
+                DVec3::ZERO,
+                raytracer::world::PixelFootprint::Unknown,
+                &mut Diagnostics::default(),
+            )
+            .unwrap();
             let place = |p: Vec3| m.transform_point3(p.as_dvec3());
             // Interior points: the sphere's centre region, the torus tube's centre line.
             let is_torus =

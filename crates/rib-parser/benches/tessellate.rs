@@ -271,8 +271,8 @@ fn bench(c: &mut Criterion) {
         ("patchmesh_bspline", bspline_torus(), Tolerance::absolute(1e-4)),
         ("nupatch_sphere", Shape::NuPatch(nurbs_sphere()), Tolerance::absolute(1e-4)),
         ("nupatch_trimmed", trimmed_nurbs(), Tolerance::absolute(1e-4)),
-        ("subdivision_creased_cube", subdivision_cube(), Tolerance::absolute(2e-4)),
-        ("subdivision_864_faces", subdivision_box(), Tolerance::absolute(2e-4)),
+        ("subdivision_creased_cube", subdivision_cube(), Tolerance::absolute(1e-4)),
+        ("subdivision_864_faces", subdivision_box(), Tolerance::absolute(1e-4)),
     ];
     let mut group = c.benchmark_group("tessellate");
     group.sample_size(10);

@@ -691,10 +691,10 @@ impl Ring {
         }
         let mut sharp = HashMap::new();
         for e in &level.edges {
-            if e.sharpness > 0.0 {
-                if let (Some(&a), Some(&b)) = (local.get(&e.v[0]), local.get(&e.v[1])) {
-                    sharp.insert((a.min(b), a.max(b)), e.sharpness);
-                }
+            if e.sharpness > 0.0
+                && let (Some(&a), Some(&b)) = (local.get(&e.v[0]), local.get(&e.v[1]))
+            {
+                sharp.insert((a.min(b), a.max(b)), e.sharpness);
             }
         }
         sub.build_topology(&sharp);
