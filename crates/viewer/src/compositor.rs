@@ -652,7 +652,7 @@ impl Compositor {
             None => None,
             Some(ShadowSettings { light: Some(k), .. }) => {
                 if k >= lights.len() || lights[k].shadow_source().is_none() {
-                    return Err(ViewerError::Camera(format!(
+                    return Err(ViewerError::Invalid(format!(
                         "shadow light {k} is not a light that casts shadows"
                     )));
                 }
@@ -823,7 +823,7 @@ impl Compositor {
         if let Some(k) = self.meshes.iter().position(|m| Arc::ptr_eq(&m.source, mesh)) {
             return Ok(k);
         }
-        mesh.validate().map_err(|e| ViewerError::Camera(format!("live mesh: {e}")))?;
+        mesh.validate().map_err(|e| ViewerError::Invalid(format!("live mesh: {e}")))?;
         let vertices: Vec<MeshVertex> = mesh
             .positions
             .iter()
