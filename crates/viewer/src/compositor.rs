@@ -1003,7 +1003,7 @@ impl Compositor {
             for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
                 let p = c + (u * a + v * b) * radius;
                 let clip = clip_from_camera * p.extend(1.0);
-                if !(clip.w > 1e-9) {
+                if clip.w.is_nan() || clip.w <= 1e-9 {
                     return full;
                 }
                 let x = (clip.x / clip.w + 1.0) * 0.5 * f64::from(self.width);

@@ -107,7 +107,7 @@ fn modes_agree_with_a_live_sphere() {
     assert!(frames[0].colour == frames[1].colour, "colour differs between modes");
     assert!(frames[0].mask == frames[1].mask, "mask differs between modes");
     assert!(frames[0].depth.iter().zip(&frames[1].depth).all(|(a, b)| a.to_bits() == b.to_bits()));
-    assert!(frames[0].mask.iter().any(|&m| m == 255));
+    assert!(frames[0].mask.contains(&255));
 }
 
 struct Agreement {
