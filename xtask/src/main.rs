@@ -6,7 +6,9 @@
 //! - `cargo xtask depth-exhaustive` / `depth-study`: see `depth.rs`.
 //! - `cargo xtask update-fixtures`, `cargo xtask bench-parse`: see `rib.rs`.
 //! - `cargo xtask cornell-check`: see `cornell.rs`; `cargo xtask bench-raytracer`: see `raytracer.rs`.
+//! - `cargo xtask colocation`: the viewer against `lrt-depth`'s renders; see `colocation.rs`.
 
+mod colocation;
 mod cornell;
 mod depth;
 mod raytracer;
@@ -30,9 +32,10 @@ fn main() -> ExitCode {
         Some("bench-parse") => rib::bench_parse(&args[1..]),
         Some("cornell-check") => cornell::cornell_check(cargo(), &args[1..]),
         Some("bench-raytracer") => raytracer::bench(cargo(), &args[1..]),
+        Some("colocation") => colocation::colocation(),
         _ => {
             eprintln!(
-                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md"
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512"
             );
             return ExitCode::from(2);
         }

@@ -65,6 +65,9 @@ pub fn run(settings: &Settings, haptic: &HapticSettings, mut prepared: Prepared)
         s.device_from_cap = haptics::device::spacemouse::device_from_cap_for_camera(linear);
         s.mode = haptic.spacemouse_mode;
     }
+    // Where the sphere starts in a window: in free space in front of the scene (the viewer's
+    // default); the mapping centre (the scene's centre) may lie inside an object.
+    let start_scene = prepared.live.sphere.as_ref().map(|s| s.centre);
     let config = SessionConfig {
         device,
         trajectory,
@@ -73,8 +76,10 @@ pub fn run(settings: &Settings, haptic: &HapticSettings, mut prepared: Prepared)
         default_stiffness: haptic.stiffness,
         proxy_radius: radius,
         rate_hz: haptic.rate_hz,
+        start: start_scene,
     };
     let mut session = Session::new(geometry, config).map_err(failure)?;
+    let start_device = start_scene.map_or(DVec3::ZERO, |c| session.mapping().device_from_scene(c));
     for w in &session.warnings {
         eprintln!("{w}");
     }
@@ -92,9 +97,12 @@ pub fn run(settings: &Settings, haptic: &HapticSettings, mut prepared: Prepared)
             // No trajectory: the device rests at its origin for as long as the frames last.
             None => (0.0, (settings.frames.unwrap_or(1).saturating_sub(1)) as f64 / HEADLESS_FRAME_RATE),
         };
-        let outcome = session.replay(start, end, haptic.force_log.as_deref()).map_err(failure)?;
+        // The proxy at every frame's time (frames beyond the first million hold the last).
+        let frames = settings.frames.unwrap_or(1).min(1 << 20);
+        let times: Vec<f64> = (0..frames).map(|k| start + k as f64 / HEADLESS_FRAME_RATE).collect();
+        let outcome = session.replay(start, end, haptic.force_log.as_deref(), &times).map_err(failure)?;
         if settings.stats {
-            print_replay(&outcome);
+            print_replay(&outcome, haptic.rate_hz);
         }
         let mut updater = ReplayUpdater { outcome, radius, material, fixed };
         return run::headless(settings, prepared, Some(&mut updater));
@@ -112,7 +120,7 @@ pub fn run(settings: &Settings, haptic: &HapticSettings, mut prepared: Prepared)
         thread: Rc::clone(&thread),
         manual,
         mapping,
-        device: DVec3::ZERO,
+        device: start_device,
         drawn: None,
         radius,
         material,
@@ -158,11 +166,11 @@ fn cursor_radius(settings: &Settings, prepared: &Prepared) -> f64 {
     if eye_distance > 0.0 { 0.03 * eye_distance } else { 0.1 }
 }
 
-fn print_replay(outcome: &ReplayOutcome) {
+fn print_replay(outcome: &ReplayOutcome, rate_hz: f64) {
     let s = &outcome.summary;
     eprintln!(
-        "haptics: replayed {} ticks at {} Hz in simulated time; {} in contact, largest force {:.6} N",
-        s.ticks, outcome.rate_hz, s.contact_ticks, s.max_force
+        "haptics: replayed {} ticks at {rate_hz} Hz in simulated time; {} in contact, largest force {:.6} N",
+        s.ticks, s.contact_ticks, s.max_force
     );
     if let Some(last) = &outcome.last {
         let p = last.proxy_scene;
@@ -175,7 +183,7 @@ fn print_replay(outcome: &ReplayOutcome) {
     );
 }
 
-/// Headless replay: frame `k` shows the proxy at `start + k / 60` s.
+/// Headless replay: frame `k` shows the proxy at `start + k / 60` s (sampled by the replay).
 struct ReplayUpdater {
     outcome: ReplayOutcome,
     radius: f64,
@@ -185,7 +193,9 @@ struct ReplayUpdater {
 
 impl LiveUpdate for ReplayUpdater {
     fn update(&mut self, live: &mut LiveObjects, frame: &FrameInfo) {
-        let centre = self.fixed.or_else(|| self.outcome.proxy_at(self.outcome.start + frame.time_s));
+        let samples = &self.outcome.samples;
+        let at = (frame.index as usize).min(samples.len().saturating_sub(1));
+        let centre = self.fixed.or_else(|| samples.get(at).copied());
         live.sphere = centre.map(|centre| Sphere { centre, radius: self.radius, material: self.material });
     }
 }
@@ -275,6 +285,7 @@ mod tests {
             default_stiffness: None,
             proxy_radius: 0.05,
             rate_hz: 1000.0,
+            start: None,
         };
         let mut session = Session::new(geometry, config).unwrap();
         let manual = session.manual_input().unwrap();

@@ -244,6 +244,11 @@ fn vertex_rule(level: &Level, v: usize, lowered: f64, boundary: Boundary) -> Rul
     }
 }
 
+/// Every vertex's rule at this level.
+fn rules(level: &Level, boundary: Boundary) -> Vec<Rule> {
+    (0..level.positions.len()).map(|v| vertex_rule(level, v, 0.0, boundary)).collect()
+}
+
 fn lowered_sharpness(s: f64) -> f64 {
     if s.is_infinite() { s } else { (s - 1.0).max(0.0) }
 }
@@ -382,13 +387,14 @@ fn subdivide(level: &Level, boundary: Boundary) -> Level {
 /// Limit positions of every vertex of a quad level, and the exact limit normal where the
 /// vertex is smooth (zero elsewhere).
 fn limit(level: &Level, boundary: Boundary) -> (Vec<DVec3>, Vec<DVec3>) {
+    let rule = rules(level, boundary);
     let nv = level.positions.len();
     let mut positions = vec![DVec3::ZERO; nv];
     let mut normals = vec![DVec3::ZERO; nv];
     for v in 0..nv {
         let p = level.positions[v];
         // Remaining semi-sharpness counts as sharp at the drawn level.
-        positions[v] = match vertex_rule(level, v, 0.0, boundary) {
+        positions[v] = match rule[v] {
             Rule::Corner => p,
             Rule::Crease(a, b) => (level.positions[a] + 4.0 * p + level.positions[b]) / 6.0,
             Rule::Smooth => match smooth_ring(level, v) {
@@ -412,7 +418,8 @@ fn limit(level: &Level, boundary: Boundary) -> (Vec<DVec3>, Vec<DVec3>) {
 /// neighbours `e_i` and the opposite corners `f_i` of the quads between `e_i` and `e_{i+1}`.
 fn smooth_ring(level: &Level, v: usize) -> Option<(Vec<usize>, Vec<usize>)> {
     let faces = level.faces_of(v);
-    if faces.is_empty() || level.is_boundary_vertex(v) || faces.len() != level.edges_of(v).len() {
+    // A boundary vertex has fewer faces than edges (and its walk would not close anyway).
+    if faces.is_empty() || faces.len() != level.edges_of(v).len() {
         return None;
     }
     let corner = |f: u32, k: u32, offset: u32| {
@@ -439,16 +446,27 @@ fn smooth_ring(level: &Level, v: usize) -> Option<(Vec<usize>, Vec<usize>)> {
 
 /// Halstead, Kass and DeRose's limit tangents; their cross product is the limit normal.
 fn limit_normal(level: &Level, ring_e: &[usize], ring_f: &[usize]) -> DVec3 {
+    let p = |i: usize| level.positions[i];
+    if ring_e.len() == 4 {
+        // The regular case, with the stencil's constants: A_4 = 4, cos and sin of i pi / 2.
+        let t1 =
+            4.0 * (p(ring_e[0]) - p(ring_e[2])) + p(ring_f[0]) - p(ring_f[1]) - p(ring_f[2]) + p(ring_f[3]);
+        let t2 =
+            4.0 * (p(ring_e[1]) - p(ring_e[3])) + p(ring_f[0]) + p(ring_f[1]) - p(ring_f[2]) - p(ring_f[3]);
+        return t1.cross(t2);
+    }
     let n = ring_e.len();
     let nf = n as f64;
     let a_n = 1.0 + (2.0 * PI / nf).cos() + (PI / nf).cos() * (2.0 * (9.0 + (2.0 * PI / nf).cos())).sqrt();
     let (mut t1, mut t2) = (DVec3::ZERO, DVec3::ZERO);
+    let angle = |i: usize| (2.0 * PI * i as f64 / nf).sin_cos();
+    let (mut s0, mut c0) = angle(0);
     for i in 0..n {
-        let (c0, s0) = ((2.0 * PI * i as f64 / nf).cos(), (2.0 * PI * i as f64 / nf).sin());
-        let (c1, s1) = ((2.0 * PI * (i + 1) as f64 / nf).cos(), (2.0 * PI * (i + 1) as f64 / nf).sin());
-        let (e, f) = (level.positions[ring_e[i]], level.positions[ring_f[i]]);
+        let (s1, c1) = angle(i + 1);
+        let (e, f) = (p(ring_e[i]), p(ring_f[i]));
         t1 += a_n * c0 * e + (c0 + c1) * f;
         t2 += a_n * s0 * e + (s0 + s1) * f;
+        (s0, c0) = (s1, c1);
     }
     t1.cross(t2)
 }
@@ -586,6 +604,7 @@ fn control_level(sm: &SubdivisionMesh) -> Result<(Level, Boundary, u32), Tessell
 /// extraordinary vertices (valence other than 4 inside or along a crease, other than 3 on a
 /// boundary). The faces around them are refined adaptively.
 fn special_vertices(level: &Level, boundary: Boundary) -> Vec<bool> {
+    let rule = rules(level, boundary);
     (0..level.positions.len())
         .map(|v| {
             if level.faces_of(v).is_empty() {
@@ -600,7 +619,7 @@ fn special_vertices(level: &Level, boundary: Boundary) -> Vec<bool> {
                     e.faces != 2 || e.sharpness > 0.0
                 })
                 .count();
-            match vertex_rule(level, v, 0.0, boundary) {
+            match rule[v] {
                 Rule::Corner => true,
                 Rule::Crease(..) => valence != if level.is_boundary_vertex(v) { 3 } else { 4 },
                 Rule::Smooth => sharp == 1 || valence != 4,
@@ -691,10 +710,10 @@ impl Ring {
         }
         let mut sharp = HashMap::new();
         for e in &level.edges {
-            if e.sharpness > 0.0 {
-                if let (Some(&a), Some(&b)) = (local.get(&e.v[0]), local.get(&e.v[1])) {
-                    sharp.insert((a.min(b), a.max(b)), e.sharpness);
-                }
+            if e.sharpness > 0.0
+                && let (Some(&a), Some(&b)) = (local.get(&e.v[0]), local.get(&e.v[1]))
+            {
+                sharp.insert((a.min(b), a.max(b)), e.sharpness);
             }
         }
         sub.build_topology(&sharp);
@@ -748,15 +767,14 @@ fn refine(
             return Err(TessellateError::NonFinite { kind: KIND, reason: "subdivision diverged".into() });
         }
         let level = &nodes[id].level;
+        let rule = rules(level, boundary);
         let bad: Vec<bool> = candidates
             .iter()
             .enumerate()
             .map(|(i, &f)| {
                 // Faces at sharp corners (cone points) converge only linearly however far they
                 // are refined: they do not decide anything.
-                let at_corner = level
-                    .face(f)
-                    .any(|c| vertex_rule(level, level.face_verts[c] as usize, 0.0, boundary) == Rule::Corner);
+                let at_corner = level.face(f).any(|c| rule[level.face_verts[c] as usize] == Rule::Corner);
                 deviations[ring.face_of[i] as usize] > eps && !at_corner
             })
             .collect();
@@ -894,11 +912,9 @@ pub(crate) fn tessellate_subdivision(
             .filter(|&f| !current.face(f).any(|c| special[current.face_verts[c] as usize]))
             .collect();
         let d = regular.iter().map(|&f| deviations[f]).fold(0.0f64, f64::max);
-        let at_corner = |f: usize| {
-            current
-                .face(f)
-                .any(|c| vertex_rule(&current, current.face_verts[c] as usize, 0.0, boundary) == Rule::Corner)
-        };
+        let rule = rules(&current, boundary);
+        let at_corner =
+            |f: usize| current.face(f).any(|c| rule[current.face_verts[c] as usize] == Rule::Corner);
         let bad: Vec<usize> =
             visible.iter().copied().filter(|&f| deviations[f] > eps && !at_corner(f)).collect();
         if k >= min_level && (bad.is_empty() || (!regular.is_empty() && bad.len() * 10 <= visible.len())) {
@@ -946,12 +962,31 @@ struct Output {
     ids: HashMap<(u32, u32, u64, u64), u32>,
     /// The first output vertex made for each source vertex.
     by_source: HashMap<(u32, u32), u32>,
+    /// Without st: the output vertex of each node's vertices, a table instead of hashing.
+    plain: Vec<Vec<u32>>,
     with_st: bool,
 }
 
 impl Output {
     /// The output vertex of vertex `v` of refinement node `space`.
     fn vertex(&mut self, space: u32, v: u32, st: Option<DVec2>, position: DVec3, normal: DVec3) -> u32 {
+        if st.is_none() {
+            if let Some(id) = self.lookup(space, v) {
+                return id;
+            }
+            self.mesh.positions.push(position.as_vec3());
+            self.exact_normals.push(normal);
+            let id = (self.mesh.positions.len() - 1) as u32;
+            let (space, v) = (space as usize, v as usize);
+            if self.plain.len() <= space {
+                self.plain.resize(space + 1, Vec::new());
+            }
+            if self.plain[space].len() <= v {
+                self.plain[space].resize(v + 1, u32::MAX);
+            }
+            self.plain[space][v] = id;
+            return id;
+        }
         let key = st.map_or((space, v, 0, 0), |s| (space, v, s.x.to_bits(), s.y.to_bits()));
         let Output { mesh, st: st_out, exact_normals, ids, by_source, .. } = self;
         *ids.entry(key).or_insert_with(|| {
@@ -964,6 +999,15 @@ impl Output {
             by_source.entry((space, v)).or_insert(id);
             id
         })
+    }
+
+    /// The output vertex already made for vertex `v` of node `space`, if any.
+    fn lookup(&self, space: u32, v: u32) -> Option<u32> {
+        let found = match self.with_st {
+            true => self.by_source.get(&(space, v)).copied(),
+            false => self.plain.get(space as usize).and_then(|t| t.get(v as usize)).copied(),
+        };
+        found.filter(|&id| id != u32::MAX)
     }
 
     fn fresh_vertex(&mut self, position: DVec3, st: Option<DVec2>) -> u32 {
@@ -1063,7 +1107,7 @@ fn chain(nodes: &[Node], out: &mut Output, node: usize, a: u32, b: u32, st: Opti
 
 fn output_vertex(nodes: &[Node], out: &mut Output, node: usize, v: u32, st: Option<DVec2>) -> u32 {
     let (n, v) = resolve(nodes, node, v);
-    if let Some(&id) = out.by_source.get(&(n as u32, v)) {
+    if let Some(id) = out.lookup(n as u32, v) {
         return id;
     }
     out.vertex(n as u32, v, st, nodes[n].limit.0[v as usize], nodes[n].limit.1[v as usize])

@@ -238,7 +238,7 @@ fn crossing(p0: DVec2, p1: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
     let w = a - p0;
     let t = w.perp_dot(e) / den;
     let s = w.perp_dot(d) / den;
-    (t >= 0.0 && t <= 1.0 && s >= 0.0 && s < 1.0).then_some(t)
+    ((0.0..=1.0).contains(&t) && (0.0..1.0).contains(&s)).then_some(t)
 }
 
 /// True when segment `(a, b)` touches the closed rectangle `[x0, x1] x [y0, y1]` (Liang-Barsky).
