@@ -3,7 +3,7 @@
 //! with Mitsuba 3's converged image (relative MSE below 1e-3) and the analytic depth table
 //! (relative 1e-5 everywhere, misses included).
 //!
-//! Usage: `cornell_check [--spp N] [--threads N] [--save DIR]` (default 512 samples per pixel).
+//! Usage: `cornell_check [--spp N] [--threads N] [--save DIR]` (default 256 samples per pixel).
 
 use depth_remap::DepthTable;
 use raytracer::render::{RenderOptions, render};
@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 fn main() -> ExitCode {
-    let mut spp = 512u32;
+    let mut spp = 256u32;
     let mut threads = None;
     let mut save = None;
     let mut args = std::env::args().skip(1);
