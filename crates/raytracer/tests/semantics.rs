@@ -148,3 +148,33 @@ fn unknown_shaders_warn_once_by_name() {
     assert_eq!(warnings.len(), 1, "{:?}", out.warnings);
     assert!(warnings[0].loc.is_some());
 }
+
+#[test]
+fn paintedplastic_reads_its_texture_map_at_st() {
+    let dir = std::env::temp_dir().join(format!("raytracer-texture-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("halves.png");
+    // Left half red, right half blue.
+    let img =
+        image::RgbImage::from_fn(
+            4,
+            2,
+            |x, _| if x < 2 { image::Rgb([255, 0, 0]) } else { image::Rgb([0, 0, 255]) },
+        );
+    img.save(&path).unwrap();
+    let rib = format!(
+        "{CAMERA}WorldBegin\nLightSource \"ambientlight\" 1 \"intensity\" [1]\n\
+         Surface \"paintedplastic\" \"Ka\" [1] \"Kd\" [0] \"Ks\" [0] \"string texturename\" [\"{}\"]\n\
+         Polygon \"P\" [-1 -1 0  1 -1 0  1 1 0  -1 1 0] \"st\" [0 0  1 0  1 1  0 1]\nWorldEnd\n",
+        path.display()
+    );
+    let out = run(&rib, RenderOptions { spp: Some(1), ..Default::default() });
+    assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+    // Screen x runs from -x to +x in world here, so the left of the image is s near 0.
+    // Away from the middle (where the bilinear lookup and the gaussian pixel filter blend).
+    let left = out.image.rgb(1, 4);
+    let right = out.image.rgb(7, 4);
+    assert!(left.x > 0.9 && left.z < 0.1, "{left}");
+    assert!(right.z > 0.9 && right.x < 0.1, "{right}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
