@@ -6,8 +6,8 @@
 //! - `cornell`: `../shared/reference/cornell/cornell.rib` at 512x512 against Mitsuba 3's
 //!   11,520-spp path-traced image;
 //! - `caustics`: `examples/caustics/caustics.rib` (glass and mirror spheres in a Cornell box);
-//! - `quadrics`: `examples/quadrics/quadrics.rib` (corpus-style: RenderMan quadrics, plastic and
-//!   metal shaders, point, spot and ambient lights).
+//! - `room`: `examples/room/room.rib` (corpus-style: RenderMan quadrics, plastic, metal and
+//!   matte shaders, point, spot, ambient and area lights).
 //!
 //! The last two are compared with a long path-traced render of our own, cached under
 //! `target/bench-error/references/` and made on first use (or again with `--references`).
@@ -176,8 +176,8 @@ fn scenes(root: &Path, quick: bool) -> Vec<BenchScene> {
             ladder: other.clone(),
         },
         BenchScene {
-            name: "quadrics",
-            rib: root.join("examples/quadrics/quadrics.rib"),
+            name: "room",
+            rib: root.join("examples/room/room.rib"),
             reference: Err(2048),
             ladder: other,
         },

@@ -70,6 +70,10 @@ pub struct SessionConfig {
     pub proxy_radius: f64,
     /// Loop rate (Hz), real-time and simulated.
     pub rate_hz: f64,
+    /// Scene position where a freely moving device starts (the simulated device on manual input,
+    /// a SpaceMouse in rate mode), e.g. a point in free space in view; `None`: the mapping's
+    /// centre, which may lie inside an object.
+    pub start: Option<DVec3>,
 }
 
 /// A device and a renderer ready to run, with what was decided on the way.
@@ -80,8 +84,11 @@ pub struct Session {
     manual: Option<crate::device::ManualInputWriter>,
     rate_hz: f64,
     trajectory_span: Option<(f64, f64)>,
-    /// Notes for the user: materials corrected, shapes skipped, defaults chosen.
-    pub notes: Vec<String>,
+    /// Problems the user should hear about: shapes that cannot be touched, materials
+    /// corrected, a stiffness above the device's limit.
+    pub warnings: Vec<String>,
+    /// What was decided: the gain chosen, the triangle count and BVH build time.
+    pub info: Vec<String>,
 }
 
 impl Session {
@@ -93,7 +100,36 @@ impl Session {
                 config.proxy_radius
             )));
         }
-        let mut notes: Vec<String> = geometry.warnings.clone();
+        let mut warnings: Vec<String> = geometry.warnings.clone();
+        let mut info: Vec<String> = Vec::new();
+        if geometry.untouchable_shapes > 0 {
+            info.push(format!(
+                "haptics: {} surfaces with stiffness 0 cannot be felt",
+                geometry.untouchable_shapes
+            ));
+        }
+        // The mapping comes first: a free device starts where the front end wants it.
+        let workspace_radius = match &config.device {
+            DeviceChoice::Simulated => SimulatedDevice::default_specs().workspace_radius,
+            #[cfg(feature = "spacemouse")]
+            DeviceChoice::SpaceMouse { settings, .. } => settings.workspace_radius,
+        };
+        let centre = config.centre.unwrap_or_else(|| geometry.centre());
+        let gain = match config.gain {
+            Some(g) => g,
+            None => {
+                let radius = geometry.radius();
+                let gain =
+                    if radius > 0.0 && workspace_radius > 0.0 { radius / workspace_radius } else { 1.0 };
+                info.push(format!(
+                    "haptics: gain {gain} scene units per metre (the {workspace_radius} m workspace covers the scene's radius {radius})"
+                ));
+                gain
+            }
+        };
+        let mapping = WorkspaceMapping::new(centre, gain)?;
+        let start =
+            config.start.filter(|p| p.is_finite()).map_or(DVec3::ZERO, |p| mapping.device_from_scene(p));
         let mut manual = None;
         let mut trajectory_span = None;
         let device: Box<dyn HapticDevice> = match &config.device {
@@ -103,7 +139,7 @@ impl Session {
                     Box::new(SimulatedDevice::replay(t.clone()))
                 }
                 None => {
-                    let (device, writer) = SimulatedDevice::manual(DVec3::ZERO);
+                    let (device, writer) = SimulatedDevice::manual(start);
                     manual = Some(writer);
                     Box::new(device)
                 }
@@ -115,24 +151,12 @@ impl Session {
                         "--trajectory replays the simulated device (use --device sim)".into(),
                     ));
                 }
-                Box::new(crate::device::spacemouse::SpaceMouse::open(path.as_deref(), *settings)?)
+                let settings =
+                    crate::device::spacemouse::SpaceMouseSettings { rate_start: start, ..*settings };
+                Box::new(crate::device::spacemouse::SpaceMouse::open(path.as_deref(), settings)?)
             }
         };
         let specs: DeviceSpecs = device.specs().clone();
-        let centre = config.centre.unwrap_or_else(|| geometry.centre());
-        let gain = match config.gain {
-            Some(g) => g,
-            None => {
-                let radius = geometry.radius();
-                let gain = if radius > 0.0 { radius / specs.workspace_radius } else { 1.0 };
-                notes.push(format!(
-                    "haptics: gain {gain} scene units per metre (the {} m workspace covers the scene's radius {radius})",
-                    specs.workspace_radius
-                ));
-                gain
-            }
-        };
-        let mapping = WorkspaceMapping::new(centre, gain)?;
         let mut defaults = MaterialDefaults::for_device(&specs);
         if let Some(k) = config.default_stiffness {
             if !(k.is_finite() && k >= 0.0) {
@@ -141,25 +165,31 @@ impl Session {
                 )));
             }
             if k > specs.max_stiffness {
-                notes.push(format!(
+                warnings.push(format!(
                     "haptics: stiffness {k} N/m exceeds the {}'s maximum; using {} N/m",
                     specs.name, specs.max_stiffness
                 ));
             }
             defaults.stiffness = k.min(specs.max_stiffness);
         }
-        let (materials, warnings) =
+        let (materials, corrections) =
             MaterialTable::resolve(&geometry.materials, defaults, specs.max_stiffness);
-        notes.extend(warnings.iter().map(|w| format!("haptics: {w}")));
+        warnings.extend(corrections.iter().map(|w| format!("haptics: {w}")));
         let world = Arc::new(CollisionWorld::new(geometry.mesh));
-        notes.push(format!(
+        info.push(format!(
+            "haptics: {} ({}), mapping centre {centre}, gain {gain}; stiffness {} N/m where none is given",
+            specs.name,
+            if specs.has_force_output { "force output" } else { "input only" },
+            defaults.stiffness
+        ));
+        info.push(format!(
             "haptics: {} triangles, BVH built in {:.1} ms",
             world.mesh().triangle_count(),
             world.build_time().as_secs_f64() * 1e3
         ));
         let renderer =
             HapticRenderer::new(world, materials, &specs, mapping, RenderSettings::new(config.proxy_radius));
-        Ok(Session { device, renderer, manual, rate_hz: config.rate_hz, trajectory_span, notes })
+        Ok(Session { device, renderer, manual, rate_hz: config.rate_hz, trajectory_span, warnings, info })
     }
 
     /// The device-to-scene mapping in effect.
@@ -182,62 +212,68 @@ impl Session {
         self.trajectory_span
     }
 
-    /// Starts the real-time loop.
-    pub fn spawn(self, mut config: ThreadConfig) -> Result<HapticThread, HapticError> {
+    /// Starts the real-time loop, writing every tick to `force_log` when given.
+    pub fn spawn(
+        self,
+        mut config: ThreadConfig,
+        force_log: Option<&Path>,
+    ) -> Result<HapticThread, HapticError> {
         config.rate_hz = self.rate_hz;
-        HapticThread::spawn(self.device, self.renderer, config)
+        let log = force_log.map(ForceLogWriter::create).transpose()?;
+        HapticThread::spawn_logged(self.device, self.renderer, config, log)
     }
 
     /// Runs the loop in simulated time from `start` to `end` (seconds), writing the force log
-    /// when asked, and returns where the proxy was at every tick.
+    /// when asked, and returns where the proxy was at each of `sample_times` (ascending; the
+    /// last tick at or before each, held before the first tick and after the last). Memory is
+    /// bounded by the samples asked for, not by the replay's length.
     pub fn replay(
         mut self,
         start: f64,
         end: f64,
         force_log: Option<&Path>,
+        sample_times: &[f64],
     ) -> Result<ReplayOutcome, HapticError> {
         let config = ReplayConfig { rate_hz: self.rate_hz, start, end };
         let ticks = config.tick_count()?;
+        // The tick whose proxy each sample shows.
+        let tick_of = |t: f64| {
+            let k = ((t - start) * self.rate_hz + 1e-9).floor();
+            if k.is_finite() { k.clamp(0.0, (ticks - 1) as f64) as u64 } else { 0 }
+        };
+        let wanted: Vec<u64> = sample_times.iter().map(|&t| tick_of(t)).collect();
+        if wanted.windows(2).any(|w| w[1] < w[0]) {
+            return Err(HapticError::Config("replay sample times must be ascending".into()));
+        }
         let mut log = force_log.map(ForceLogWriter::create).transpose()?;
-        let mut proxies = Vec::with_capacity(ticks.min(100_000_000) as usize);
+        let mut samples = Vec::with_capacity(wanted.len());
+        let mut tick = 0u64;
         let mut last: Option<TickOutput> = None;
-        let summary = replay(self.device.as_mut(), &mut self.renderer, &config, |tick| {
-            proxies.push(tick.proxy_scene);
-            last = Some(*tick);
+        let summary = replay(self.device.as_mut(), &mut self.renderer, &config, |out| {
+            while samples.len() < wanted.len() && wanted[samples.len()] == tick {
+                samples.push(out.proxy_scene);
+            }
+            tick += 1;
+            last = Some(*out);
             match log.as_mut() {
-                Some(log) => log.write(tick),
+                Some(log) => log.write(out),
                 None => Ok(()),
             }
         })?;
         if let Some(log) = log {
             log.finish()?;
         }
-        Ok(ReplayOutcome { start, rate_hz: self.rate_hz, proxies, last, summary })
+        Ok(ReplayOutcome { samples, last, summary })
     }
 }
 
 /// The result of [`Session::replay`].
 #[derive(Clone, Debug)]
 pub struct ReplayOutcome {
-    pub start: f64,
-    pub rate_hz: f64,
-    /// Proxy position (scene) at every tick.
-    pub proxies: Vec<DVec3>,
+    /// Proxy position (scene) at each requested sample time.
+    pub samples: Vec<DVec3>,
     pub last: Option<TickOutput>,
     pub summary: ReplaySummary,
-}
-
-impl ReplayOutcome {
-    /// The proxy at time `t`: the last tick at or before `t` (held before the first and after
-    /// the last).
-    pub fn proxy_at(&self, t: f64) -> Option<DVec3> {
-        if self.proxies.is_empty() {
-            return None;
-        }
-        let k = ((t - self.start) * self.rate_hz + 1e-9).floor();
-        let k = if k.is_finite() { k.clamp(0.0, (self.proxies.len() - 1) as f64) as usize } else { 0 };
-        Some(self.proxies[k])
-    }
 }
 
 /// A device error as the front end reports it (the caller adds `hybrid-view: error: `).
@@ -283,15 +319,16 @@ mod tests {
             default_stiffness: None,
             proxy_radius: 0.05,
             rate_hz: 1000.0,
+            start: None,
         };
         let mut session = Session::new(floor_geometry(), config).unwrap();
         let radius = 2f64.sqrt();
         assert!((session.mapping().gain - radius / 0.08).abs() < 1e-12);
         assert_eq!(session.mapping().centre, DVec3::ZERO);
         assert!(
-            session.notes.iter().any(|n| n.contains("exceeds the device's maximum")),
+            session.warnings.iter().any(|n| n.contains("exceeds the device's maximum")),
             "{:?}",
-            session.notes
+            session.warnings
         );
         assert!(session.manual_input().is_some());
     }
@@ -307,17 +344,19 @@ mod tests {
             default_stiffness: Some(1000.0),
             proxy_radius: 0.005,
             rate_hz: 1000.0,
+            start: None,
         };
         let session = Session::new(floor_geometry(), config).unwrap();
         let (start, end) = session.trajectory_span().unwrap();
         let dir = std::env::temp_dir().join(format!("haptics-session-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let log = dir.join("force.csv");
-        let outcome = session.replay(start, end, Some(&log)).unwrap();
-        assert_eq!(outcome.proxies.len(), 101);
-        assert_eq!(outcome.proxy_at(0.0), Some(DVec3::new(0.0, 0.0, 0.01)));
-        assert!((outcome.proxy_at(0.1).unwrap().z - 0.005).abs() < 1e-12);
-        assert_eq!(outcome.proxy_at(5.0), outcome.proxy_at(0.1));
+        let outcome = session.replay(start, end, Some(&log), &[-1.0, 0.0, 0.1, 5.0]).unwrap();
+        assert_eq!(outcome.summary.ticks, 101);
+        assert_eq!(outcome.samples[0], DVec3::new(0.0, 0.0, 0.01));
+        assert_eq!(outcome.samples[1], DVec3::new(0.0, 0.0, 0.01));
+        assert!((outcome.samples[2].z - 0.005).abs() < 1e-12);
+        assert_eq!(outcome.samples[3], outcome.samples[2]);
         let text = std::fs::read_to_string(&log).unwrap();
         assert_eq!(text.lines().count(), 102);
         std::fs::remove_dir_all(&dir).unwrap();

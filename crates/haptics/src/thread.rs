@@ -16,12 +16,14 @@
 
 use crate::HapticError;
 use crate::device::{DeviceError, HapticDevice, SafeForce};
-use crate::render::{HapticRenderer, SafetyCounters, WorkspaceMapping};
+use crate::render::{HapticRenderer, SafetyCounters, TickOutput, WorkspaceMapping};
+use crate::replay::ForceLogWriter;
 use crate::timing::{DurationHistogram, DurationSummary};
 use crate::triple_buffer::{self, Reader, Writer};
 use glam::DVec3;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -112,6 +114,10 @@ pub struct ThreadReport {
     pub hardware_watchdog: bool,
     /// The real-time priority the loop ran at, when it got one.
     pub realtime_priority: Option<i32>,
+    /// Force-log rows written, and rows dropped because the logger fell behind (the loop never
+    /// waits for the disk).
+    pub log_rows: u64,
+    pub log_dropped: u64,
     pub safety: SafetyCounters,
 }
 
@@ -121,7 +127,7 @@ impl std::fmt::Display for ThreadReport {
         write!(
             f,
             "{} ticks in {:.3} s ({:.1} Hz); period p50 {:.1} us, p99 {:.1} us, max {:.1} us; \
-             tick work p50 {:.1} us, p99 {:.1} us, max {:.1} us; late ticks {}, watchdog trips {}; {}",
+             tick work p50 {:.1} us, p99 {:.1} us, max {:.1} us; late ticks {}, watchdog trips {}; {}{}",
             self.ticks,
             self.elapsed.as_secs_f64(),
             self.rate_hz,
@@ -136,6 +142,11 @@ impl std::fmt::Display for ThreadReport {
             match self.realtime_priority {
                 Some(p) => format!("real-time priority {p}"),
                 None => "normal priority".to_string(),
+            },
+            if self.log_rows + self.log_dropped > 0 {
+                format!("; force log {} rows, {} dropped", self.log_rows, self.log_dropped)
+            } else {
+                String::new()
             }
         )
     }
@@ -149,7 +160,11 @@ pub struct HapticThread {
     current: Controls,
     stop: Arc<AtomicBool>,
     handle: Option<JoinHandle<Result<ThreadReport, HapticError>>>,
+    logger: Option<JoinHandle<Result<u64, HapticError>>>,
 }
+
+/// Rows the force log may queue before the loop starts dropping them (16 s at 1 kHz).
+const LOG_QUEUE: usize = 16_384;
 
 impl HapticThread {
     /// Starts the loop on a new thread named `haptics`.
@@ -157,6 +172,18 @@ impl HapticThread {
         device: Box<dyn HapticDevice>,
         renderer: HapticRenderer,
         config: ThreadConfig,
+    ) -> Result<HapticThread, HapticError> {
+        HapticThread::spawn_logged(device, renderer, config, None)
+    }
+
+    /// Starts the loop and writes every tick to `log` (CONTRACTS.md §5's force log). The rows
+    /// go through a bounded queue to a logger thread that polls it, so the loop never blocks
+    /// on the disk; the log is finished (atomically moved into place) by [`HapticThread::stop`].
+    pub fn spawn_logged(
+        device: Box<dyn HapticDevice>,
+        renderer: HapticRenderer,
+        config: ThreadConfig,
+        log: Option<ForceLogWriter>,
     ) -> Result<HapticThread, HapticError> {
         if !(config.rate_hz.is_finite() && config.rate_hz > 0.0 && config.rate_hz <= 100_000.0) {
             return Err(HapticError::Config(format!(
@@ -169,9 +196,22 @@ impl HapticThread {
         let (controls_writer, controls_reader) = triple_buffer::triple_buffer(current);
         let stop = Arc::new(AtomicBool::new(false));
         let stop_flag = Arc::clone(&stop);
+        let (log_sender, logger) = match log {
+            Some(writer) => {
+                let (sender, receiver) = std::sync::mpsc::sync_channel(LOG_QUEUE);
+                let logger = std::thread::Builder::new()
+                    .name("haptics-log".into())
+                    .spawn(move || write_log(writer, receiver))
+                    .map_err(|e| HapticError::Config(format!("cannot start the force logger: {e}")))?;
+                (Some(sender), Some(logger))
+            }
+            None => (None, None),
+        };
         let handle = std::thread::Builder::new()
             .name("haptics".into())
-            .spawn(move || run_loop(device, renderer, config, state_writer, controls_reader, &stop_flag))
+            .spawn(move || {
+                run_loop(device, renderer, config, state_writer, controls_reader, &stop_flag, log_sender)
+            })
             .map_err(|e| HapticError::Config(format!("cannot start the haptic thread: {e}")))?;
         Ok(HapticThread {
             state: state_reader,
@@ -179,6 +219,7 @@ impl HapticThread {
             current,
             stop,
             handle: Some(handle),
+            logger,
         })
     }
 
@@ -211,10 +252,17 @@ impl HapticThread {
 
     fn join(&mut self) -> Result<ThreadReport, HapticError> {
         self.stop.store(true, Ordering::Release);
-        match self.handle.take() {
+        let result = match self.handle.take() {
             Some(handle) => handle.join().unwrap_or(Err(HapticError::ThreadPanicked)),
             None => Err(HapticError::Config("the haptic thread was already stopped".into())),
+        };
+        // The loop has ended and dropped its end of the queue: the logger drains and finishes.
+        let logged = self.logger.take().map(|l| l.join().unwrap_or(Err(HapticError::ThreadPanicked)));
+        let mut report = result?;
+        if let Some(logged) = logged {
+            report.log_rows = logged?;
         }
+        Ok(report)
     }
 }
 
@@ -233,6 +281,7 @@ fn run_loop(
     mut state: Writer<HapticState>,
     mut controls: Reader<Controls>,
     stop: &AtomicBool,
+    log: Option<SyncSender<TickOutput>>,
 ) -> Result<ThreadReport, HapticError> {
     let period = Duration::from_secs_f64(1.0 / config.rate_hz);
     let mut report = ThreadReport::default();
@@ -309,6 +358,13 @@ fn run_loop(
         }
         last_command = Instant::now();
         compute_hist.record(last_command - tick_start);
+        if let Some(log) = &log {
+            // Never wait for the logger: a full queue drops the row (and counts it).
+            match log.try_send(TickOutput { force, ..out }) {
+                Ok(()) => {}
+                Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => report.log_dropped += 1,
+            }
+        }
 
         published = HapticState {
             tick,
@@ -363,6 +419,24 @@ fn raise_priority() -> Option<i32> {
 #[cfg(not(target_os = "linux"))]
 fn raise_priority() -> Option<i32> {
     None
+}
+
+/// The logger thread: polls the queue (so the loop never has to wake it), writes every row, and
+/// finishes the log when the loop has gone.
+fn write_log(mut writer: ForceLogWriter, rows: Receiver<TickOutput>) -> Result<u64, HapticError> {
+    let mut written = 0u64;
+    loop {
+        match rows.try_recv() {
+            Ok(row) => {
+                writer.write(&row)?;
+                written += 1;
+            }
+            Err(TryRecvError::Empty) => std::thread::sleep(Duration::from_millis(2)),
+            Err(TryRecvError::Disconnected) => break,
+        }
+    }
+    writer.finish()?;
+    Ok(written)
 }
 
 fn wait_until(deadline: Instant, spin: Duration) {

@@ -148,3 +148,26 @@ fn the_viewer_side_never_blocks() {
     assert!(start.elapsed() < Duration::from_secs(5));
     thread.stop().unwrap();
 }
+
+#[test]
+fn the_force_log_gets_every_tick_without_blocking_the_loop() {
+    let dir = std::env::temp_dir().join(format!("haptics-thread-log-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("force.csv");
+    let device = SimulatedDevice::fixed(DVec3::new(0.0, 0.0, 0.002));
+    let renderer = renderer_for(&device);
+    let log = ForceLogWriter::create(&path).unwrap();
+    let mut thread = HapticThread::spawn_logged(Box::new(device), renderer, config(), Some(log)).unwrap();
+    wait_for(&mut thread, |s| s.tick > 100);
+    assert!(!path.exists(), "the log must appear only when finished");
+    let report = thread.stop().unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let rows = text.lines().count() as u64 - 1;
+    assert_eq!(rows, report.log_rows);
+    assert_eq!(report.log_rows + report.log_dropped, report.ticks);
+    // In contact 3 mm deep: every logged force is k * 3 mm up (no ramp in these settings).
+    let last = text.lines().last().unwrap();
+    let fz: f64 = last.rsplit(',').next().unwrap().parse().unwrap();
+    assert!((fz - STIFFNESS * 0.003).abs() < 1e-9, "{last}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

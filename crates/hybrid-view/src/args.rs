@@ -62,6 +62,57 @@ pub struct Args {
     /// Print the adapter, the depth range, the lights used, what was skipped, and frame times.
     #[arg(long)]
     pub stats: bool,
+
+    /// Haptic device driving the sphere: none, sim (replays --trajectory; in a window without
+    /// one, follows the keyboard and mouse), spacemouse or spacemouse:PATH (see --list-devices).
+    /// Default: sim with --trajectory, else none.
+    #[arg(long, value_name = "DEVICE")]
+    pub device: Option<String>,
+    /// Trajectory of the simulated device: CSV `t,x,y,z` (seconds; device coordinates in metres).
+    #[arg(long, value_name = "TRAJ.csv")]
+    pub trajectory: Option<PathBuf>,
+    /// Write one row per haptic tick: `t,device_x,device_y,device_z,proxy_x,proxy_y,proxy_z,fx,fy,fz`.
+    #[arg(long, value_name = "LOG.csv")]
+    pub force_log: Option<PathBuf>,
+    /// Scene units per metre of device travel, `scene = centre + gain * device` (default: the
+    /// device's workspace covers the scene).
+    #[arg(long, value_name = "G", allow_hyphen_values = true)]
+    pub gain: Option<f64>,
+    /// Scene position of the device's origin (default: the centre of the scene's bounds).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub centre: Option<DVec3>,
+    /// Stiffness in N/m of device travel for surfaces whose RIB gives no
+    /// `Attribute "haptic" "float stiffness"` (default: half the device's maximum).
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
+    pub stiffness: Option<f64>,
+    /// How the SpaceMouse cap drives the device: its deflection is a velocity or a position.
+    #[arg(long, value_enum, default_value_t = SpaceMouseMode::Rate)]
+    pub spacemouse_mode: SpaceMouseMode,
+    /// Rate of the haptic loop (Hz).
+    #[arg(long, value_name = "HZ", default_value_t = 1000.0)]
+    pub haptic_rate: f64,
+    /// List the haptic devices this build can drive and those connected, then exit.
+    #[arg(long)]
+    pub list_devices: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SpaceMouseMode {
+    Rate,
+    Position,
+}
+
+/// Checked haptic settings: present when a device drives the sphere.
+#[derive(Clone, Debug)]
+pub struct HapticSettings {
+    pub device: haptics::session::DeviceChoice,
+    pub trajectory: Option<PathBuf>,
+    pub force_log: Option<PathBuf>,
+    pub gain: Option<f64>,
+    pub centre: Option<DVec3>,
+    pub stiffness: Option<f64>,
+    pub spacemouse_mode: haptics::device::spacemouse::ControlMode,
+    pub rate_hz: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -123,6 +174,8 @@ pub struct Settings {
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
+    /// `None` with `--device none`.
+    pub haptics: Option<HapticSettings>,
 }
 
 impl Args {
@@ -144,6 +197,7 @@ impl Args {
         {
             return Err("--sphere-colour components must not be negative".into());
         }
+        let haptics = self.haptic_settings()?;
         let depth_settings = match self.depth_buffer {
             DepthBuffer::Reversed32f => DepthSettings::default(),
             DepthBuffer::Standard32f => {
@@ -178,7 +232,60 @@ impl Args {
             depth_settings,
             backends,
             stats: self.stats,
+            haptics,
         })
+    }
+
+    /// The haptic flags, checked together.
+    fn haptic_settings(&self) -> Result<Option<HapticSettings>, String> {
+        let selector = match (&self.device, &self.trajectory) {
+            (Some(d), _) => d.as_str(),
+            (None, Some(_)) => "sim",
+            (None, None) => "none",
+        };
+        if selector == "none" {
+            let stray = [
+                (self.trajectory.is_some(), "--trajectory"),
+                (self.force_log.is_some(), "--force-log"),
+                (self.gain.is_some(), "--gain"),
+                (self.centre.is_some(), "--centre"),
+                (self.stiffness.is_some(), "--stiffness"),
+            ];
+            if let Some((_, flag)) = stray.iter().find(|(given, _)| *given) {
+                return Err(format!("{flag} needs a haptic device (--device sim or spacemouse)"));
+            }
+            return Ok(None);
+        }
+        let device = haptics::session::DeviceChoice::parse(selector).map_err(|e| e.to_string())?;
+        if self.trajectory.is_some() && !matches!(device, haptics::session::DeviceChoice::Simulated) {
+            return Err("--trajectory replays the simulated device: use --device sim".into());
+        }
+        if let Some(g) = self.gain
+            && !(g.is_finite() && g > 0.0)
+        {
+            return Err(format!("--gain must be a positive number, got {g}"));
+        }
+        if let Some(k) = self.stiffness
+            && !(k.is_finite() && k >= 0.0)
+        {
+            return Err(format!("--stiffness must be a non-negative number, got {k}"));
+        }
+        if !(self.haptic_rate.is_finite() && self.haptic_rate > 0.0 && self.haptic_rate <= 100_000.0) {
+            return Err(format!("--haptic-rate must be within (0, 100000] Hz, got {}", self.haptic_rate));
+        }
+        Ok(Some(HapticSettings {
+            device,
+            trajectory: self.trajectory.clone(),
+            force_log: self.force_log.clone(),
+            gain: self.gain,
+            centre: self.centre,
+            stiffness: self.stiffness,
+            spacemouse_mode: match self.spacemouse_mode {
+                SpaceMouseMode::Rate => haptics::device::spacemouse::ControlMode::Rate,
+                SpaceMouseMode::Position => haptics::device::spacemouse::ControlMode::Position,
+            },
+            rate_hz: self.haptic_rate,
+        }))
     }
 }
 
@@ -213,6 +320,14 @@ mod tests {
         assert!(parse(&["--radius", "-1"]).is_err());
         assert!(parse(&["--frames", "0"]).is_err());
         assert!(parse(&["--shadow-strength", "2"]).is_err());
+        assert!(parse(&["--force-log", "f.csv"]).is_err(), "a force log needs a device");
+        assert!(parse(&["--device", "none", "--trajectory", "t.csv"]).is_err());
+        assert!(parse(&["--device", "spacemouse", "--trajectory", "t.csv"]).is_err());
+        assert!(parse(&["--device", "phantom"]).is_err());
+        assert!(parse(&["--device", "sim", "--gain", "0"]).is_err());
+        assert!(parse(&["--device", "sim", "--stiffness", "-1"]).is_err());
+        assert!(parse(&["--trajectory", "t.csv"]).unwrap().haptics.is_some(), "--trajectory implies sim");
+        assert!(parse(&[]).unwrap().haptics.is_none());
         let s = parse(&["--mode", "points", "--no-shadows"]).unwrap();
         assert_eq!(s.mode, CompositeMode::Points);
         assert_eq!(s.shadows, None);

@@ -3,18 +3,24 @@
 //! The pre-rendered image is shown pixel for pixel; live objects (the cursor sphere) are drawn
 //! with the RIB camera's projection and lit by its lights, and occlude and are occluded by the
 //! pre-rendered scene through its converted depth table. `--headless` renders offscreen and
-//! writes exactly what the window would show.
+//! writes exactly what the window would show. With `--device`, a haptic device drives the
+//! sphere through the haptics crate's proxy (see `haptic.rs`).
 //!
 //! Exit codes: 0 success, 1 invalid input or failed rendering, 2 bad command line.
 
 mod args;
 mod convert;
+mod haptic;
 mod run;
 
 use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // `--list-devices` needs no image, depth table or scene.
+    if std::env::args_os().skip(1).any(|a| a == "--list-devices") {
+        return haptic::list_devices();
+    }
     let args = match args::Args::try_parse() {
         Ok(a) => a,
         Err(e) => {
@@ -31,12 +37,10 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = run::prepare(&settings).and_then(|prepared| {
-        if settings.headless {
-            run::headless(&settings, prepared, None)
-        } else {
-            run::windowed(&settings, prepared, None)
-        }
+    let result = run::prepare(&settings).and_then(|prepared| match &settings.haptics {
+        Some(haptics) => haptic::run(&settings, haptics, prepared),
+        None if settings.headless => run::headless(&settings, prepared, None),
+        None => run::windowed(&settings, prepared, None),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -33,6 +33,8 @@ pub struct Prepared {
     /// World-space bounds of the scene's shapes (the default device centre of the haptics).
     pub bounds: Option<(DVec3, DVec3)>,
     pub skipped: Skipped,
+    /// The RIB scene itself (the haptics tessellate its surfaces).
+    pub rib: rib_parser::scene::Scene,
 }
 
 /// Reads the RIB, the image and the depth table and checks they belong together.
@@ -80,7 +82,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         depth_range: None,
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
     };
-    Ok(Prepared { scene, compositor, live, bounds, skipped })
+    Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
 
 /// The sphere at start: where `--sphere` puts it; in a window without `--sphere`, in front of
@@ -95,12 +97,17 @@ fn initial_sphere(settings: &Settings, scene: &ViewerScene) -> Option<Sphere> {
     let camera = scene.camera();
     let eye_distance = camera.camera_from_world().transform_point3(centre).length();
     let radius = settings.radius.unwrap_or(if eye_distance > 0.0 { 0.03 * eye_distance } else { 0.1 });
+    Some(Sphere { centre, radius, material: cursor_material(settings) })
+}
+
+/// The sphere's material from `--unlit` and `--sphere-colour`.
+pub fn cursor_material(settings: &Settings) -> Material {
     let mut material =
         if settings.unlit { Material::unlit(Vec3::new(0.1, 0.25, 0.9)) } else { Material::default() };
     if let Some(c) = settings.sphere_colour {
         material.colour = c.as_vec3();
     }
-    Some(Sphere { centre, radius, material })
+    material
 }
 
 /// A quarter of the way from the surface at the image centre to the eye.

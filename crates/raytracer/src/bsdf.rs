@@ -255,20 +255,21 @@ impl Bsdf {
     pub fn f(&self, wo_world: Vec3, wi_world: Vec3, mask: LobeFlags) -> Vec3 {
         let wo = self.frame.to_local(wo_world);
         let wi = self.frame.to_local(wi_world);
-        if wo.z == 0.0 {
-            return Vec3::ZERO;
-        }
         // Reflection or transmission is decided by the geometric normal (no light leaks through
         // interpolated shading normals).
         let reflect = wi_world.dot(self.ng) * wo_world.dot(self.ng) > 0.0;
+        self.f_local(wo, wi, reflect, mask)
+    }
+
+    fn f_local(&self, wo: Vec3, wi: Vec3, reflect: bool, mask: LobeFlags) -> Vec3 {
+        if wo.z == 0.0 {
+            return Vec3::ZERO;
+        }
+        let wants = if reflect { LobeFlags::REFLECTION } else { LobeFlags::TRANSMISSION };
         let mut f = Vec3::ZERO;
         for lobe in self.lobes() {
             let flags = lobe.flags();
-            if flags.is_specular() || !flags.allowed_by(mask) {
-                continue;
-            }
-            let wants = if reflect { LobeFlags::REFLECTION } else { LobeFlags::TRANSMISSION };
-            if !flags.intersects(wants) {
+            if flags.is_specular() || !flags.allowed_by(mask) || !flags.intersects(wants) {
                 continue;
             }
             f += lobe_f(lobe, wo, wi);
@@ -280,11 +281,11 @@ impl Bsdf {
     pub fn pdf(&self, wo_world: Vec3, wi_world: Vec3, mask: LobeFlags) -> f32 {
         let wo = self.frame.to_local(wo_world);
         let wi = self.frame.to_local(wi_world);
-        if wo.z == 0.0 {
-            return 0.0;
-        }
-        let (total, _) = self.weights(mask);
-        if total <= 0.0 {
+        self.pdf_local(wo, wi, self.weights(mask).0, mask)
+    }
+
+    fn pdf_local(&self, wo: Vec3, wi: Vec3, total_weight: f32, mask: LobeFlags) -> f32 {
+        if wo.z == 0.0 || total_weight <= 0.0 {
             return 0.0;
         }
         let mut pdf = 0.0;
@@ -293,7 +294,7 @@ impl Bsdf {
             if !flags.allowed_by(mask) || flags.is_specular() {
                 continue;
             }
-            pdf += lobe.sampling_weight() / total * lobe_pdf(lobe, wo, wi);
+            pdf += lobe.sampling_weight() / total_weight * lobe_pdf(lobe, wo, wi);
         }
         pdf
     }
@@ -427,11 +428,14 @@ impl Bsdf {
                     return None;
                 }
                 let wi_world = self.frame.from_local(wi);
-                let pdf = self.pdf(wo_world, wi_world, non_specular(mask));
+                // The density of the whole allowed non-specular part (what MIS needs): the
+                // lobe choice above also counted the specular lobes' weights.
+                let pdf = self.pdf_local(wo, wi, total, non_specular(mask));
                 if !(pdf > 0.0) {
                     return None;
                 }
-                let f = self.f(wo_world, wi_world, non_specular(mask));
+                let reflect = wi_world.dot(self.ng) * wo_world.dot(self.ng) > 0.0;
+                let f = self.f_local(wo, wi, reflect, non_specular(mask));
                 Some(BsdfSample { f, wi: wi_world, pdf, flags: lobe.flags(), eta: 1.0 })
             }
         }
@@ -605,6 +609,17 @@ mod tests {
             let a = albedo(&b, Vec3::new(0.3, 0.0, 0.95).normalize(), 40_000);
             assert!(a.x > 0.3 && a.x <= 1.05, "exponent {e}: albedo {a}");
         }
+    }
+
+    #[test]
+    fn mixed_lobes_sum_their_albedos() {
+        // A diffuse and a mirror lobe: the sampled estimate of the albedo must be their sum
+        // (the non-specular density must count the chance of picking the mirror).
+        let mut b = Bsdf::new(frame(), Vec3::Z);
+        b.add(Lobe::Lambert { r: Vec3::splat(0.3) });
+        b.add(Lobe::SpecularReflection { r: Vec3::splat(0.6) });
+        let a = albedo(&b, Vec3::new(0.2, 0.1, 0.95).normalize(), 40_000);
+        assert!((a.x - 0.9).abs() < 0.01, "{a}");
     }
 
     #[test]

@@ -13,7 +13,8 @@ use crate::lights::LightSampleContext;
 use crate::materials::Material;
 use crate::math::average;
 use crate::photon::{PhotonMapSettings, PhotonMapper};
-use crate::sampling::{Rng, power_heuristic};
+use crate::sampler::Sampler;
+use crate::sampling::power_heuristic;
 use crate::world::{Ray, SurfaceInteraction, World};
 use glam::Vec3;
 use rib_parser::scene::ShaderCall;
@@ -119,7 +120,7 @@ const MAX_TRANSPARENT_LAYERS: u32 = 256;
 pub fn find_surface(
     world: &World,
     mut ray: Ray,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     counter: &mut u64,
 ) -> Option<(SurfaceInteraction, Vec3)> {
     let mut weight = Vec3::ONE;
@@ -132,7 +133,7 @@ pub fn find_surface(
             return Some((si, weight));
         }
         let p_stop = average(opacity).clamp(0.0, 1.0);
-        if p_stop > 0.0 && rng.uniform() < p_stop {
+        if p_stop > 0.0 && sampler.uniform() < p_stop {
             return Some((si, weight * opacity / p_stop));
         }
         if p_stop >= 1.0 {
@@ -178,7 +179,7 @@ pub fn direct_from_light(
     light_index: u32,
     pick_probability: f32,
     mask: LobeFlags,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     counters: &mut RayCounters,
     strategy: DirectStrategy,
 ) -> Vec3 {
@@ -186,7 +187,7 @@ pub fn direct_from_light(
     let mis = strategy != DirectStrategy::LightOnly && !light.is_delta();
     let mut total = Vec3::ZERO;
     let wo = si.wo;
-    if let Some(ls) = light.sample_li(&light_context(si), rng.uniform2()) {
+    if let Some(ls) = light.sample_li(&light_context(si), sampler.uniform2()) {
         let f = bsdf.f(wo, ls.wi, mask) * ls.wi.dot(bsdf.frame.z).abs();
         if f != Vec3::ZERO && ls.li != Vec3::ZERO {
             let shadow = match ls.p_light {
@@ -208,9 +209,13 @@ pub fn direct_from_light(
     }
     if strategy == DirectStrategy::Both && !light.is_delta() {
         // BSDF sampling toward the same light.
-        if let Some(bs) =
-            bsdf.sample(wo, rng.uniform(), rng.uniform2(), TransportMode::Radiance, non_specular(mask))
-        {
+        if let Some(bs) = bsdf.sample(
+            wo,
+            sampler.uniform(),
+            sampler.uniform2(),
+            TransportMode::Radiance,
+            non_specular(mask),
+        ) {
             let f = bs.f * bs.wi.dot(bsdf.frame.z).abs();
             if f != Vec3::ZERO && bs.pdf > 0.0 {
                 let ray = si.spawn_ray(bs.wi);
@@ -247,12 +252,12 @@ pub fn sample_one_light(
     si: &SurfaceInteraction,
     bsdf: &Bsdf,
     mask: LobeFlags,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     counters: &mut RayCounters,
 ) -> Vec3 {
     let set = world.light_set(si.attributes);
-    let Some((light, p)) = set.pick(rng.uniform()) else { return Vec3::ZERO };
-    direct_from_light(world, si, bsdf, light, p, mask, rng, counters, DirectStrategy::LightWithMisWeight)
+    let Some((light, p)) = set.pick(sampler.uniform()) else { return Vec3::ZERO };
+    direct_from_light(world, si, bsdf, light, p, mask, sampler, counters, DirectStrategy::LightWithMisWeight)
 }
 
 /// Emission, self-emission and ambient light at a surface reached by a ray (all but the
@@ -300,20 +305,22 @@ pub fn li(
     world: &World,
     integrator: &Integrator,
     ray: Ray,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     counters: &mut RayCounters,
 ) -> Radiance {
     match integrator.kind {
         IntegratorKind::DirectLighting { max_depth } => {
             let mut camera = 0;
-            let r = whitted(world, ray, 0, max_depth, rng, counters, &mut camera);
+            let r = whitted(world, ray, 0, max_depth, sampler, counters, &mut camera);
             counters.camera += camera.min(1);
             counters.bounce += camera.saturating_sub(1);
             r
         }
-        IntegratorKind::Path { max_depth, rr_depth } => path(world, ray, max_depth, rr_depth, rng, counters),
+        IntegratorKind::Path { max_depth, rr_depth } => {
+            path(world, ray, max_depth, rr_depth, sampler, counters)
+        }
         IntegratorKind::PhotonMap(_) => match &integrator.photon_mapper {
-            Some(mapper) => mapper.li(world, ray, rng, counters),
+            Some(mapper) => mapper.li(world, ray, sampler, counters),
             // Not prepared for this world: nothing to render with.
             None => Radiance::default(),
         },
@@ -325,11 +332,11 @@ fn whitted(
     ray: Ray,
     depth: u32,
     max_depth: u32,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     counters: &mut RayCounters,
     rays: &mut u64,
 ) -> Radiance {
-    let Some((si, weight)) = find_surface(world, ray, rng, rays) else { return Radiance::default() };
+    let Some((si, weight)) = find_surface(world, ray, sampler, rays) else { return Radiance::default() };
     let material = world.material(si.attributes);
     if material.holdout {
         return Radiance { rgb: Vec3::ZERO, alpha: 0.0 };
@@ -350,7 +357,7 @@ fn whitted(
                     light,
                     1.0,
                     LobeFlags::ALL,
-                    rng,
+                    sampler,
                     counters,
                     DirectStrategy::Both,
                 );
@@ -362,7 +369,7 @@ fn whitted(
                     continue;
                 }
                 let mut sub = 0;
-                let r = whitted(world, si.spawn_ray(wi), depth + 1, max_depth, rng, counters, &mut sub);
+                let r = whitted(world, si.spawn_ray(wi), depth + 1, max_depth, sampler, counters, &mut sub);
                 counters.bounce += sub;
                 l += w * r.rgb;
             }
@@ -383,7 +390,7 @@ fn path(
     mut ray: Ray,
     max_depth: u32,
     rr_depth: u32,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     counters: &mut RayCounters,
 ) -> Radiance {
     let mut l = Vec3::ZERO;
@@ -396,7 +403,7 @@ fn path(
     let mut depth = 0u32;
     loop {
         let mut rays = 0;
-        let found = find_surface(world, ray, rng, &mut rays);
+        let found = find_surface(world, ray, sampler, &mut rays);
         if depth == 0 {
             counters.camera += rays;
         } else {
@@ -435,11 +442,15 @@ fn path(
             break;
         }
         if bsdf.has_non_specular() {
-            l += beta * sample_one_light(world, &si, &bsdf, LobeFlags::ALL, rng, counters);
+            l += beta * sample_one_light(world, &si, &bsdf, LobeFlags::ALL, sampler, counters);
         }
-        let Some(bs) =
-            bsdf.sample(si.wo, rng.uniform(), rng.uniform2(), TransportMode::Radiance, LobeFlags::ALL)
-        else {
+        let Some(bs) = bsdf.sample(
+            si.wo,
+            sampler.uniform(),
+            sampler.uniform2(),
+            TransportMode::Radiance,
+            LobeFlags::ALL,
+        ) else {
             break;
         };
         let cos = bs.wi.dot(bsdf.frame.z).abs();
@@ -458,7 +469,7 @@ fn path(
             let rr_beta = (beta * eta_scale).max_element();
             if rr_beta < 1.0 {
                 let q = (1.0 - rr_beta).max(0.0);
-                if rng.uniform() < q {
+                if sampler.uniform() < q {
                     break;
                 }
                 beta /= 1.0 - q;

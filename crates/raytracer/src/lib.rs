@@ -56,6 +56,7 @@ pub mod math;
 pub mod output;
 pub mod photon;
 pub mod render;
+pub mod sampler;
 pub mod sampling;
 pub mod shapes;
 #[doc(hidden)]

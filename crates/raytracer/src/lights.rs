@@ -629,6 +629,68 @@ mod tests {
         assert!((pdf - s.pdf).abs() < 1e-4 * s.pdf);
     }
 
+    /// Photons carry `Le |cos| / (pdf_pos pdf_dir)`: their mean over many emissions must be the
+    /// light's power, for every kind of light (what a photon mapper relies on).
+    #[test]
+    fn emission_sampling_carries_the_power() {
+        let spot =
+            Light::spot(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.2), Vec3::new(2.0, 1.0, 0.5), 0.5, 0.1, 1.5);
+        let q = crate::shapes::Quadric::new(&rib_parser::scene::Shape::Sphere {
+            radius: 0.5,
+            z_min: -0.5,
+            z_max: 0.5,
+            theta_max_degrees: 360.0,
+        })
+        .unwrap();
+        let m = DMat4::from_scale_rotation_translation(
+            DVec3::new(1.0, 2.0, 0.5),
+            glam::DQuat::from_rotation_x(0.3),
+            DVec3::ONE,
+        );
+        let inv = m.inverse();
+        let det = glam::DMat3::from_mat4(m).determinant();
+        let ellipsoid = Light::Area {
+            shape: EmitterShape::Quadric {
+                quadric: q,
+                render_from_object: m,
+                object_from_render: inv,
+                det,
+                flip: false,
+                sphere: None,
+                area: quadric_area(&q, &inv, det),
+            },
+            radiance: Vec3::splat(3.0),
+            two_sided: false,
+        };
+        let lights = [
+            Light::Point { position: Vec3::ONE, intensity: Vec3::new(1.0, 2.0, 3.0) },
+            spot,
+            Light::Distant { direction: Vec3::new(0.0, -1.0, 0.0), irradiance: Vec3::ONE },
+            quad_light(false),
+            quad_light(true),
+            ellipsoid,
+        ];
+        let mut rng = Rng::new(8, 8);
+        for light in &lights {
+            let n = 100_000;
+            let mut sum = Vec3::ZERO;
+            for _ in 0..n {
+                if let Some(s) =
+                    light.sample_le(rng.uniform2(), rng.uniform2(), rng.uniform(), (Vec3::ZERO, 2.0))
+                {
+                    let cos = if s.n == Vec3::ZERO { 1.0 } else { s.n.dot(s.direction).abs() };
+                    sum += s.le * cos / (s.pdf_pos * s.pdf_dir);
+                }
+            }
+            let mc = sum / n as f32;
+            let power = light.power(2.0);
+            assert!(
+                (mc - power).abs().max_element() < 0.02 * power.max_element(),
+                "{light:?}: {mc} vs {power}"
+            );
+        }
+    }
+
     #[test]
     fn light_set_picks_by_power() {
         let lights = vec![

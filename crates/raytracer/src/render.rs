@@ -9,8 +9,8 @@
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{Integrator, IntegratorKind, RayCounters, li};
-use crate::sampling::Rng;
-use crate::world::{Ray, World, WorldError, WorldStats};
+use crate::sampler::Sampler;
+use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
 use depth_remap::{Camera, CameraError};
 use glam::{DMat4, DVec2, DVec3, Vec3};
@@ -163,6 +163,20 @@ impl CameraRays {
     }
 }
 
+/// The size of a pixel for the tessellation: the smaller pixel dimension, as an angle for a
+/// perspective camera or a length for an orthographic one (a rigid camera transform assumed).
+pub fn pixel_footprint(camera: &Camera) -> PixelFootprint {
+    let (w, h) = camera.resolution();
+    let sw = camera.screen_window();
+    let per_pixel =
+        ((sw.right - sw.left).abs() / f64::from(w)).min((sw.top - sw.bottom).abs() / f64::from(h));
+    match camera.tan_half_fov() {
+        // Screen units are tan(fov/2) per unit at the centre; an angle is at least that small.
+        Some(t) => PixelFootprint::Perspective { radians_per_pixel: (per_pixel * t).atan() },
+        None => PixelFootprint::Orthographic { size: per_pixel },
+    }
+}
+
 /// The integrator a scene asks for; without `SurfaceIntegrator`, path tracing when the scene
 /// has area lights (a physically based scene), RenderMan-style direct lighting otherwise.
 pub fn choose_integrator(scene: &Scene, diagnostics: &mut Diagnostics) -> IntegratorKind {
@@ -185,16 +199,6 @@ pub fn choose_integrator(scene: &Scene, diagnostics: &mut Diagnostics) -> Integr
             }
         }
     }
-}
-
-/// Strata `(nx, ny)` for `spp` samples: as square as divides `spp` exactly.
-pub fn strata_for(spp: u32) -> (u32, u32) {
-    let spp = spp.max(1);
-    let mut nx = (f64::from(spp).sqrt().floor() as u32).max(1);
-    while !spp.is_multiple_of(nx) {
-        nx -= 1;
-    }
-    (nx, spp / nx)
 }
 
 /// Renders `scene`.
@@ -222,7 +226,7 @@ fn render_in_pool(
     }
 
     let build_start = Instant::now();
-    let world = World::build(scene, camera.eye_position(), &mut diagnostics)?;
+    let world = World::build(scene, camera.eye_position(), pixel_footprint(&camera), &mut diagnostics)?;
     let time_build = build_start.elapsed();
     let rays = CameraRays::new(camera, &world.render_from_world);
 
@@ -234,15 +238,15 @@ fn render_in_pool(
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
         Filter { kind: crate::film::FilterKind::Gaussian, x_width: 2.0, y_width: 2.0 }
     });
-    let (nx, ny) = match options.spp {
-        Some(n) => strata_for(n),
+    // PixelSamples x y asks for x * y samples; the sampler stratifies any count.
+    let spp = match options.spp {
+        Some(n) => n.clamp(1, 1 << 20),
         None => {
             let (x, y) = scene.render.pixel_samples;
             let s = |v: f32| if v.is_finite() { v.round().clamp(1.0, 4096.0) as u32 } else { 1 };
-            (s(x), s(y))
+            (s(x) * s(y)).min(1 << 20)
         }
     };
-    let spp = nx * ny;
 
     let (x0, x1, y0, y1) = rays.camera.crop_pixel_bounds();
     let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
@@ -264,15 +268,7 @@ fn render_in_pool(
     let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
         .par_iter()
         .map(|&(tx0, ty0, tx1, ty1)| {
-            let r = render_tile(
-                &world,
-                &rays,
-                &integrator,
-                &filter,
-                (nx, ny),
-                options.seed,
-                (tx0, ty0, tx1, ty1),
-            );
+            let r = render_tile(&world, &rays, &integrator, &filter, spp, options.seed, (tx0, ty0, tx1, ty1));
             let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = &options.progress {
@@ -372,7 +368,7 @@ fn render_tile(
     rays: &CameraRays,
     integrator: &Integrator,
     filter: &Filter,
-    (nx, ny): (u32, u32),
+    spp: u32,
     seed: u64,
     (x0, y0, x1, y1): (u32, u32, u32, u32),
 ) -> (Vec<[f32; 4]>, RayCounters) {
@@ -380,19 +376,19 @@ fn render_tile(
     let (sx0, sy0) = (x0 as i64 - i64::from(mx), y0 as i64 - i64::from(my));
     let (sx1, sy1) = (x1 as i64 + i64::from(mx), y1 as i64 + i64::from(my));
     let sw = (sx1 - sx0) as usize;
-    let spp = (nx * ny) as usize;
+    let spp = spp as usize;
     let mut samples = Vec::with_capacity(sw * (sy1 - sy0) as usize * spp);
     let mut counters = RayCounters::default();
     for py in sy0..sy1 {
         for px in sx0..sx1 {
             for s in 0..spp as u32 {
-                let mut rng = Rng::for_pixel_sample(seed, px as u32, py as u32, s);
-                let (ix, iy) = (s % nx, s / nx);
-                let jitter = rng.uniform2();
-                let x = px as f64 + (f64::from(ix) + f64::from(jitter.x)) / f64::from(nx);
-                let y = py as f64 + (f64::from(iy) + f64::from(jitter.y)) / f64::from(ny);
+                let mut sampler = Sampler::new(seed, px, py, s);
+                // The first pair of dimensions places the sample in the pixel (stratified).
+                let jitter = sampler.uniform2();
+                let x = px as f64 + f64::from(jitter.x);
+                let y = py as f64 + f64::from(jitter.y);
                 let r = match rays.ray(DVec2::new(x, y)) {
-                    Some((ray, _)) => li(world, integrator, ray, &mut rng, &mut counters),
+                    Some((ray, _)) => li(world, integrator, ray, &mut sampler, &mut counters),
                     None => Default::default(),
                 };
                 samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });

@@ -210,17 +210,92 @@ enum Geometry {
     Quadric(Quadric),
 }
 
-/// Tessellation accuracy for everything that is not a quadric: the chord error stays below
-/// 2e-4 of each shape's size (a fifth of a pixel for a shape filling a 1000-pixel frame).
-pub const TESSELLATION: f64 = 2e-4;
+/// How large a pixel is at a distance from the eye: the tessellation of curved surfaces aims
+/// at a chord error of half a pixel where the surface is (like RenderMan's shading rate).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PixelFootprint {
+    /// A perspective camera: one pixel spans this angle (radians, the smaller of x and y).
+    Perspective { radians_per_pixel: f64 },
+    /// An orthographic camera: one pixel spans this size in world units.
+    Orthographic { size: f64 },
+    /// No camera: tessellate relative to each shape's size only.
+    Unknown,
+}
+
+impl PixelFootprint {
+    fn at(&self, distance: f64) -> Option<f64> {
+        let s = match *self {
+            PixelFootprint::Perspective { radians_per_pixel } => radians_per_pixel * distance,
+            PixelFootprint::Orthographic { size } => size,
+            PixelFootprint::Unknown => return None,
+        };
+        (s.is_finite() && s > 0.0).then_some(s)
+    }
+}
+
+/// Chord error bounds of the tessellation relative to a shape's size: never coarser than 1%,
+/// never finer than 1e-4 (and 2e-4 where the camera distance is not known: object definitions).
+pub const TESSELLATION_COARSEST: f64 = 1e-2;
+pub const TESSELLATION_FINEST: f64 = 1e-4;
+pub const TESSELLATION_DEFAULT: f64 = 2e-4;
+
+/// At most this many triangles in a world; shapes beyond it are skipped with a warning.
+pub const MAX_WORLD_TRIANGLES: usize = 64_000_000;
+
+/// Bounds of a shape's control points (object space), when it has any.
+fn control_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
+    let points: Box<dyn Iterator<Item = DVec3> + '_> = match shape {
+        Shape::Polygons(m) => Box::new(m.positions.iter().map(|p| p.as_dvec3())),
+        Shape::SubdivisionMesh(m) => Box::new(m.positions.iter().map(|p| p.as_dvec3())),
+        Shape::Patches(m) => {
+            Box::new(m.positions.iter().filter(|p| p.w != 0.0).map(|p| (p.truncate() / p.w).as_dvec3()))
+        }
+        Shape::NuPatch(m) => {
+            Box::new(m.positions.iter().filter(|p| p.w != 0.0).map(|p| (p.truncate() / p.w).as_dvec3()))
+        }
+        _ => return None,
+    };
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in points {
+        if p.is_finite() {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (lo.x <= hi.x).then_some((lo, hi))
+}
+
+/// The tessellation tolerance of a shape placed with `blas_from_object`: half a pixel at the
+/// shape's nearest point to the eye (`eye_distance` from its bounds, when known), clamped to
+/// [`TESSELLATION_FINEST`, `TESSELLATION_COARSEST`] of the shape's size.
+fn tolerance_for(shape: &Shape, blas_from_object: &DMat4, footprint: Option<&PixelFootprint>) -> Tolerance {
+    let relative = Tolerance::relative(TESSELLATION_DEFAULT);
+    let (Some(footprint), Some((lo, hi))) = (footprint, control_bounds(shape)) else { return relative };
+    let (lo, hi) = transformed_box(blas_from_object, lo, hi);
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+    let size = (hi - lo).length();
+    if !(size > 0.0) || !size.is_finite() {
+        return relative;
+    }
+    // Distance from the eye (the render-space origin) to the box.
+    let distance = (DVec3::ZERO.clamp(lo, hi)).length();
+    let Some(pixel) = footprint.at(distance) else { return relative };
+    let eps = (0.5 * pixel).clamp(TESSELLATION_FINEST * size, TESSELLATION_COARSEST * size);
+    Tolerance::absolute(eps)
+}
 
 /// Turns a scene shape into renderable geometry placed with `blas_from_object`, or says why it
 /// is skipped. Quadrics are kept exact; everything else goes through rib-parser's tessellator.
-fn place_geometry(shape: &Shape, blas_from_object: &DMat4) -> Result<Geometry, String> {
+fn place_geometry(
+    shape: &Shape,
+    blas_from_object: &DMat4,
+    footprint: Option<&PixelFootprint>,
+) -> Result<Geometry, String> {
     if is_quadric(shape) {
         return Quadric::new(shape).map(Geometry::Quadric).map_err(|e| e.0.to_string());
     }
-    let tolerance = Tolerance::relative(TESSELLATION);
+    let tolerance = tolerance_for(shape, blas_from_object, footprint);
     let mesh = tessellate_placed(shape, blas_from_object, false, &tolerance).map_err(|e| e.to_string())?;
     if mesh.is_empty() {
         return Err("it has no area".into());
@@ -393,10 +468,12 @@ pub enum WorldError {
 }
 
 impl World {
-    /// Builds the world for `scene` seen from the eye at `eye_world` (world space).
+    /// Builds the world for `scene` seen from the eye at `eye_world` (world space); curved
+    /// surfaces are tessellated to half of `footprint`'s pixel where they are.
     pub fn build(
         scene: &Scene,
         eye_world: DVec3,
+        footprint: PixelFootprint,
         diagnostics: &mut Diagnostics,
     ) -> Result<World, WorldError> {
         let start = Instant::now();
@@ -438,9 +515,28 @@ impl World {
         }
 
         // Geometry, placed (and for meshes tessellated) per placement.
-        let geometry = |entity: &ShapeEntity, blas_from_object: &DMat4, diagnostics: &mut Diagnostics| {
-            match place_geometry(&entity.shape, blas_from_object) {
-                Ok(g) => Some(g),
+        // World shapes are placed in render space, where the eye is the origin; object
+        // definitions in their own space (no camera distance).
+        let mut triangle_count = 0usize;
+        let mut geometry = |entity: &ShapeEntity,
+                            blas_from_object: &DMat4,
+                            in_render_space: bool,
+                            diagnostics: &mut Diagnostics| {
+            if triangle_count >= MAX_WORLD_TRIANGLES && !is_quadric(&entity.shape) {
+                let kind = shape_kind(&entity.shape);
+                let why = format!("the world already has {MAX_WORLD_TRIANGLES} triangles");
+                diagnostics.warn_once(Some(&entity.loc), format!("{kind} skipped: {why}"));
+                diagnostics.skip(&format!("{kind} ({why})"));
+                return None;
+            }
+            let fp = if in_render_space { Some(&footprint) } else { None };
+            match place_geometry(&entity.shape, blas_from_object, fp) {
+                Ok(g) => {
+                    if let Geometry::Mesh(m) = &g {
+                        triangle_count += m.indices.len();
+                    }
+                    Some(g)
+                }
                 Err(why) => {
                     let kind = shape_kind(&entity.shape);
                     diagnostics.warn_once(Some(&entity.loc), format!("{kind} skipped: {why}"));
@@ -528,7 +624,7 @@ impl World {
                 diagnostics.skip("shapes (singular transform)");
                 continue;
             }
-            let Some(g) = geometry(entity, &render_from_object, diagnostics) else { continue };
+            let Some(g) = geometry(entity, &render_from_object, true, diagnostics) else { continue };
             let Some(shape_index) = world_blas.add(&g, &render_from_object, entity.attributes, scene) else {
                 diagnostics.skip("shapes (degenerate geometry)");
                 continue;
@@ -572,7 +668,9 @@ impl World {
                 let mut builder = BlasBuilder::new();
                 let mut placed = Vec::new();
                 for entity in &def.shapes {
-                    let Some(g) = geometry(entity, &entity.world_from_object, diagnostics) else { continue };
+                    let Some(g) = geometry(entity, &entity.world_from_object, false, diagnostics) else {
+                        continue;
+                    };
                     if builder.add(&g, &entity.world_from_object, entity.attributes, scene).is_some() {
                         let reverse = scene.attributes_of(entity.attributes).reverse_orientation;
                         placed.push((g, entity.world_from_object, reverse));
@@ -852,6 +950,28 @@ impl World {
             }
         });
         *t_max = tray.t_max;
+    }
+
+    /// For benchmarks: the BVH and the triangles (in BVH slot order) of a one-level world
+    /// (no object instances, no quadrics), so that obvhs' own traversal can run on the same tree.
+    #[doc(hidden)]
+    pub fn single_level_triangles(&self) -> Option<(&Bvh, Vec<[Vec3; 3]>)> {
+        if self.tlas.is_some() || self.instances.len() != 1 || !self.instances[0].identity {
+            return None;
+        }
+        let blas = &self.blases[self.instances[0].blas as usize];
+        if !blas.quadrics.is_empty() {
+            return None;
+        }
+        let tris = blas
+            .prims
+            .iter()
+            .map(|p| match p {
+                Prim::Triangle(i) => blas.triangles[*i as usize].p,
+                Prim::Quadric(_) => [Vec3::ZERO; 3],
+            })
+            .collect();
+        Some((&blas.bvh, tris))
     }
 
     /// Fraction of light passing along the segment `ray` (origin + t direction, `t` in

@@ -23,8 +23,8 @@ const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/rib-c
 /// An n x n grid of vertices as one `PointsPolygons` of quads, with normals, written like an
 /// exporter writes it (six decimals, one face per line).
 pub fn mesh_rib(target_bytes: usize) -> Vec<u8> {
-    // About 76 bytes per vertex (P, N, indices): solve for n.
-    let n = ((target_bytes as f64 / 76.0).sqrt() as usize).max(2);
+    // About 85 bytes per vertex (P, N, a quad's indices and count): solve for n.
+    let n = ((target_bytes as f64 / 85.0).sqrt() as usize).max(2);
     let mut s = String::with_capacity(target_bytes + 1024);
     s.push_str("##RenderMan RIB\nFormat 640 480 1\nProjection \"perspective\" \"fov\" [40]\nTranslate 0 0 5\nWorldBegin\n");
     s.push_str("PointsPolygons [");
@@ -185,6 +185,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
     let mut group = c.benchmark_group("parse");
     group.sample_size(10);
     for (name, bytes) in &inputs {
+        eprintln!("input {name}: {} bytes", bytes.len());
         // Every input must really build a scene, or the figure means nothing.
         load_bytes(name, bytes.clone(), &LoadOptions::default())
             .unwrap_or_else(|e| panic!("{name}: {}", e.render()));

@@ -705,9 +705,23 @@ impl Lexer {
     }
 
     /// The string operand of a binary definition (encoded or quoted ASCII).
+    /// Only a string may follow (ASCII, encoded, or a defined string token): another
+    /// definition there is an error, so nested definitions cannot recurse without bound.
     fn definition_string(&mut self, start: usize) -> Result<Arc<[u8]>, LexError> {
-        let t = self.scan()?;
-        match t.kind {
+        let mut i = self.pos;
+        while i < self.end && matches!(self.bytes[i], b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c) {
+            i += 1;
+        }
+        self.pos = i;
+        let token = match self.bytes.get(i).filter(|_| i < self.end) {
+            Some(b'"') => self.scan_string(i)?,
+            Some(0x90..=0xa3 | 0xcf | 0xd0) => match self.scan_binary(i)? {
+                Some(t) => t,
+                None => return Err(self.err(start, "a binary definition is not followed by a string")),
+            },
+            _ => return Err(self.err(start, "a binary definition is not followed by a string")),
+        };
+        match token.kind {
             TokenKind::String(text) => Ok(Arc::from(text.bytes(&self.bytes))),
             _ => Err(self.err(start, "a binary definition is not followed by a string")),
         }
@@ -850,6 +864,21 @@ mod tests {
             Ok(TokenKind::String(t)) => assert_eq!(t.bytes(&bytes), b"lh"),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn nested_binary_definitions_do_not_recurse() {
+        // A million request definitions, each "defining" with another definition: an error at
+        // once, not a stack overflow.
+        let src: Vec<u8> = std::iter::repeat_n([0xcc, 0x01], 1_000_000).flatten().collect();
+        let mut l = Lexer::new(Arc::new(src));
+        let first = l.next();
+        assert!(first.as_ref().unwrap_err().message.contains("not followed by a string"), "{first:?}");
+        let mut errors = 1;
+        while !matches!(l.next(), Ok(Token { kind: TokenKind::Eof, .. })) {
+            errors += 1;
+        }
+        assert!(errors <= 1_000_000);
     }
 
     #[test]

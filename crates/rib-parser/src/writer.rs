@@ -29,7 +29,14 @@ use std::fmt::Write;
 
 /// The scene as RIB text.
 pub fn write_scene(scene: &Scene) -> String {
-    let mut w = Writer { out: String::new(), declared: vec![false; scene.lights.len()] };
+    // A handle names the light declared last with it: earlier lights with the same handle are
+    // shadowed and cannot be named by Illuminate.
+    let mut last_with_handle = std::collections::HashMap::new();
+    for (index, light) in scene.lights.iter().enumerate() {
+        last_with_handle.insert(&light.handle, index);
+    }
+    let shadowed = (0..scene.lights.len()).map(|i| last_with_handle[&scene.lights[i].handle] != i).collect();
+    let mut w = Writer { out: String::new(), declared: vec![false; scene.lights.len()], shadowed };
     w.scene(scene);
     w.out
 }
@@ -38,6 +45,8 @@ struct Writer {
     out: String,
     /// Lights already written (only those can be named by `Illuminate`).
     declared: Vec<bool>,
+    /// Lights whose handle a later light reuses.
+    shadowed: Vec<bool>,
 }
 
 /// `f32` written so it reads back exactly (Rust's `Display` is the shortest round-trip form).
@@ -176,12 +185,12 @@ impl Writer {
             // Declared in a block of its own, so it is off outside it; every shape block then
             // turns on exactly the lights that illuminate it. A light whose handle a later light
             // reuses cannot be named by Illuminate: it stays on when it lights every shape.
-            let shadowed = scene.lights[index + 1..].iter().any(|l| l.handle == light.handle);
-            let everywhere = scene
-                .shapes
-                .iter()
-                .all(|sh| scene.attributes_of(sh.attributes).illuminated_by.contains(&LightId(index as u32)));
-            let (begin, end) = if shadowed && everywhere {
+            let shadowed = self.shadowed[index];
+            let everywhere = shadowed
+                && scene.shapes.iter().all(|sh| {
+                    scene.attributes_of(sh.attributes).illuminated_by.contains(&LightId(index as u32))
+                });
+            let (begin, end) = if everywhere {
                 ("TransformBegin", "TransformEnd")
             } else {
                 ("AttributeBegin", "AttributeEnd")
@@ -356,12 +365,7 @@ impl Writer {
         self.attribute_changes(a, &Attributes::default());
         if with_lights {
             for (index, light) in scene.lights.iter().enumerate() {
-                // A handle names the light declared last with it.
-                let shadowed = scene.lights[index + 1..]
-                    .iter()
-                    .enumerate()
-                    .any(|(k, l)| l.handle == light.handle && self.declared[index + 1 + k]);
-                if !self.declared[index] || shadowed {
+                if !self.declared[index] || self.shadowed[index] {
                     continue;
                 }
                 let on = a.illuminated_by.binary_search(&LightId(index as u32)).is_ok();

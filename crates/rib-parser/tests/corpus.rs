@@ -244,11 +244,17 @@ fn every_corpus_file_reads_as_expected() {
     let files = corpus_files();
     assert!(files.len() >= 119, "the corpus at {} has {} files", corpus_dir().display(), files.len());
     let mut failures = Vec::new();
+    let (mut scenes, mut fragments, mut broken) = (0, 0, 0);
     for (repo, file) in &files {
         let Some(expect) = expectation(repo, file) else {
             failures.push(format!("{repo}/{file}: not in the expectations table"));
             continue;
         };
+        match expect {
+            Scene { .. } => scenes += 1,
+            Fragment { .. } => fragments += 1,
+            Fails(_) => broken += 1,
+        }
         let result = load(repo, file, expect);
         match (expect, result) {
             (Scene { .. } | Fragment { .. }, Ok(l)) => {
@@ -276,6 +282,10 @@ fn every_corpus_file_reads_as_expected() {
             (_, Err(e)) => failures.push(format!("{repo}/{file}: failed:\n{}", e.render())),
         }
     }
+    println!(
+        "{} corpus files: {scenes} complete scenes, {fragments} archive fragments (read inside a wrapper), {broken} failing as expected",
+        files.len()
+    );
     assert!(
         failures.is_empty(),
         "{} corpus files did not read as expected:\n{}",

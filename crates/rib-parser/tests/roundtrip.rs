@@ -67,6 +67,9 @@ fn resolve(scene: &Scene, id: AttributesId) -> ResolvedAttributes {
     ResolvedAttributes { attributes: a, lights, area_light }
 }
 
+/// An instance: its object's handle, placement, own attributes, and its shapes resolved.
+type CanonicalInstance = (String, DMat4, ResolvedAttributes, Vec<(Shape, DMat4, ResolvedAttributes)>);
+
 #[derive(Debug, PartialEq)]
 struct Canonical {
     frame: Option<i32>,
@@ -77,7 +80,7 @@ struct Canonical {
     options: Vec<(String, ParamList)>,
     lights: Vec<(String, String, ParamList, LightKind, DMat4)>,
     shapes: Vec<(Shape, DMat4, ResolvedAttributes, bool)>,
-    instances: Vec<(String, DMat4, ResolvedAttributes, Vec<(Shape, DMat4, ResolvedAttributes)>)>,
+    instances: Vec<CanonicalInstance>,
     coordinate_systems: Vec<(String, DMat4)>,
 }
 

@@ -120,6 +120,13 @@ fn the_subdivision_bunny_tessellates_and_is_closed_where_its_control_mesh_is() {
     )
     .unwrap();
     let welded = mesh.welded();
+    eprintln!(
+        "sdsbunny: {} control faces, {} triangles, {} open edges (control mesh: {})",
+        sm.vertices_per_face.len(),
+        mesh.triangle_count(),
+        welded.boundary_edge_count(),
+        control.boundary_edge_count()
+    );
     assert_eq!(welded.boundary_edge_count() == 0, control.boundary_edge_count() == 0);
     if control.boundary_edge_count() == 0 {
         assert!(welded.is_closed());

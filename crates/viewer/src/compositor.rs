@@ -652,7 +652,7 @@ impl Compositor {
             None => None,
             Some(ShadowSettings { light: Some(k), .. }) => {
                 if k >= lights.len() || lights[k].shadow_source().is_none() {
-                    return Err(ViewerError::Camera(format!(
+                    return Err(ViewerError::Invalid(format!(
                         "shadow light {k} is not a light that casts shadows"
                     )));
                 }
@@ -823,7 +823,7 @@ impl Compositor {
         if let Some(k) = self.meshes.iter().position(|m| Arc::ptr_eq(&m.source, mesh)) {
             return Ok(k);
         }
-        mesh.validate().map_err(|e| ViewerError::Camera(format!("live mesh: {e}")))?;
+        mesh.validate().map_err(|e| ViewerError::Invalid(format!("live mesh: {e}")))?;
         let vertices: Vec<MeshVertex> = mesh
             .positions
             .iter()
@@ -1003,7 +1003,7 @@ impl Compositor {
             for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
                 let p = c + (u * a + v * b) * radius;
                 let clip = clip_from_camera * p.extend(1.0);
-                if !(clip.w > 1e-9) {
+                if clip.w.is_nan() || clip.w <= 1e-9 {
                     return full;
                 }
                 let x = (clip.x / clip.w + 1.0) * 0.5 * f64::from(self.width);

@@ -15,9 +15,12 @@ pub enum ViewerError {
     /// The image, the depth table and the camera disagree on the image size.
     #[error("size mismatch: {first_what} is {}x{} but {second_what} is {}x{}", first.0, first.1, second.0, second.1)]
     SizeMismatch { first_what: String, first: (u32, u32), second_what: String, second: (u32, u32) },
-    /// The scene's camera cannot be used by the viewer.
+    /// The scene's camera or depth range cannot be used by the viewer.
     #[error("camera: {0}")]
     Camera(String),
+    /// A live object, a light choice or an in-memory input is not usable.
+    #[error("invalid input: {0}")]
+    Invalid(String),
     /// No usable GPU adapter (a software one counts) was found.
     #[error("no GPU adapter: {0}")]
     NoAdapter(String),

@@ -259,6 +259,19 @@ pub struct FrameInfo {
 /// state (read without blocking), a recorded trajectory, or anything else. It must not block.
 pub trait LiveUpdate {
     fn update(&mut self, live: &mut LiveObjects, frame: &FrameInfo);
+
+    /// True when the window's keyboard and mouse should still move the sphere while this
+    /// updater runs: the updater then reads where they put it (e.g. as the input of a simulated
+    /// haptic device) and may move it elsewhere (to the haptic proxy).
+    fn keyboard_moves_sphere(&self) -> bool {
+        false
+    }
+
+    /// True when the window should close after this frame (e.g. the haptic device was
+    /// unplugged; the caller reports why).
+    fn wants_exit(&self) -> bool {
+        false
+    }
 }
 
 impl<F: FnMut(&mut LiveObjects, &FrameInfo)> LiveUpdate for F {

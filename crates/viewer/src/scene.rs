@@ -37,7 +37,7 @@ impl ViewerScene {
             });
         }
         if image.pixels.len() != image.width as usize * image.height as usize * 4 {
-            return Err(ViewerError::Camera("the image's pixel buffer does not match its size".into()));
+            return Err(ViewerError::Invalid("the image's pixel buffer does not match its size".into()));
         }
         if camera.resolution() != image_size {
             return Err(ViewerError::SizeMismatch {

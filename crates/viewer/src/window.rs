@@ -4,7 +4,8 @@
 //! pixel (a `textureLoad` copy into a unorm surface: no filtering, no colour-space change), so
 //! what a headless run writes is exactly what the window shows.
 //!
-//! Controls when no [`LiveUpdate`] drives the sphere (keys act on the sphere, in camera axes):
+//! Controls when no [`LiveUpdate`] drives the sphere, or when the one that does asks for them
+//! ([`LiveUpdate::keyboard_moves_sphere`]; keys act on the sphere, in camera axes):
 //! - mouse: left-drag moves the sphere under the cursor at its current depth; the wheel moves
 //!   it along the view direction;
 //! - arrows or `W`/`A`/`S`/`D`: move in the image plane; `Q`/`E` or `PageUp`/`PageDown`: move
@@ -247,6 +248,9 @@ impl App {
         let info = FrameInfo { index: self.frames, time_s: start.elapsed().as_secs_f64() };
         if let Some(updater) = self.updater.as_mut() {
             updater.update(&mut self.live, &info);
+            if updater.wants_exit() {
+                event_loop.exit();
+            }
         }
         let Some(p) = self.presenter.as_mut() else { return Ok(()) };
         p.compositor.render(&self.live)?;
@@ -329,8 +333,7 @@ impl App {
     fn move_sphere_camera(&mut self, delta: DVec3) {
         let camera = self.scene.camera();
         if let Some(s) = self.live.sphere.as_mut() {
-            let c = camera.camera_from_world().transform_point3(s.centre) + delta;
-            s.centre = camera.world_from_camera().transform_point3(c);
+            s.centre = moved_in_camera_axes(camera, s.centre, delta);
             self.dirty = true;
         }
     }
@@ -348,22 +351,23 @@ impl App {
 
     /// Puts the sphere under the cursor, keeping its eye depth.
     fn drag_to(&mut self, cursor: DVec2) {
-        let Some(z) = self.sphere_eye_depth() else { return };
         let camera = self.scene.camera();
-        let ray = camera.ray_through_raster(cursor);
-        if ray.direction.z <= 0.0 {
-            return;
-        }
-        let t = (z - ray.origin.z) / ray.direction.z;
-        let c = ray.origin + ray.direction * t;
-        if let Some(s) = self.live.sphere.as_mut() {
-            s.centre = camera.world_from_camera().transform_point3(c);
+        if let Some(s) = self.live.sphere.as_mut()
+            && let Some(c) = under_cursor(camera, s.centre, cursor)
+        {
+            s.centre = c;
             self.dirty = true;
         }
     }
 
+    /// Whether the keyboard and mouse move the sphere: always without an updater, and with one
+    /// that asks for it.
+    fn keyboard_moves_sphere(&self) -> bool {
+        self.updater.as_ref().is_none_or(|u| u.keyboard_moves_sphere())
+    }
+
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) {
-        let manual = self.updater.is_none();
+        let manual = self.keyboard_moves_sphere();
         let step = self.step();
         match key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
@@ -453,7 +457,7 @@ impl ApplicationHandler for App {
                 self.key(event_loop, &event.logical_key);
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.dragging = state == ElementState::Pressed && self.updater.is_none();
+                self.dragging = state == ElementState::Pressed && self.keyboard_moves_sphere();
                 if let (true, Some(c)) = (self.dragging, self.cursor) {
                     self.drag_to(c);
                 }
@@ -465,7 +469,7 @@ impl ApplicationHandler for App {
                     self.drag_to(c);
                 }
             }
-            WindowEvent::MouseWheel { delta, .. } if self.updater.is_none() => {
+            WindowEvent::MouseWheel { delta, .. } if self.keyboard_moves_sphere() => {
                 let lines = match delta {
                     MouseScrollDelta::LineDelta(_, y) => f64::from(y),
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
@@ -500,6 +504,24 @@ impl ApplicationHandler for App {
             self.error = Some(e);
         }
     }
+}
+
+/// `world` moved by `delta` along the camera's axes (x right, y up, z forward).
+pub fn moved_in_camera_axes(camera: &depth_remap::Camera, world: DVec3, delta: DVec3) -> DVec3 {
+    let c = camera.camera_from_world().transform_point3(world) + delta;
+    camera.world_from_camera().transform_point3(c)
+}
+
+/// The point at `world`'s eye depth on the ray through raster position `cursor`: where a drag
+/// puts the sphere so it stays under the mouse. `None` when that depth is behind the eye.
+pub fn under_cursor(camera: &depth_remap::Camera, world: DVec3, cursor: DVec2) -> Option<DVec3> {
+    let z = camera.camera_from_world().transform_point3(world).z;
+    let ray = camera.ray_through_raster(cursor);
+    let t = (z - ray.origin.z) / ray.direction.z;
+    if !(t > 0.0 && t.is_finite()) {
+        return None;
+    }
+    Some(camera.world_from_camera().transform_point3(ray.origin + ray.direction * t))
 }
 
 /// A pending copy of the surface texture into a mappable buffer.
@@ -570,5 +592,50 @@ impl SurfaceCapture {
             }
         }
         Ok(Rgba8Image { width: self.width, height: self.height, pixels })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use depth_remap::{Camera, CameraSettings, Projection};
+    use glam::DMat4;
+
+    fn camera() -> Camera {
+        // The Cornell camera: a mirror and a translation.
+        Camera::new(CameraSettings {
+            x_resolution: 320,
+            y_resolution: 240,
+            projection: Projection::Perspective { fov_degrees: 40.0 },
+            camera_from_world: DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0))
+                * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9)),
+            ..CameraSettings::default()
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn dragging_keeps_the_sphere_under_the_cursor_at_its_depth() {
+        let cam = camera();
+        let start = DVec3::new(0.2, -0.1, 0.5);
+        let cursor = DVec2::new(250.25, 31.5);
+        let moved = under_cursor(&cam, start, cursor).unwrap();
+        let (raster, depth) = cam.world_to_raster(moved).unwrap();
+        assert!((raster - cursor).length() < 1e-9, "{raster}");
+        let z = |p: DVec3| cam.camera_from_world().transform_point3(p).z;
+        assert!((z(moved) - z(start)).abs() < 1e-12 && depth > 0.0);
+        // Behind the eye there is nothing to drag to.
+        assert!(under_cursor(&cam, DVec3::new(0.0, 0.0, 5.0), cursor).is_none());
+    }
+
+    #[test]
+    fn key_moves_follow_the_camera_axes() {
+        let cam = camera();
+        let start = DVec3::new(0.2, -0.1, 0.5);
+        // Camera +x is world +x, camera +z (forward) is world -z for this mirrored camera.
+        let right = moved_in_camera_axes(&cam, start, DVec3::new(0.1, 0.0, 0.0));
+        assert!((right - DVec3::new(0.3, -0.1, 0.5)).length() < 1e-12);
+        let forward = moved_in_camera_axes(&cam, start, DVec3::new(0.0, 0.0, 0.1));
+        assert!((forward - DVec3::new(0.2, -0.1, 0.4)).length() < 1e-12);
     }
 }

@@ -107,7 +107,7 @@ fn modes_agree_with_a_live_sphere() {
     assert!(frames[0].colour == frames[1].colour, "colour differs between modes");
     assert!(frames[0].mask == frames[1].mask, "mask differs between modes");
     assert!(frames[0].depth.iter().zip(&frames[1].depth).all(|(a, b)| a.to_bits() == b.to_bits()));
-    assert!(frames[0].mask.iter().any(|&m| m == 255));
+    assert!(frames[0].mask.contains(&255));
 }
 
 struct Agreement {
@@ -283,5 +283,39 @@ fn gl_backend_replica_and_depth_readback() {
         );
         assert!(differing.is_empty(), "GL {mode:?}: depth differs from the converted table");
         depths.push(frame.depth);
+    }
+}
+
+/// Bad live objects are errors or are skipped, never panics: a mesh with an index out of range,
+/// a sphere with a NaN centre or a zero radius, a non-finite mesh transform.
+#[test]
+fn bad_live_objects_do_not_panic() {
+    let gpu = gpu();
+    let scene = cornell_scene(vec![cornell_light()]);
+    let mut c = Compositor::new(&gpu, &scene, settings(CompositeMode::Fullscreen)).unwrap();
+    let broken =
+        viewer::Mesh { positions: vec![Vec3::ZERO; 3], normals: vec![Vec3::Z; 3], indices: vec![0, 1, 7] };
+    let live = LiveObjects {
+        sphere: None,
+        meshes: vec![viewer::MeshInstance {
+            mesh: std::sync::Arc::new(broken),
+            world_from_object: glam::DMat4::IDENTITY,
+            material: Material::default(),
+        }],
+    };
+    assert!(matches!(c.render(&live), Err(viewer::ViewerError::Invalid(_))));
+    for sphere in [
+        Sphere { centre: DVec3::new(f64::NAN, 0.0, 0.0), radius: 0.2, material: Material::default() },
+        Sphere { centre: DVec3::ZERO, radius: 0.0, material: Material::default() },
+        Sphere { centre: DVec3::ZERO, radius: f64::INFINITY, material: Material::default() },
+    ] {
+        let cube = viewer::MeshInstance {
+            mesh: std::sync::Arc::new(viewer::Mesh::cuboid(Vec3::splat(0.1))),
+            world_from_object: glam::DMat4::from_translation(DVec3::new(f64::NAN, 0.0, 0.0)),
+            material: Material::default(),
+        };
+        c.render(&LiveObjects { sphere: Some(sphere), meshes: vec![cube] }).unwrap();
+        let frame = c.read_back().unwrap();
+        assert!(frame.colour == *scene.image() && frame.mask.iter().all(|&m| m == 0));
     }
 }

@@ -201,6 +201,9 @@ pub struct SpaceMouseSettings {
     pub feedback_damping: f64,
     /// From the cap frame (x right, y up, z towards the user) to the device frame.
     pub device_from_cap: DMat3,
+    /// Rate mode: where the integrated position starts (device frame, inside the workspace),
+    /// e.g. a point in free space in view rather than the workspace centre.
+    pub rate_start: DVec3,
 }
 
 impl Default for SpaceMouseSettings {
@@ -215,6 +218,7 @@ impl Default for SpaceMouseSettings {
             max_angle: 0.8,
             feedback_damping: 50.0,
             device_from_cap: DMat3::IDENTITY,
+            rate_start: DVec3::ZERO,
         }
     }
 }
@@ -231,9 +235,15 @@ pub struct Controller {
 
 impl Controller {
     pub fn new(settings: SpaceMouseSettings) -> Controller {
+        let start = match settings.mode {
+            ControlMode::Rate if settings.rate_start.is_finite() => {
+                settings.rate_start.clamp_length_max(settings.workspace_radius.max(0.0))
+            }
+            _ => DVec3::ZERO,
+        };
         Controller {
             settings,
-            position: DVec3::ZERO,
+            position: start,
             orientation: DQuat::IDENTITY,
             last_time: None,
             force: DVec3::ZERO,

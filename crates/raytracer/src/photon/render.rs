@@ -8,8 +8,8 @@ use crate::integrators::{
     DirectStrategy, Radiance, RayCounters, direct_from_light, find_surface, sanitize, surface_terms,
 };
 use crate::math::Frame;
-use crate::render::strata_for;
-use crate::sampling::{Rng, power_heuristic, sample_uniform_cone, uniform_cone_pdf};
+use crate::sampler::Sampler;
+use crate::sampling::{power_heuristic, sample_uniform_cone, uniform_cone_pdf};
 use crate::world::{Ray, SurfaceInteraction, World};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -17,6 +17,34 @@ use std::sync::atomic::Ordering;
 
 /// Indirect photons whose directions guide photon-guided gathering (pbrt-v2's choice).
 const GUIDE_PHOTONS: usize = 50;
+
+/// The generator `g` of a Korobov rank-1 lattice of `n` points `(j / n, {j g / n})`: the integer
+/// nearest to `n / phi` that is coprime with `n` (a Fibonacci lattice when `n` is a Fibonacci
+/// number).
+fn lattice_generator(n: u32) -> u32 {
+    if n <= 2 {
+        return 1;
+    }
+    let gcd = |mut a: u32, mut b: u32| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let g0 = (f64::from(n) * 0.618_033_988_749_895).round() as u32;
+    (0..n)
+        .flat_map(|d| [g0 + d, g0.saturating_sub(d)])
+        .find(|&g| g > 0 && g < n && gcd(g, n) == 1)
+        .unwrap_or(1)
+}
+
+/// Point `j` of the lattice, shifted by `offset` modulo 1.
+#[inline]
+fn lattice_point(j: u32, n: u32, generator: u32, offset: Vec2) -> Vec2 {
+    let x = (j as f32 + 0.5) / n as f32 + offset.x;
+    let y = ((u64::from(j) * u64::from(generator) % u64::from(n)) as f32 + 0.5) / n as f32 + offset.y;
+    Vec2::new(x.fract(), y.fract()).min(Vec2::splat(1.0 - f32::EPSILON / 2.0))
+}
 
 /// Per-camera-ray scratch space and counts.
 struct Scratch {
@@ -50,7 +78,7 @@ fn non_specular_albedo(bsdf: &Bsdf) -> Vec3 {
 
 impl PhotonMapper {
     /// Radiance along a camera ray.
-    pub fn li(&self, world: &World, ray: Ray, rng: &mut Rng, counters: &mut RayCounters) -> Radiance {
+    pub fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
         let n_used = self.settings.n_used as usize;
         let mut scratch = Scratch {
             heap: KnnHeap::new(n_used),
@@ -60,7 +88,7 @@ impl PhotonMapper {
             lookups: 0,
             culled: [0; 3],
         };
-        let r = self.li_depth(world, ray, 0, rng, counters, &mut scratch);
+        let r = self.li_depth(world, ray, 0, sampler, counters, &mut scratch);
         let c = &self.counters;
         if scratch.gather_rays > 0 {
             c.gather_rays.fetch_add(scratch.gather_rays, Ordering::Relaxed);
@@ -81,12 +109,12 @@ impl PhotonMapper {
         world: &World,
         ray: Ray,
         depth: u32,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         counters: &mut RayCounters,
         scratch: &mut Scratch,
     ) -> Radiance {
         let mut rays = 0;
-        let found = find_surface(world, ray, rng, &mut rays);
+        let found = find_surface(world, ray, sampler, &mut rays);
         if depth == 0 {
             counters.camera += rays;
         } else {
@@ -104,14 +132,14 @@ impl PhotonMapper {
         let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
         if !bsdf.is_black() {
             if bsdf.has_non_specular() {
-                l += self.direct(world, &si, &bsdf, rng, counters, scratch);
+                l += self.direct(world, &si, &bsdf, sampler, counters, scratch);
                 let q = Query { p: si.p, n: facing_normal(&si), max_d2: self.max_d2 };
                 if let Some(map) = &self.caustic {
                     scratch.lookups += 1;
                     l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
                 }
                 if self.gather {
-                    l += self.gather(world, &si, &bsdf, rng, counters, scratch);
+                    l += self.gather(world, &si, &bsdf, sampler, counters, scratch);
                 } else if let Some(map) = &self.indirect {
                     scratch.lookups += 1;
                     l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
@@ -122,7 +150,7 @@ impl PhotonMapper {
                     if w == Vec3::ZERO {
                         continue;
                     }
-                    let r = self.li_depth(world, si.spawn_ray(wi), depth + 1, rng, counters, scratch);
+                    let r = self.li_depth(world, si.spawn_ray(wi), depth + 1, sampler, counters, scratch);
                     l += w * r.rgb;
                 }
             }
@@ -137,7 +165,7 @@ impl PhotonMapper {
         world: &World,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         counters: &mut RayCounters,
         scratch: &mut Scratch,
     ) -> Vec3 {
@@ -158,7 +186,7 @@ impl PhotonMapper {
                 scratch.culled[reason as usize] += 1;
                 continue;
             }
-            l += direct_from_light(world, si, bsdf, light, 1.0, LobeFlags::ALL, rng, counters, strategy);
+            l += direct_from_light(world, si, bsdf, light, 1.0, LobeFlags::ALL, sampler, counters, strategy);
         }
         l
     }
@@ -169,7 +197,7 @@ impl PhotonMapper {
         world: &World,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         counters: &mut RayCounters,
         scratch: &mut Scratch,
     ) -> Vec3 {
@@ -177,19 +205,18 @@ impl PhotonMapper {
         if self.settings.gather_sampling == GatherSampling::Photons && n >= 2 {
             self.collect_guide_directions(si, scratch);
             if !scratch.guide_dirs.is_empty() {
-                return self.gather_guided(world, si, bsdf, n, rng, counters, scratch);
+                return self.gather_guided(world, si, bsdf, n, sampler, counters, scratch);
             }
         }
-        let (nx, ny) = strata_for(n);
+        // The directions of one gather are a rank-1 lattice (well spread for any count),
+        // rotated by one stratified pair of the pixel's sampler (Cranley-Patterson).
+        let offset = sampler.uniform2();
+        let generator = lattice_generator(n);
         let mut sum = Vec3::ZERO;
         for j in 0..n {
-            let u = Vec2::new(
-                ((j % nx) as f32 + rng.uniform()) / nx as f32,
-                ((j / nx) as f32 + rng.uniform()) / ny as f32,
-            );
-            let u = u.min(Vec2::splat(1.0 - f32::EPSILON / 2.0));
-            let Some(bs) =
-                bsdf.sample(si.wo, rng.uniform(), u, TransportMode::Radiance, LobeFlags::NON_SPECULAR)
+            let u = lattice_point(j, n, generator, offset);
+            let u_lobe = sampler.rng().uniform();
+            let Some(bs) = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::NON_SPECULAR)
             else {
                 continue;
             };
@@ -197,7 +224,7 @@ impl PhotonMapper {
             if f == Vec3::ZERO || !f.is_finite() {
                 continue;
             }
-            sum += f * self.gathered(world, si.spawn_ray(bs.wi), rng, counters, scratch);
+            sum += f * self.gathered(world, si.spawn_ray(bs.wi), sampler, counters, scratch);
         }
         sum / n as f32
     }
@@ -231,7 +258,7 @@ impl PhotonMapper {
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
         n: u32,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         counters: &mut RayCounters,
         scratch: &mut Scratch,
     ) -> Vec3 {
@@ -248,8 +275,8 @@ impl PhotonMapper {
         for _ in 0..n_bsdf {
             let Some(bs) = bsdf.sample(
                 si.wo,
-                rng.uniform(),
-                rng.uniform2(),
+                sampler.uniform(),
+                sampler.uniform2(),
                 TransportMode::Radiance,
                 LobeFlags::NON_SPECULAR,
             ) else {
@@ -260,12 +287,13 @@ impl PhotonMapper {
                 continue;
             }
             let w = power_heuristic(n_bsdf as f32 * bs.pdf, n_photon as f32 * photon_pdf(bs.wi));
-            from_bsdf += f * self.gathered(world, si.spawn_ray(bs.wi), rng, counters, scratch) * (w / bs.pdf);
+            from_bsdf +=
+                f * self.gathered(world, si.spawn_ray(bs.wi), sampler, counters, scratch) * (w / bs.pdf);
         }
         let mut from_photons = Vec3::ZERO;
         for _ in 0..n_photon {
-            let d = dirs[rng.below(dirs.len() as u32) as usize];
-            let wi = Frame::from_z(d).from_local(sample_uniform_cone(rng.uniform2(), cos_gather));
+            let d = dirs[sampler.rng().below(dirs.len() as u32) as usize];
+            let wi = Frame::from_z(d).from_local(sample_uniform_cone(sampler.uniform2(), cos_gather));
             let f = bsdf.f(si.wo, wi, LobeFlags::NON_SPECULAR) * wi.dot(bsdf.frame.z).abs();
             if f == Vec3::ZERO {
                 continue;
@@ -278,7 +306,8 @@ impl PhotonMapper {
                 n_photon as f32 * pdf,
                 n_bsdf as f32 * bsdf.pdf(si.wo, wi, LobeFlags::NON_SPECULAR),
             );
-            from_photons += f * self.gathered(world, si.spawn_ray(wi), rng, counters, scratch) * (w / pdf);
+            from_photons +=
+                f * self.gathered(world, si.spawn_ray(wi), sampler, counters, scratch) * (w / pdf);
         }
         scratch.guide_dirs = dirs;
         let mut l = from_photons / n_photon as f32;
@@ -295,7 +324,7 @@ impl PhotonMapper {
         &self,
         world: &World,
         mut ray: Ray,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         counters: &mut RayCounters,
         scratch: &mut Scratch,
     ) -> Vec3 {
@@ -303,7 +332,7 @@ impl PhotonMapper {
         let mut l = Vec3::ZERO;
         for _ in 0..=self.settings.max_depth {
             let mut rays = 0;
-            let found = find_surface(world, ray, rng, &mut rays);
+            let found = find_surface(world, ray, sampler, &mut rays);
             counters.bounce += rays;
             scratch.gather_rays += rays;
             let Some((si, weight)) = found else { break };
@@ -320,8 +349,8 @@ impl PhotonMapper {
             }
             let Some(bs) = bsdf.sample(
                 si.wo,
-                rng.uniform(),
-                rng.uniform2(),
+                sampler.uniform(),
+                sampler.uniform2(),
                 TransportMode::Radiance,
                 LobeFlags::SPECULAR_ALL,
             ) else {
@@ -352,5 +381,29 @@ impl PhotonMapper {
             l += estimate::radiance(map, &q, bsdf, si.wo, self.settings.filter, &mut scratch.heap);
         }
         l
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every lattice has one point per row and per column of an `n x n` grid, and its points
+    /// stay in the unit square whatever the shift.
+    #[test]
+    fn gather_lattice_is_stratified() {
+        for n in [1u32, 2, 3, 4, 5, 8, 13, 16, 32, 100] {
+            let g = lattice_generator(n);
+            let mut rows = vec![0; n as usize];
+            let mut cols = vec![0; n as usize];
+            for j in 0..n {
+                let p = lattice_point(j, n, g, Vec2::ZERO);
+                cols[(p.x * n as f32) as usize] += 1;
+                rows[(p.y * n as f32) as usize] += 1;
+                let q = lattice_point(j, n, g, Vec2::new(0.999, 0.73));
+                assert!(q.x >= 0.0 && q.x < 1.0 && q.y >= 0.0 && q.y < 1.0);
+            }
+            assert!(rows.iter().all(|&c| c == 1) && cols.iter().all(|&c| c == 1), "n {n} g {g}");
+        }
     }
 }

@@ -17,6 +17,7 @@ use crate::bsdf::{LobeFlags, TransportMode};
 use crate::integrators::find_surface;
 use crate::lights::Light;
 use crate::math::luminance;
+use crate::sampler::Sampler;
 use crate::sampling::{Distribution1D, Rng, mix64};
 use crate::world::{Ray, World};
 use glam::{Vec2, Vec3};
@@ -308,7 +309,7 @@ fn trace_path(
     if !(denominator > 0.0) || !alpha.is_finite() || alpha == Vec3::ZERO || !le.direction.is_finite() {
         return;
     }
-    let mut rng = Rng::new(mix64(seed ^ 0x7068_6f74_6f6e), path);
+    let mut rng = Sampler::from_rng(Rng::new(mix64(seed ^ 0x7068_6f74_6f6e), path));
     let mut ray = Ray::new(le.origin, le.direction);
     let mut specular_path = true;
     for depth in 0..request.max_depth {

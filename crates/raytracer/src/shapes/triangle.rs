@@ -55,7 +55,8 @@ impl RayShear {
     /// Translated, permuted and sheared vertex (z not yet scaled).
     #[inline(always)]
     fn transform(&self, p: Vec3) -> [f32; 3] {
-        let q = p - self.origin;
+        // Index an array (a plain load) rather than a Vec3 (a branch per component).
+        let q = (p - self.origin).to_array();
         let (x, y, z) = (q[self.kx], q[self.ky], q[self.kz]);
         [x + self.sx * z, y + self.sy * z, z]
     }
@@ -98,14 +99,19 @@ pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max:
     let inv_det = 1.0 / det;
     let t = t_scaled * inv_det;
 
-    // Make sure t is conservatively greater than zero (pbrt-v4's bound on the f32 steps above:
-    // translation, shear and z scaling; the f64 edge functions only add a tiny relative error).
+    // Make sure t is conservatively greater than zero: pbrt-v4's bound on the f32 steps above
+    // (translation, shear, z scaling; the f64 edge functions add only a tiny relative error),
+    // with one correction. The error of the sheared x and y is bounded by their size plus the
+    // size of the *unscaled* z (|Sx|, |Sy| <= 1); pbrt uses the z already scaled by 1/d_z, which
+    // is only an upper bound for directions of length about one and rejects valid hits of short
+    // ray directions (a shadow ray `p_light - p` in a scene a millimetre across).
     let max_zt = (az.abs()).max(bz.abs()).max(cz.abs()) as f32;
     let delta_z = gamma(3) * max_zt;
+    let max_z_unscaled = a[2].abs().max(b[2].abs()).max(c[2].abs());
     let max_xt = (ax.abs()).max(bx.abs()).max(cx.abs()) as f32;
     let max_yt = (ay.abs()).max(by.abs()).max(cy.abs()) as f32;
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_x = gamma(5) * (max_xt + max_z_unscaled);
+    let delta_y = gamma(5) * (max_yt + max_z_unscaled);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs()) as f32;
     let delta_t =

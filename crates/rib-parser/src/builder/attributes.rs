@@ -211,7 +211,7 @@ impl SceneBuilder {
     }
 
     /// A `Color`/`Opacity` value as RGB (converting `ColorSamples` colours).
-    pub(super) fn to_rgb(&mut self, values: &[f32], request: &str, cx: &mut Cx<'_>) -> Option<Vec3> {
+    pub(super) fn rgb_of(&self, values: &[f32], request: &str, cx: &mut Cx<'_>) -> Option<Vec3> {
         if values.iter().any(|v| !v.is_finite()) {
             cx.error(DiagnosticKind::BadValue, format!("{request}: values must be finite"));
             return None;

@@ -87,7 +87,7 @@ pub struct Built {
 }
 
 /// The options part of the graphics state (saved by `FrameBegin`).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 struct OptionState {
     camera: CameraSettings,
     render: RenderSettings,
@@ -96,19 +96,6 @@ struct OptionState {
     options: Vec<OptionCall>,
     /// `ColorSamples` `n x 3` matrix (row-major) converting `n` samples to RGB.
     color_to_rgb: Option<Vec<f32>>,
-}
-
-impl Default for OptionState {
-    fn default() -> Self {
-        OptionState {
-            camera: CameraSettings::default(),
-            render: RenderSettings::default(),
-            displays: Vec::new(),
-            depth_request: None,
-            options: Vec::new(),
-            color_to_rgb: None,
-        }
-    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -398,10 +385,12 @@ impl SceneBuilder {
         }
         self.gs.ctm = DMat4::IDENTITY;
         let world_from_camera = self.camera_from_world.inverse();
-        let mut world = WorldState::default();
         // Lights declared before WorldBegin were given in camera space.
-        world.lights = self.pre_world_lights.clone();
-        world.light_handles = self.pre_world_handles.clone();
+        let mut world = WorldState {
+            lights: self.pre_world_lights.clone(),
+            light_handles: self.pre_world_handles.clone(),
+            ..Default::default()
+        };
         for p in &self.pending_lights {
             if let Some(l) = world.lights.get_mut(p.light.0 as usize) {
                 let world_from_light = world_from_camera * p.camera_from_light;
@@ -892,13 +881,13 @@ impl RibTarget for SceneBuilder {
     }
 
     fn color(&mut self, color: &[f32], cx: &mut Cx<'_>) {
-        if let Some(c) = self.to_rgb(color, "Color", cx) {
+        if let Some(c) = self.rgb_of(color, "Color", cx) {
             self.set_attr(attributes::AttrOp::Color(c), cx);
         }
     }
 
     fn opacity(&mut self, opacity: &[f32], cx: &mut Cx<'_>) {
-        if let Some(c) = self.to_rgb(opacity, "Opacity", cx) {
+        if let Some(c) = self.rgb_of(opacity, "Opacity", cx) {
             self.set_attr(attributes::AttrOp::Opacity(c), cx);
         }
     }

@@ -440,7 +440,7 @@ impl Reader {
                 return Err(self
                     .bad(loc, format!("NuPatch: {dir} has {} knots, but n + order = {need}", knots.len())));
             }
-            if knots.windows(2).any(|w| !(w[0] <= w[1])) {
+            if knots.windows(2).any(|w| w[0].partial_cmp(&w[1]).is_none_or(|o| o.is_gt())) {
                 return Err(
                     self.bad(loc, format!("NuPatch: the {dir} knots are not in non-decreasing order"))
                 );
@@ -678,7 +678,7 @@ fn patches_along(kind: PatchKind, n: u32, wrap: Wrap, step: u32) -> Result<usize
         (PatchKind::Bilinear, Wrap::Periodic) if n >= 2 => Ok(n),
         (PatchKind::Bilinear, _) => Err(format!("{n} control points; at least 2 are needed")),
         (PatchKind::Bicubic, Wrap::NonPeriodic) => {
-            if n < 4 || (n - 4) % step != 0 {
+            if n < 4 || !(n - 4).is_multiple_of(step) {
                 Err(format!(
                     "{n} control points do not fit a bicubic basis with step {step} (4 + k*{step} needed)"
                 ))
@@ -687,7 +687,7 @@ fn patches_along(kind: PatchKind, n: u32, wrap: Wrap, step: u32) -> Result<usize
             }
         }
         (PatchKind::Bicubic, Wrap::Periodic) => {
-            if n == 0 || n % step != 0 {
+            if n == 0 || !n.is_multiple_of(step) {
                 Err(format!("{n} control points do not fit a periodic bicubic basis with step {step}"))
             } else {
                 Ok(n / step)

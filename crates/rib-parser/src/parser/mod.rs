@@ -799,10 +799,11 @@ impl Reader {
                     continue;
                 }
             };
-            if decl.ty == ParamType::Float && decl.array_len == 1 {
-                if let Some(v) = self.peek_single_f64() {
-                    self.precise_floats.push((name.clone(), v));
-                }
+            if decl.ty == ParamType::Float
+                && decl.array_len == 1
+                && let Some(v) = self.peek_single_f64()
+            {
+                self.precise_floats.push((name.clone(), v));
             }
             let values = self.read_values(Some(decl.ty), request, &name)?;
             params.push(Param { name, decl, values, loc });

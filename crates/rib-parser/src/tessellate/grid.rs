@@ -298,8 +298,9 @@ pub(crate) fn compact(mesh: &mut TriangleMesh) {
 /// `u_breaks` / `v_breaks` are the span boundaries (patch edges or distinct knots); segments
 /// never straddle them. The first guess uses second differences sampled on each span cell
 /// (Filip, Magedson and Markot's bound `(h_u^2 M_uu + 2 h_u h_v M_uv + h_v^2 M_vv) / 8`); then
-/// every cell is checked at its edge midpoints and centre against the surface, and spans whose
-/// cells miss the bound are refined, until all pass (or the budget is exhausted).
+/// every cell is checked at its edge midpoints and centre against the surface (to 3/4 of the
+/// bound: a quadratic error inside a triangle is at most 4/3 of its edge-midpoint maximum), and
+/// spans whose cells miss are refined until all pass (or the budget is exhausted).
 pub(crate) fn choose_span_counts(
     kind: &'static str,
     u_breaks: &[f64],
@@ -388,8 +389,12 @@ pub(crate) fn choose_span_counts(
                 if !(e_u.is_finite() && e_v.is_finite() && e_c.is_finite()) {
                     return Err(TessellateError::NonFinite { kind, reason: "surface evaluation".into() });
                 }
-                // Interpolation error shrinks with the square of the segment length.
-                let grow = |e: f64| if e > eps { (e / eps).sqrt() * 1.2 } else { 1.0 };
+                // Interpolation error shrinks with the square of the segment length. Inside a
+                // triangle a quadratic error reaches up to 4/3 of its largest edge-midpoint
+                // value (it is at most 1/3 of its largest coefficient, the midpoints show 1/4),
+                // so the sampled values must stay within 3/4 of the bound.
+                let bound = 0.75 * eps;
+                let grow = |e: f64| if e > bound { (e / bound).sqrt() * 1.2 } else { 1.0 };
                 let (fu, fv) = (grow(e_u.max(e_c)), grow(e_v.max(e_c)));
                 factor_u[u_span[i]] = factor_u[u_span[i]].max(fu);
                 factor_v[v_span[j]] = factor_v[v_span[j]].max(fv);

@@ -181,15 +181,15 @@ impl TriangleMesh {
         if !self.positions.iter().all(|p| p.is_finite()) {
             return bad("position");
         }
-        if let Some(n) = &self.normals {
-            if !n.iter().all(|v| v.is_finite()) {
-                return bad("normal");
-            }
+        if let Some(n) = &self.normals
+            && !n.iter().all(|v| v.is_finite())
+        {
+            return bad("normal");
         }
-        if let Some(st) = &self.st {
-            if !st.iter().all(|v| v.is_finite()) {
-                return bad("texture coordinate");
-            }
+        if let Some(st) = &self.st
+            && !st.iter().all(|v| v.is_finite())
+        {
+            return bad("texture coordinate");
         }
         Ok(())
     }

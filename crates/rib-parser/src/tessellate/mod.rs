@@ -47,6 +47,11 @@
 //! assert!(mesh.area() < exact && mesh.area() > exact * (1.0 - 2.5e-3));
 //! ```
 
+// Negated comparisons (`!(x > 0.0)`) are deliberate here: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Numeric kernels index several arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 mod grid;
 mod mesh;
 mod nurbs;
@@ -60,8 +65,8 @@ mod trim;
 
 pub use mesh::TriangleMesh;
 pub use placed::{
-    MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, tessellate_placed, tessellate_scene,
-    tessellate_scene_filtered,
+    MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,
+    tessellate_scene, tessellate_scene_filtered,
 };
 
 use crate::scene::Shape;

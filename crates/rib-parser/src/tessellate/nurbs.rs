@@ -38,7 +38,7 @@ impl KnotVector {
     ) -> Result<KnotVector, TessellateError> {
         let invalid = |reason: String| TessellateError::InvalidShape { kind, reason };
         let (order, n) = (order as usize, n as usize);
-        if order < 2 || order > MAX_ORDER {
+        if !(2..=MAX_ORDER).contains(&order) {
             return Err(invalid(format!("{dir} order {order} (supported: 2 to {MAX_ORDER})")));
         }
         if n < order {

@@ -39,7 +39,7 @@ pub(crate) fn patch_count(
         (PatchKind::Bicubic, _) if step == 0 => Err(invalid(format!("basis step 0 in {dir}"))),
         (PatchKind::Bicubic, Wrap::NonPeriodic) => {
             let step = step as usize;
-            if n < 4 || (n - 4) % step != 0 {
+            if n < 4 || !(n - 4).is_multiple_of(step) {
                 Err(invalid(format!(
                     "{n} control points in {dir} do not fit a nonperiodic bicubic mesh with step {step}"
                 )))
@@ -49,7 +49,7 @@ pub(crate) fn patch_count(
         }
         (PatchKind::Bicubic, Wrap::Periodic) => {
             let step = step as usize;
-            if n < 4 || n % step != 0 {
+            if n < 4 || !n.is_multiple_of(step) {
                 Err(invalid(format!(
                     "{n} control points in {dir} do not fit a periodic bicubic mesh with step {step}"
                 )))

@@ -253,3 +253,84 @@ fn trim_keeps_outside(a: &Attributes) -> bool {
         .find_map(|call| call.params.string("sense"))
         .is_some_and(|s| s.eq_ignore_ascii_case("outside"))
 }
+
+/// Object-space bounds of a surface shape: of its control points for polygons, patches, NURBS
+/// and subdivision meshes (the surface lies within them for B-spline and Bezier bases, near
+/// them for others), of the full revolution for quadrics. `None` for `Points`, `Curves`, empty
+/// or non-finite shapes.
+pub fn shape_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
+    let from_points = |points: &mut dyn Iterator<Item = DVec3>| {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in points {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+    };
+    let ring = |rho: f64, z0: f64, z1: f64| {
+        let rho = rho.abs();
+        from_points(&mut [DVec3::new(-rho, -rho, z0), DVec3::new(rho, rho, z1)].into_iter())
+    };
+    let homogeneous = |p: &glam::Vec4| (p.w != 0.0).then(|| p.truncate().as_dvec3() / p.w as f64);
+    match shape {
+        Shape::Sphere { radius, z_min, z_max, .. } => {
+            let r = radius.abs() as f64;
+            ring(r, (*z_min as f64).clamp(-r, r), (*z_max as f64).clamp(-r, r))
+        }
+        Shape::Cylinder { radius, z_min, z_max, .. } => ring(*radius as f64, *z_min as f64, *z_max as f64),
+        Shape::Cone { height, radius, .. } => ring(*radius as f64, 0.0, *height as f64),
+        Shape::Disk { height, radius, .. } => ring(*radius as f64, *height as f64, *height as f64),
+        Shape::Paraboloid { r_max, z_min, z_max, .. } => ring(*r_max as f64, *z_min as f64, *z_max as f64),
+        Shape::Hyperboloid { point1, point2, .. } => {
+            let rho = point1.truncate().length().max(point2.truncate().length()) as f64;
+            ring(rho, point1.z as f64, point2.z as f64)
+        }
+        Shape::Torus { major_radius, minor_radius, .. } => {
+            let (big, small) = (major_radius.abs() as f64, minor_radius.abs() as f64);
+            ring(big + small, -small, small)
+        }
+        Shape::Polygons(p) => from_points(
+            &mut p.vertex_indices.iter().filter_map(|&i| p.positions.get(i as usize)).map(|p| p.as_dvec3()),
+        ),
+        Shape::Patches(p) => from_points(&mut p.positions.iter().filter_map(homogeneous)),
+        Shape::NuPatch(p) => from_points(&mut p.positions.iter().filter_map(homogeneous)),
+        Shape::SubdivisionMesh(s) => from_points(&mut s.positions.iter().map(|p| p.as_dvec3())),
+        Shape::Points(_) | Shape::Curves(_) => None,
+    }
+}
+
+/// World-space bounds of every surface of the scene, object instances included (the corners
+/// of each shape's [`shape_bounds`] transformed). A scene-wide absolute tolerance is then, for
+/// example, `Tolerance::absolute(1e-4 * (hi - lo).length())`: unlike the per-shape relative
+/// bound it does not spend as many triangles on a small patch as on a large one.
+pub fn scene_bounds(scene: &Scene) -> Option<(DVec3, DVec3)> {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    let mut add = |shape: &Shape, m: &DMat4| {
+        let Some((a, b)) = shape_bounds(shape) else { return };
+        for k in 0..8 {
+            let corner = DVec3::new(
+                if k & 1 == 0 { a.x } else { b.x },
+                if k & 2 == 0 { a.y } else { b.y },
+                if k & 4 == 0 { a.z } else { b.z },
+            );
+            let p = m.project_point3(corner);
+            if p.is_finite() {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    };
+    for e in &scene.shapes {
+        add(&e.shape, &e.world_from_object);
+    }
+    for inst in &scene.instances {
+        if let Some(def) = scene.objects.get(inst.object.0 as usize) {
+            for e in &def.shapes {
+                add(&e.shape, &(inst.world_from_instance * e.world_from_object));
+            }
+        }
+    }
+    (lo.x <= hi.x).then_some((lo, hi))
+}

@@ -62,10 +62,10 @@ pub(crate) fn vec3_var(pv: &PrimVars, name: &str) -> Option<Var<Vec3>> {
 
 /// Texture coordinates: `"float[2] st"`, or `"s"` and `"t"` of the same class.
 pub(crate) fn st_var(pv: &PrimVars) -> Option<Var<Vec2>> {
-    if let Some((class, v, per)) = floats(pv, "st") {
-        if per == 2 {
-            return Some(Var { class, values: v.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect() });
-        }
+    if let Some((class, v, per)) = floats(pv, "st")
+        && per == 2
+    {
+        return Some(Var { class, values: v.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect() });
     }
     let (sc, s, sper) = floats(pv, "s")?;
     let (tc, t, tper) = floats(pv, "t")?;

@@ -10,8 +10,9 @@
 //!    other points instead. Grid vertices are classified exactly, a row at a time, from the
 //!    sorted crossings of the row's horizontal line with every loop segment.
 //! 3. Cells no loop segment touches are kept or dropped whole. Cells a segment touches are
-//!    split into `s x s` sub-cells (`s` chosen so a sub-cell is a few tolerances wide, at most
-//!    16), and every sub-triangle is clipped marching-triangles style: its corners are
+//!    split into `s x s` sub-cells (`s` = 1 for a single straight segment; otherwise from the
+//!    loop's curvature in the cell so it bends less than half the tolerance across a sub-cell,
+//!    at most 16), and every sub-triangle is clipped marching-triangles style: its corners are
 //!    classified exactly (the cell corner's class, flipped by each segment crossed on the way),
 //!    and where an edge changes class the exact crossing with the loop segment becomes a new
 //!    vertex. The boundary is therefore the refined polyline to within a sub-cell; a loop
@@ -32,6 +33,8 @@ const KIND: &str = "TrimCurve";
 pub(crate) struct TrimLoops {
     /// Every loop segment `(a, b)`; loops are closed (the last point joins the first).
     segments: Vec<(DVec2, DVec2)>,
+    /// The segment that follows each segment in its loop.
+    next: Vec<usize>,
 }
 
 impl TrimLoops {
@@ -73,6 +76,7 @@ impl TrimLoops {
         let max_points = 1usize << 22;
 
         let mut segments = Vec::new();
+        let mut next = Vec::new();
         let (mut curve, mut point, mut knot) = (0usize, 0usize, 0usize);
         for &ncurves in &trim.curves_per_loop {
             let mut polyline: Vec<DVec2> = Vec::new();
@@ -105,12 +109,14 @@ impl TrimLoops {
                 polyline.pop();
             }
             if polyline.len() >= 3 {
+                let first = segments.len();
                 for i in 0..polyline.len() {
                     segments.push((polyline[i], polyline[(i + 1) % polyline.len()]));
+                    next.push(if i + 1 == polyline.len() { first } else { first + i + 1 });
                 }
             }
         }
-        Ok(TrimLoops { segments })
+        Ok(TrimLoops { segments, next })
     }
 
     /// Even-odd inside test of one point against every loop (used by tests; rows use a sweep).
@@ -232,7 +238,7 @@ fn crossing(p0: DVec2, p1: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
     let w = a - p0;
     let t = w.perp_dot(e) / den;
     let s = w.perp_dot(d) / den;
-    (t >= 0.0 && t <= 1.0 && s >= 0.0 && s < 1.0).then_some(t)
+    ((0.0..=1.0).contains(&t) && (0.0..1.0).contains(&s)).then_some(t)
 }
 
 /// True when segment `(a, b)` touches the closed rectangle `[x0, x1] x [y0, y1]` (Liang-Barsky).
@@ -313,14 +319,44 @@ pub(crate) fn emit_trimmed(
         }
     }
 
-    // Sub-cells: a few tolerances wide, the same count for every touched cell so neighbours
-    // share their edge points.
-    let mut widest = 0.0f64;
-    for &(i, j) in buckets.keys() {
-        let d = grid.position(grid.id(i, j)).distance(grid.position(grid.id(i + 1, j + 1)));
-        widest = widest.max(d);
-    }
-    let subdivisions = ((widest / (4.0 * eps)).ceil() as usize).clamp(2, 16);
+    // Sub-cells per touched cell: one when a single straight segment crosses it (marching
+    // triangles then cut it exactly); otherwise enough that the loop's curvature inside the
+    // cell bends less than half the tolerance across a sub-cell, and at least four where the
+    // loop passes more than once; at most 16.
+    let subdivisions = |i: usize, j: usize, segs: &[usize], grid: &Grid| -> usize {
+        if segs.len() == 1 {
+            return 1;
+        }
+        let (u0, u1, v0, v1) = (us[i], us[i + 1], vs[j], vs[j + 1]);
+        let uv_diagonal = DVec2::new(u1 - u0, v1 - v0).length();
+        let diagonal_3d = grid.position(grid.id(i, j)).distance(grid.position(grid.id(i + 1, j + 1)));
+        let scale = diagonal_3d / uv_diagonal.max(1e-300);
+        let inside = |p: DVec2| p.x >= u0 && p.x <= u1 && p.y >= v0 && p.y <= v1;
+        let (mut curvature, mut runs) = (0.0f64, 0usize);
+        for &s in segs {
+            let (a, v) = loops.segments[s];
+            let b = loops.segments[loops.next[s]].1;
+            if inside(v) {
+                let (d0, d1) = (v - a, b - v);
+                let turn = d0.angle_to(d1).abs();
+                let length = 0.5 * (d0.length() + d1.length());
+                if length > 0.0 {
+                    curvature = curvature.max(turn / length);
+                }
+            }
+            // A run starts where the previous segment is not in this cell.
+            if !segs.iter().any(|&p| loops.next[p] == s) {
+                runs += 1;
+            }
+        }
+        // A chord of length h on a curve of curvature k sags h^2 k / 8.
+        let h = (4.0 * eps / (curvature * scale).max(1e-300)).sqrt();
+        let mut s = (uv_diagonal / h).ceil().clamp(1.0, 16.0) as usize;
+        if runs > 1 {
+            s = s.max(4);
+        }
+        s.max(2)
+    };
 
     for j in 0..nv {
         for i in 0..nu {
@@ -340,7 +376,8 @@ pub(crate) fn emit_trimmed(
                     }
                 }
                 Some(segs) => {
-                    clipper.clip_cell(grid, spec, (i, j), segs, subdivisions, face);
+                    let s = subdivisions(i, j, segs, grid);
+                    clipper.clip_cell(grid, spec, (i, j), segs, s, face);
                 }
             }
         }

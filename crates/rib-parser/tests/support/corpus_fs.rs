@@ -4,6 +4,9 @@
 //! system serves `/corpus/<repo>/<dir>/<dir>/<file>` from there, so relative `ReadArchive`
 //! names resolve as they did in the original repositories. Absolute paths from another machine
 //! (`/home/someone/.../presets/x.rib`) are matched by their longest suffix present in the corpus.
+//!
+//! Each test file includes this module and uses part of it.
+#![allow(dead_code)]
 
 use rib_parser::FileSystem;
 use std::io;
@@ -71,7 +74,6 @@ impl FileSystem for CorpusFs {
 }
 
 /// Every corpus file as (repo, flattened name), sorted.
-#[allow(dead_code)]
 pub fn corpus_files() -> Vec<(String, String)> {
     let mut out = Vec::new();
     let Ok(repos) = std::fs::read_dir(corpus_dir()) else { return out };

@@ -70,3 +70,53 @@ pub(super) fn max_deviation(mesh: &TriangleMesh, distance: impl Fn(DVec3) -> f64
     }
     (vertex_max, inner_max)
 }
+
+/// Distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
+pub(super) fn point_triangle_distance(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return p.distance(a);
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return p.distance(b);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return p.distance(a + ab * (d1 / (d1 - d3)));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return p.distance(c);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return p.distance(a + ac * (d2 / (d2 - d6)));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return p.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    p.distance(a + ab * (vb * denom) + ac * (vc * denom))
+}
+
+/// The largest distance from the vertices of `fine` (a sample of them) to the triangles of
+/// `coarse` (brute force).
+pub(super) fn max_distance_to_mesh(fine: &TriangleMesh, coarse: &TriangleMesh) -> f64 {
+    let tris: Vec<[DVec3; 3]> =
+        (0..coarse.triangle_count()).map(|t| coarse.triangle(t).map(|p| p.as_dvec3())).collect();
+    let mut worst = 0.0f64;
+    // A spread-out sample of at most about 2000 vertices keeps this quick.
+    let stride = (fine.positions.len() / 2000).max(1);
+    for p in fine.positions.iter().step_by(stride) {
+        let p = p.as_dvec3();
+        let d =
+            tris.iter().map(|[a, b, c]| point_triangle_distance(p, *a, *b, *c)).fold(f64::INFINITY, f64::min);
+        worst = worst.max(d);
+    }
+    worst
+}

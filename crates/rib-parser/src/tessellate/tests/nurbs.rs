@@ -126,7 +126,7 @@ fn parameter_ranges_cut_the_surface() {
     let mut np = nurbs_cylinder(1.0);
     np.u_min = -5.0;
     np.u_max = 5.0;
-    assert!(run(np, 1e-2).is_closed() == false);
+    assert!(!run(np, 1e-2).is_closed());
     let mut np = nurbs_cylinder(1.0);
     np.u_min = 0.7;
     np.u_max = 0.2;
@@ -176,7 +176,10 @@ fn circle_loop(cx: f32, cy: f32, r: f32) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
     (u, v, w)
 }
 
-fn trims(loops: &[(Vec<f32>, Vec<f32>, Vec<f32>, u32, Vec<f32>)]) -> TrimCurves {
+/// One trim loop of a single curve: `u`, `v`, `w` (premultiplied), order, knots.
+type TrimLoop = (Vec<f32>, Vec<f32>, Vec<f32>, u32, Vec<f32>);
+
+fn trims(loops: &[TrimLoop]) -> TrimCurves {
     let mut t = TrimCurves {
         curves_per_loop: Vec::new(),
         order: Vec::new(),
@@ -202,19 +205,19 @@ fn trims(loops: &[(Vec<f32>, Vec<f32>, Vec<f32>, u32, Vec<f32>)]) -> TrimCurves 
     t
 }
 
-fn circle_trim(cx: f32, cy: f32, r: f32) -> (Vec<f32>, Vec<f32>, Vec<f32>, u32, Vec<f32>) {
+fn circle_trim(cx: f32, cy: f32, r: f32) -> TrimLoop {
     let (u, v, w) = circle_loop(cx, cy, r);
     (u, v, w, 3, CIRCLE_KNOTS.to_vec())
 }
 
-fn square_trim(x0: f32, x1: f32) -> (Vec<f32>, Vec<f32>, Vec<f32>, u32, Vec<f32>) {
+fn square_trim(x0: f32, x1: f32) -> TrimLoop {
     // A closed linear loop: order 2 through five points.
     let u = vec![x0, x1, x1, x0, x0];
     let v = vec![x0, x0, x1, x1, x0];
     (u, v, vec![1.0; 5], 2, vec![0.0, 0.0, 1.0, 2.0, 3.0, 4.0, 4.0])
 }
 
-fn trimmed(loops: &[(Vec<f32>, Vec<f32>, Vec<f32>, u32, Vec<f32>)], eps: f64, outside: bool) -> TriangleMesh {
+fn trimmed(loops: &[TrimLoop], eps: f64, outside: bool) -> TriangleMesh {
     let mut np = square();
     np.trim = Some(Arc::new(trims(loops)));
     let m = tessellate_scaled(

@@ -266,3 +266,25 @@ fn the_scene_budget_skips_shapes_past_it() {
         out.skipped.iter().filter(|s| matches!(s.error, TessellateError::TooManyTriangles { .. })).count();
     assert_eq!(over, 2);
 }
+
+#[test]
+fn scene_bounds_cover_shapes_and_instances() {
+    let scene = test_scene();
+    let (lo, hi) = crate::tessellate::scene_bounds(&scene).unwrap();
+    assert!((lo - DVec3::new(-2.0, -1.0, -2.0)).length() < 1e-9, "{lo}");
+    assert!((hi - DVec3::new(6.0, 4.0, 11.0)).length() < 1e-9, "{hi}");
+    // Every tessellated vertex lies inside.
+    for m in tessellate_scene(&scene, &Tolerance::absolute(1e-2)).meshes {
+        for p in &m.mesh.positions {
+            let p = p.as_dvec3();
+            assert!(p.cmpge(lo - 1e-5).all() && p.cmple(hi + 1e-5).all(), "{p}");
+        }
+    }
+    assert!(
+        crate::tessellate::shape_bounds(&Shape::Points(Points {
+            positions: vec![],
+            primvars: ParamList::default()
+        }))
+        .is_none()
+    );
+}

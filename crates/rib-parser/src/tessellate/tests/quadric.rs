@@ -277,9 +277,11 @@ fn the_triangle_cap_refuses_before_allocating() {
         other => panic!("expected TooManyTriangles, got {other:?}"),
     }
     // A bound below what f32 positions can resolve is raised to 2^-20 of the size.
-    let huge = tessellate(&sphere(1e30, -1e30, 1e30, 360.0), &Tolerance::absolute(1e-6)).unwrap();
-    let floor = tessellate(&sphere(1e30, -1e30, 1e30, 360.0), &Tolerance::relative(1e-7)).unwrap();
-    assert_eq!(huge.triangle_count(), floor.triangle_count());
+    let size = 3.0e30;
+    let floor = size * (-20f64).exp2();
+    assert_eq!(Tolerance::absolute(1e-6).effective(size, 1.0).unwrap(), floor);
+    assert_eq!(Tolerance::relative(1e-9).effective(size, 1.0).unwrap(), floor);
+    assert_eq!(Tolerance::absolute(1e28).effective(size, 10.0).unwrap(), 1e27);
 }
 
 #[test]

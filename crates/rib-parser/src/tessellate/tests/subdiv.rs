@@ -193,31 +193,32 @@ fn infinitely_sharp_creases_keep_the_cube() {
 
 #[test]
 fn semi_sharp_creases_sit_between_smooth_and_sharp() {
-    // Crease the cube's top square with increasing sharpness: the top edge midpoint moves
-    // monotonically toward the sharp position.
+    // Crease the cube's top square with increasing sharpness: the crease's midpoint moves
+    // monotonically toward the infinitely sharp position.
     let top: Vec<i32> = vec![4, 5, 6, 7, 4];
     let probe = |sharpness: Option<f32>| -> f64 {
         let tags = sharpness.map(|s| vec![tag("crease", top.clone(), vec![s])]).unwrap_or_default();
         let m = run(subdivision(&CUBE_POSITIONS, &CUBE_FACES, tags), 1e-3);
-        // Highest point above the middle of edge 4-5 (x = 0.5, y = 0).
+        // The crease's midpoint: the vertex in the plane x = 0.5 farthest toward the edge
+        // 4-5 (y = 0, z = 1).
         m.positions
             .iter()
-            .filter(|p| (p.x - 0.5).abs() < 1e-6 && p.y.abs() < 0.2)
-            .map(|p| p.z as f64)
+            .filter(|p| (p.x - 0.5).abs() < 1e-6)
+            .map(|p| (p.z - p.y) as f64)
             .fold(f64::NEG_INFINITY, f64::max)
     };
     let heights: Vec<f64> =
         [None, Some(0.5), Some(1.0), Some(2.0), Some(3.0), Some(10.0)].iter().map(|&s| probe(s)).collect();
-    // Sharpness beyond the drawn level acts as infinite.
-    assert!(heights.windows(2).take(3).all(|w| w[1] > w[0]), "{heights:?}");
-    assert!(heights[4] >= heights[3], "{heights:?}");
-    assert!((heights[5] - 1.0).abs() < 1e-6, "an infinitely sharp crease stays at the edge: {heights:?}");
+    assert!(heights.windows(2).all(|w| w[1] > w[0]), "{heights:?}");
+    // Infinitely sharp, the crease is the closed cubic B-spline of the top square: at the
+    // middle of edge 4-5 it is (P7 + 23 P4 + 23 P5 + P6) / 48 = (0.5, 1/24, 1).
+    assert!((heights[5] - (1.0 - 1.0 / 24.0)).abs() < 1e-6, "{heights:?}");
 }
 
 #[test]
 fn corner_tags_pin_vertices() {
     let m = run(subdivision(&CUBE_POSITIONS, &CUBE_FACES, vec![tag("corner", vec![6], vec![10.0])]), 1e-3);
-    assert!(m.positions.iter().any(|p| *p == Vec3::ONE));
+    assert!(m.positions.contains(&Vec3::ONE));
     let smooth = run(cube(), 1e-3);
     assert!(!smooth.positions.iter().any(|p| p.distance(Vec3::ONE) < 0.1));
 }
@@ -332,4 +333,40 @@ fn bad_subdivision_meshes_are_errors_not_panics() {
     let r =
         tessellate(&Shape::SubdivisionMesh(cube()), &Tolerance::absolute(1e-9).with_max_triangles(10_000));
     assert!(matches!(r, Err(TessellateError::TooManyTriangles { .. })), "{r:?}");
+}
+
+#[test]
+fn the_drawn_level_meets_the_tolerance() {
+    // Vertices of a much finer tessellation lie on the limit surface; none may be farther
+    // than the tolerance from the coarse one.
+    // A ten-sided bipyramid: two extraordinary vertices of valence 10, where uniform
+    // refinement converges slowly and the faces around them are refined further.
+    let mut bipyramid: Vec<[f32; 3]> = (0..10)
+        .map(|i| {
+            let a = i as f32 * std::f32::consts::TAU / 10.0;
+            [a.cos(), a.sin(), 0.0]
+        })
+        .collect();
+    bipyramid.extend([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]);
+    let faces: Vec<[u32; 3]> =
+        (0..10u32).flat_map(|i| [[i, (i + 1) % 10, 10], [(i + 1) % 10, i, 11]]).collect();
+    let face_refs: Vec<&[u32]> = faces.iter().map(|f| f.as_slice()).collect();
+    let shapes = [
+        subdivision(&bipyramid, &face_refs, Vec::new()),
+        cube(),
+        subdivision(&CUBE_POSITIONS, &CUBE_FACES, vec![tag("crease", vec![4, 5, 6, 7, 4], vec![2.5])]),
+        grid_mesh(6, vec![tag("interpolateboundary", vec![], vec![])]),
+    ];
+    for (i, sm) in shapes.into_iter().enumerate() {
+        for eps in [5e-2, 2e-2] {
+            let coarse = run(sm.clone(), eps);
+            let fine = run(sm.clone(), eps / 8.0);
+            // The closed ones stay closed where refined faces meet unrefined ones.
+            if i < 3 {
+                assert!(coarse.is_closed() && fine.is_closed(), "shape {i} at {eps}");
+            }
+            let d = super::max_distance_to_mesh(&fine, &coarse);
+            assert!(d <= eps, "{eps}: {d} with {} triangles", coarse.triangle_count());
+        }
+    }
 }

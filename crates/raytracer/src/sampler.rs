@@ -1,0 +1,170 @@
+//! The per-sample source of random numbers: Owen-scrambled Sobol points for the first dimensions
+//! of a path, a PCG stream after that.
+//!
+//! Each call to [`Sampler::uniform2`] takes the next pair of dimensions. Within a pixel, sample
+//! `i` of pair `d` is the 2D Sobol (0,2)-sequence point of a shuffled index, with nested uniform
+//! (Owen) scrambling seeded by `(seed, pixel, d)` (Burley 2020, "Practical Hash-based Owen
+//! Scrambling"). The points of one pixel are therefore stratified in every pair of dimensions
+//! for any sample count (perfectly for powers of two), which converges faster than independent
+//! random numbers; the shuffling decorrelates the pairs. [`Sampler::uniform`] uses one
+//! dimension of such a pair. After [`SOBOL_PAIRS`] pairs (deep bounces, where stratification no
+//! longer pays) the numbers come from a PCG stream.
+//!
+//! Everything depends only on `(seed, pixel, sample index)`, so images do not depend on tiling
+//! or threads.
+
+use crate::sampling::{Rng, mix64};
+use glam::Vec2;
+
+/// Pairs of dimensions drawn from scrambled Sobol points before switching to PCG: the pixel
+/// position and the first two bounces of a path (about 3.5 pairs each: light choice and
+/// position, BSDF lobe and direction, Russian roulette). Deeper dimensions gain little from
+/// stratification and the scrambling costs more than PCG.
+pub const SOBOL_PAIRS: u32 = 8;
+
+/// Random numbers for one sample of one pixel.
+#[derive(Clone, Debug)]
+pub struct Sampler {
+    pixel_seed: u64,
+    index: u32,
+    pair: u32,
+    /// The unused half of the last pair, for one-dimensional requests.
+    spare: Option<f32>,
+    rng: Rng,
+}
+
+#[inline]
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Nested uniform scrambling of a 32-bit fixed-point number in base 2.
+#[inline]
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// The second dimension of the Sobol sequence, bit-reversed (direction numbers
+/// `v_k = v_{k-1} ^ v_{k-1} >> 1`, built here from the low end).
+#[inline]
+fn sobol_1_reversed(mut i: u32) -> u32 {
+    let mut v = 1u32;
+    let mut r = 0;
+    while i != 0 {
+        if i & 1 != 0 {
+            r ^= v;
+        }
+        i >>= 1;
+        v ^= v << 1;
+    }
+    r
+}
+
+#[inline]
+fn to_unit(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+impl Sampler {
+    /// The sampler of sample `index` of pixel `(x, y)` (full-frame coordinates; pixels outside
+    /// the frame, sampled for wide filters, are fine).
+    pub fn new(seed: u64, x: i64, y: i64, index: u32) -> Sampler {
+        let pixel_seed = mix64(seed ^ mix64(((x as u64) << 32) ^ (y as u64 & 0xffff_ffff) ^ 0x5851_f42d));
+        Sampler {
+            pixel_seed,
+            index,
+            pair: 0,
+            spare: None,
+            rng: Rng::for_pixel_sample(seed, x as u32, y as u32, index),
+        }
+    }
+
+    /// A sampler that only uses its PCG stream (for work that is not per pixel, e.g. photons).
+    pub fn from_rng(rng: Rng) -> Sampler {
+        Sampler { pixel_seed: 0, index: 0, pair: SOBOL_PAIRS, spare: None, rng }
+    }
+
+    /// The next two dimensions.
+    #[inline]
+    pub fn uniform2(&mut self) -> Vec2 {
+        if self.pair >= SOBOL_PAIRS {
+            return self.rng.uniform2();
+        }
+        let d = self.pair;
+        self.pair += 1;
+        let h = mix64(self.pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let (s0, s1, s2) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
+        // A shuffled index, then both coordinates scrambled; dimension 0 of Sobol is the index
+        // bit-reversed, so its scramble needs no reversal going in.
+        let i = owen_scramble(self.index, s0);
+        let x = laine_karras(i, s1).reverse_bits();
+        let y = laine_karras(sobol_1_reversed(i), s2).reverse_bits();
+        Vec2::new(to_unit(x), to_unit(y))
+    }
+
+    /// The next dimension (half of a pair; the other half serves the next call).
+    #[inline]
+    pub fn uniform(&mut self) -> f32 {
+        if let Some(v) = self.spare.take() {
+            return v;
+        }
+        let p = self.uniform2();
+        self.spare = Some(p.y);
+        p.x
+    }
+
+    /// The PCG stream behind the sampler (for decisions that need no stratification).
+    pub fn rng(&mut self) -> &mut Rng {
+        &mut self.rng
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sixteen samples of a pixel fall one in each cell of a 4x4 grid (the (0,2)-sequence
+    /// property survives Owen scrambling), in every pair of dimensions.
+    #[test]
+    fn pairs_are_stratified() {
+        for pixel in [(0i64, 0i64), (17, -3)] {
+            for pair in 0..4 {
+                let mut cells = [0u32; 16];
+                for i in 0..16 {
+                    let mut s = Sampler::new(7, pixel.0, pixel.1, i);
+                    let mut p = Vec2::ZERO;
+                    for _ in 0..=pair {
+                        p = s.uniform2();
+                    }
+                    assert!(p.x >= 0.0 && p.x < 1.0 && p.y >= 0.0 && p.y < 1.0);
+                    cells[(p.y * 4.0) as usize * 4 + (p.x * 4.0) as usize] += 1;
+                }
+                assert!(cells.iter().all(|&c| c == 1), "pixel {pixel:?} pair {pair}: {cells:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn pixels_and_pairs_differ() {
+        let a = Sampler::new(1, 0, 0, 0).uniform2();
+        let b = Sampler::new(1, 1, 0, 0).uniform2();
+        let mut s = Sampler::new(1, 0, 0, 0);
+        s.uniform2();
+        let c = s.uniform2();
+        assert_ne!(a, b);
+        assert_ne!(a, c);
+        // Many samples of many pixels average to 1/2.
+        let mut sum = 0.0f64;
+        for p in 0..64 {
+            for i in 0..64 {
+                sum += f64::from(Sampler::new(3, p, 0, i).uniform());
+            }
+        }
+        assert!((sum / 4096.0 - 0.5).abs() < 0.01);
+    }
+}
