@@ -1,7 +1,9 @@
 //! Surface integrators: `directlighting` (Whitted-style) and `path` (unbiased path tracing with
 //! multiple importance sampling and Russian roulette, the project's ground truth).
 //!
-//! The building blocks are public so that other integrators (the photon mapper) share them:
+//! An integrator is an [`IntegratorKind`] (what the RIB asked for, with its parameters) made
+//! ready for a world by [`IntegratorKind::prepare`] into an [`Integrator`]. The building blocks
+//! are public so that other integrators (the photon mapper) share them:
 //! [`find_surface`] resolves partially transparent surfaces, [`sample_one_light`] and
 //! [`direct_from_light`] estimate direct lighting with multiple importance sampling, and
 //! [`RayCounters`] counts rays for `--stats`.
@@ -257,25 +259,72 @@ fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) ->
     material.self_emission(si.ns, si.wo, si.st) + material.ambient_reflectance(si.st) * set.ambient
 }
 
-/// Radiance along a camera ray.
-pub fn li(
-    world: &World,
-    kind: IntegratorKind,
-    ray: Ray,
-    sampler: &mut Sampler,
-    counters: &mut RayCounters,
-) -> Radiance {
-    match kind {
-        IntegratorKind::DirectLighting { max_depth } => {
-            let mut camera = 0;
-            let r = whitted(world, ray, 0, max_depth, sampler, counters, &mut camera);
-            counters.camera += camera.min(1);
-            counters.bounce += camera.saturating_sub(1);
-            r
+/// A surface integrator ready to render: made from an [`IntegratorKind`] and the world by
+/// [`IntegratorKind::prepare`], which may do work first (a photon mapper shoots its photons
+/// there). Rendering calls [`Integrator::li`] from many threads.
+pub trait Integrator: Sync {
+    /// The name `--stats` reports.
+    fn name(&self) -> String;
+    /// Radiance and coverage along a camera ray.
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance;
+    /// Extra `--stats` lines: what was built, skipped and why.
+    fn stats(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// Preparation of an integrator: threads are the render's pool (already installed), `seed` the
+/// render's seed.
+#[derive(Clone, Copy, Debug)]
+pub struct PrepareContext {
+    pub seed: u64,
+    pub threads: usize,
+}
+
+impl IntegratorKind {
+    /// The integrator, ready to render `world`.
+    pub fn prepare(&self, _world: &World, _context: PrepareContext) -> Box<dyn Integrator> {
+        match *self {
+            IntegratorKind::DirectLighting { max_depth } => Box::new(DirectLighting { max_depth }),
+            IntegratorKind::Path { max_depth, rr_depth } => Box::new(PathTracer { max_depth, rr_depth }),
         }
-        IntegratorKind::Path { max_depth, rr_depth } => {
-            path(world, ray, max_depth, rr_depth, sampler, counters)
-        }
+    }
+}
+
+/// `SurfaceIntegrator "directlighting"`.
+#[derive(Clone, Copy, Debug)]
+pub struct DirectLighting {
+    pub max_depth: u32,
+}
+
+impl Integrator for DirectLighting {
+    fn name(&self) -> String {
+        "directlighting".into()
+    }
+
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
+        let mut camera = 0;
+        let r = whitted(world, ray, 0, self.max_depth, sampler, counters, &mut camera);
+        counters.camera += camera.min(1);
+        counters.bounce += camera.saturating_sub(1);
+        r
+    }
+}
+
+/// `SurfaceIntegrator "path"`.
+#[derive(Clone, Copy, Debug)]
+pub struct PathTracer {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+}
+
+impl Integrator for PathTracer {
+    fn name(&self) -> String {
+        "path".into()
+    }
+
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
+        path(world, ray, self.max_depth, self.rr_depth, sampler, counters)
     }
 }
 

@@ -8,7 +8,7 @@
 
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
-use crate::integrators::{IntegratorKind, RayCounters, li};
+use crate::integrators::{Integrator, IntegratorKind, PrepareContext, RayCounters};
 use crate::sampler::Sampler;
 use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
@@ -55,6 +55,8 @@ impl std::fmt::Debug for RenderOptions {
 #[derive(Clone, Debug, Default)]
 pub struct RenderStats {
     pub integrator: String,
+    /// The integrator's own `--stats` lines.
+    pub integrator_stats: Vec<String>,
     pub samples_per_pixel: u32,
     pub threads: usize,
     pub width: u32,
@@ -63,6 +65,8 @@ pub struct RenderStats {
     pub rays: RayCounters,
     pub depth_rays: u64,
     pub time_build: Duration,
+    /// Integrator preparation (e.g. photon tracing).
+    pub time_prepare: Duration,
     pub time_render: Duration,
     pub time_depth: Duration,
     /// What was skipped and why, with counts.
@@ -226,7 +230,10 @@ fn render_in_pool(
     let time_build = build_start.elapsed();
     let rays = CameraRays::new(camera, &world.render_from_world);
 
-    let integrator = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
+    let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
+    let prepare_start = Instant::now();
+    let integrator = kind.prepare(&world, PrepareContext { seed: options.seed, threads });
+    let time_prepare = prepare_start.elapsed();
     let filter = Filter::from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
         Filter { kind: crate::film::FilterKind::Gaussian, x_width: 2.0, y_width: 2.0 }
@@ -261,7 +268,15 @@ fn render_in_pool(
     let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
         .par_iter()
         .map(|&(tx0, ty0, tx1, ty1)| {
-            let r = render_tile(&world, &rays, integrator, &filter, spp, options.seed, (tx0, ty0, tx1, ty1));
+            let r = render_tile(
+                &world,
+                &rays,
+                integrator.as_ref(),
+                &filter,
+                spp,
+                options.seed,
+                (tx0, ty0, tx1, ty1),
+            );
             let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = &options.progress {
@@ -299,7 +314,9 @@ fn render_in_pool(
     let time_depth = if options.depth { depth_start.elapsed() } else { Duration::ZERO };
 
     let stats = RenderStats {
-        integrator: integrator.name().to_string(),
+        integrator: integrator.name(),
+        integrator_stats: integrator.stats(),
+        time_prepare,
         samples_per_pixel: spp,
         threads,
         width: w,
@@ -354,7 +371,7 @@ struct Sample {
 fn render_tile(
     world: &World,
     rays: &CameraRays,
-    integrator: IntegratorKind,
+    integrator: &dyn Integrator,
     filter: &Filter,
     spp: u32,
     seed: u64,
@@ -376,7 +393,7 @@ fn render_tile(
                 let x = px as f64 + f64::from(jitter.x);
                 let y = py as f64 + f64::from(jitter.y);
                 let r = match rays.ray(DVec2::new(x, y)) {
-                    Some((ray, _)) => li(world, integrator, ray, &mut sampler, &mut counters),
+                    Some((ray, _)) => integrator.li(world, ray, &mut sampler, &mut counters),
                     None => Default::default(),
                 };
                 samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });
