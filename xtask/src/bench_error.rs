@@ -270,9 +270,11 @@ fn render_child(
     let peak_rss_mib = usage.ru_maxrss as f64 / 1024.0;
     let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
     let cpu_s = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+    // "stats: time: parse 0.001 s, build 0.002 s, prepare 1.234 s, render ..."
     let prepare_s = stdout
         .lines()
-        .find_map(|l| l.strip_prefix("stats: time: photon-map preparation "))
+        .find(|l| l.starts_with("stats: time:"))
+        .and_then(|l| l.split(", ").find_map(|part| part.strip_prefix("prepare ")))
         .and_then(|s| s.trim_end_matches(" s").parse().ok())
         .unwrap_or(0.0);
     Ok(Measured { wall_s, cpu_s, peak_rss_mib, prepare_s })

@@ -236,20 +236,18 @@ fn print_stats(s: &RenderStats, parse: Duration, write: Duration, scene: &Scene)
         seconds(w.bvh_build_time)
     );
     println!("stats: lights: {} ({} area)", w.lights, w.area_lights);
+    for line in &s.integrator_stats {
+        println!("stats: {}: {line}", s.integrator);
+    }
     println!(
-        "stats: time: parse {}, build {}, render {}, depth {}, write {}",
+        "stats: time: parse {}, build {}, prepare {}, render {}, depth {}, write {}",
         seconds(parse),
         seconds(s.time_build),
+        seconds(s.time_prepare),
         seconds(s.time_render),
         seconds(s.time_depth),
         seconds(write)
     );
-    if let Some(photon) = &s.photon {
-        println!("stats: time: photon-map preparation {}", seconds(s.time_prepare));
-        for line in photon.lines() {
-            println!("stats: {line}");
-        }
-    }
     println!(
         "stats: rays: {} camera, {} bounce, {} shadow, {} total; {:.3} M rays/s",
         s.rays.camera,

@@ -2,17 +2,18 @@
 //! multiple importance sampling and Russian roulette, the project's ground truth) and
 //! `photonmap` ([`crate::photon`]).
 //!
-//! The building blocks are public so that other integrators (the photon mapper) share them:
+//! An integrator is an [`IntegratorKind`] (what the RIB asked for, with its parameters) made
+//! ready for a world by [`IntegratorKind::prepare`] into an [`Integrator`]. The building blocks
+//! are public so that other integrators (the photon mapper) share them:
 //! [`find_surface`] resolves partially transparent surfaces, [`sample_one_light`] and
 //! [`direct_from_light`] estimate direct lighting with multiple importance sampling, and
 //! [`RayCounters`] counts rays for `--stats`.
 
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
-use crate::diagnostics::Diagnostics;
 use crate::lights::LightSampleContext;
 use crate::materials::Material;
 use crate::math::average;
-use crate::photon::{PhotonMapSettings, PhotonMapper};
+use crate::photon::{PhotonMapSettings, PhotonMapper, PhotonStats};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::world::{Ray, SurfaceInteraction, World};
@@ -267,63 +268,87 @@ pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material
     material.self_emission(si.ns, si.wo, si.st) + material.ambient_reflectance(si.st) * set.ambient
 }
 
-/// An integrator ready to render one world: its kind and what it precomputed for the world
-/// (the photon maps).
-#[derive(Debug)]
-pub struct Integrator {
-    pub kind: IntegratorKind,
-    photon_mapper: Option<PhotonMapper>,
+/// A surface integrator ready to render: made from an [`IntegratorKind`] and the world by
+/// [`IntegratorKind::prepare`], which may do work first (a photon mapper shoots its photons
+/// there). Rendering calls [`Integrator::li`] from many threads.
+pub trait Integrator: Sync {
+    /// The name `--stats` reports.
+    fn name(&self) -> String;
+    /// Radiance and coverage along a camera ray.
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance;
+    /// Extra `--stats` lines: what was built, skipped and why.
+    fn stats(&self) -> Vec<String> {
+        Vec::new()
+    }
+    /// What the integrator skipped and why, with counts (merged into `RenderStats::skipped`).
+    fn skipped(&self) -> Vec<(String, usize)> {
+        Vec::new()
+    }
+    /// Warnings from preparing (e.g. photon shooting stopped early).
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
+    /// The photon mapper's statistics (`photonmap` only).
+    fn photon_stats(&self) -> Option<PhotonStats> {
+        None
+    }
 }
 
-impl Integrator {
-    /// Prepares `kind` for `world` (built from `scene`): photon mapping shoots its photons here.
-    /// What it skips goes to `diagnostics`.
-    pub fn prepare(
-        world: &World,
-        scene: &rib_parser::scene::Scene,
-        kind: IntegratorKind,
-        seed: u64,
-        diagnostics: &mut Diagnostics,
-    ) -> Integrator {
-        let photon_mapper = match kind {
+/// Preparation of an integrator: threads are the render's pool (already installed), `seed` the
+/// render's seed.
+#[derive(Clone, Copy, Debug)]
+pub struct PrepareContext {
+    pub seed: u64,
+    pub threads: usize,
+}
+
+impl IntegratorKind {
+    /// The integrator, ready to render `world`.
+    pub fn prepare(&self, world: &World, context: PrepareContext) -> Box<dyn Integrator> {
+        match *self {
             IntegratorKind::PhotonMap(settings) => {
-                Some(PhotonMapper::prepare(world, scene, settings, seed, diagnostics))
+                Box::new(PhotonMapper::prepare(world, settings, context.seed))
             }
-            _ => None,
-        };
-        Integrator { kind, photon_mapper }
-    }
-
-    /// The photon mapper, for a `photonmap` integrator.
-    pub fn photon_mapper(&self) -> Option<&PhotonMapper> {
-        self.photon_mapper.as_ref()
+            IntegratorKind::DirectLighting { max_depth } => Box::new(DirectLighting { max_depth }),
+            IntegratorKind::Path { max_depth, rr_depth } => Box::new(PathTracer { max_depth, rr_depth }),
+        }
     }
 }
 
-/// Radiance along a camera ray.
-pub fn li(
-    world: &World,
-    integrator: &Integrator,
-    ray: Ray,
-    sampler: &mut Sampler,
-    counters: &mut RayCounters,
-) -> Radiance {
-    match integrator.kind {
-        IntegratorKind::DirectLighting { max_depth } => {
-            let mut camera = 0;
-            let r = whitted(world, ray, 0, max_depth, sampler, counters, &mut camera);
-            counters.camera += camera.min(1);
-            counters.bounce += camera.saturating_sub(1);
-            r
-        }
-        IntegratorKind::Path { max_depth, rr_depth } => {
-            path(world, ray, max_depth, rr_depth, sampler, counters)
-        }
-        IntegratorKind::PhotonMap(_) => match &integrator.photon_mapper {
-            Some(mapper) => mapper.li(world, ray, sampler, counters),
-            // Not prepared for this world: nothing to render with.
-            None => Radiance::default(),
-        },
+/// `SurfaceIntegrator "directlighting"`.
+#[derive(Clone, Copy, Debug)]
+pub struct DirectLighting {
+    pub max_depth: u32,
+}
+
+impl Integrator for DirectLighting {
+    fn name(&self) -> String {
+        "directlighting".into()
+    }
+
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
+        let mut camera = 0;
+        let r = whitted(world, ray, 0, self.max_depth, sampler, counters, &mut camera);
+        counters.camera += camera.min(1);
+        counters.bounce += camera.saturating_sub(1);
+        r
+    }
+}
+
+/// `SurfaceIntegrator "path"`.
+#[derive(Clone, Copy, Debug)]
+pub struct PathTracer {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+}
+
+impl Integrator for PathTracer {
+    fn name(&self) -> String {
+        "path".into()
+    }
+
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
+        path(world, ray, self.max_depth, self.rr_depth, sampler, counters)
     }
 }
 

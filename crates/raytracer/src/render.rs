@@ -8,7 +8,7 @@
 
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
-use crate::integrators::{Integrator, IntegratorKind, RayCounters, li};
+use crate::integrators::{Integrator, IntegratorKind, PrepareContext, RayCounters};
 use crate::sampler::Sampler;
 use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
@@ -55,6 +55,8 @@ impl std::fmt::Debug for RenderOptions {
 #[derive(Clone, Debug, Default)]
 pub struct RenderStats {
     pub integrator: String,
+    /// The integrator's own `--stats` lines.
+    pub integrator_stats: Vec<String>,
     pub samples_per_pixel: u32,
     pub threads: usize,
     pub width: u32,
@@ -63,10 +65,10 @@ pub struct RenderStats {
     pub rays: RayCounters,
     pub depth_rays: u64,
     pub time_build: Duration,
+    /// Integrator preparation (e.g. photon tracing).
+    pub time_prepare: Duration,
     pub time_render: Duration,
     pub time_depth: Duration,
-    /// Preprocessing of the integrator (photon shooting, kd-trees, radiance photons).
-    pub time_prepare: Duration,
     /// What was skipped and why, with counts.
     pub skipped: Vec<(String, usize)>,
     /// The photon mapper's maps, timings and counts (`photonmap` only).
@@ -232,7 +234,7 @@ fn render_in_pool(
 
     let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
     let prepare_start = Instant::now();
-    let integrator = Integrator::prepare(&world, scene, kind, options.seed, &mut diagnostics);
+    let integrator = kind.prepare(&world, PrepareContext { seed: options.seed, threads });
     let time_prepare = prepare_start.elapsed();
     let filter = Filter::from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
@@ -268,7 +270,15 @@ fn render_in_pool(
     let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
         .par_iter()
         .map(|&(tx0, ty0, tx1, ty1)| {
-            let r = render_tile(&world, &rays, &integrator, &filter, spp, options.seed, (tx0, ty0, tx1, ty1));
+            let r = render_tile(
+                &world,
+                &rays,
+                integrator.as_ref(),
+                &filter,
+                spp,
+                options.seed,
+                (tx0, ty0, tx1, ty1),
+            );
             let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = &options.progress {
@@ -305,11 +315,14 @@ fn render_in_pool(
     });
     let time_depth = if options.depth { depth_start.elapsed() } else { Duration::ZERO };
 
-    if let Some(mapper) = integrator.photon_mapper() {
-        diagnostics.skipped.extend(mapper.culled_skips());
+    diagnostics.skipped.extend(integrator.skipped());
+    for w in integrator.warnings() {
+        diagnostics.warn_once(None, w);
     }
     let stats = RenderStats {
-        integrator: kind.name().to_string(),
+        integrator: integrator.name(),
+        integrator_stats: integrator.stats(),
+        time_prepare,
         samples_per_pixel: spp,
         threads,
         width: w,
@@ -320,9 +333,8 @@ fn render_in_pool(
         time_build,
         time_render,
         time_depth,
-        time_prepare,
         skipped: diagnostics.skipped.clone(),
-        photon: integrator.photon_mapper().map(|m| m.stats()),
+        photon: integrator.photon_stats(),
     };
     let image = Image {
         width: w,
@@ -366,7 +378,7 @@ struct Sample {
 fn render_tile(
     world: &World,
     rays: &CameraRays,
-    integrator: &Integrator,
+    integrator: &dyn Integrator,
     filter: &Filter,
     spp: u32,
     seed: u64,
@@ -388,7 +400,7 @@ fn render_tile(
                 let x = px as f64 + f64::from(jitter.x);
                 let y = py as f64 + f64::from(jitter.y);
                 let r = match rays.ray(DVec2::new(x, y)) {
-                    Some((ray, _)) => li(world, integrator, ray, &mut sampler, &mut counters),
+                    Some((ray, _)) => integrator.li(world, ray, &mut sampler, &mut counters),
                     None => Default::default(),
                 };
                 samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });

@@ -178,3 +178,13 @@ fn paintedplastic_reads_its_texture_map_at_st() {
     assert!(right.z > 0.9 && right.x < 0.1, "{right}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn clipping_planes_cut_geometry() {
+    let rib = |clipping: &str| format!("{clipping}\n{CAMERA}WorldBegin\nSphere 1 -1 1 360\nWorldEnd\n");
+    assert!((centre_depth(&run(&rib(""), RenderOptions::default())) - 4.0).abs() < 1e-5);
+    // The near plane at z = 4.5 cuts the sphere's front: the ray sees its inside at the back.
+    assert!((centre_depth(&run(&rib("Clipping 4.5 100"), RenderOptions::default())) - 6.0).abs() < 1e-5);
+    // The far plane at z = 3 hides everything.
+    assert!(centre_depth(&run(&rib("Clipping 0.1 3"), RenderOptions::default())).is_infinite());
+}

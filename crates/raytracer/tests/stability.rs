@@ -187,3 +187,80 @@ fn scale_and_translation_invariance() {
         eprintln!("scale {scale} offset {offset}: depth error {worst:.2e}, image relMSE {rel:.2e}");
     }
 }
+
+/// Degenerate and non-finite input never reaches the film or the depth table as NaN: zero-area
+/// polygons, NaN vertices, radii and transforms, lights with NaN intensity, and camera rays that
+/// graze a plane exactly.
+#[test]
+fn degenerate_and_non_finite_input_gives_finite_output() {
+    use raytracer::render::{RenderOptions, render};
+    use rib_parser::scene::LightKind;
+    // The eye sits exactly in the plane y = 0 of a large square: its rays graze it.
+    let mut b = SceneBuilder::perspective(24, 16, 60.0, DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO);
+    b.light(
+        LightKind::Point { position: DVec3::new(1.0, 2.0, 3.0), intensity: f32::NAN, color: Vec3::ONE },
+        "pointlight",
+    );
+    b.light(
+        LightKind::Point { position: DVec3::new(1.0, 2.0, 3.0), intensity: 10.0, color: Vec3::ONE },
+        "pointlight",
+    );
+    let a = b.matte(Vec3::splat(0.5));
+    b.light_everything();
+    b.polygon(
+        &[
+            Vec3::new(-9.0, 0.0, -9.0),
+            Vec3::new(9.0, 0.0, -9.0),
+            Vec3::new(9.0, 0.0, 9.0),
+            Vec3::new(-9.0, 0.0, 9.0),
+        ],
+        a,
+    );
+    // Zero area: collinear and repeated vertices.
+    b.polygon(&[Vec3::ZERO, Vec3::X, Vec3::X * 2.0], a);
+    b.polygon(&[Vec3::ONE, Vec3::ONE, Vec3::ONE], a);
+    // NaN vertex, NaN radius, NaN transform, zero scale.
+    b.polygon(&[Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Y, Vec3::Z], a);
+    b.shape(
+        Shape::Sphere { radius: f32::NAN, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 },
+        DMat4::IDENTITY,
+        a,
+    );
+    b.shape(
+        Shape::Sphere { radius: 1.0, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 },
+        DMat4::from_translation(DVec3::new(f64::NAN, 0.0, 0.0)),
+        a,
+    );
+    b.shape(
+        Shape::Sphere { radius: 1.0, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 },
+        DMat4::from_scale(DVec3::ZERO),
+        a,
+    );
+    // A torus seen exactly edge-on through its hole's rim.
+    b.shape(
+        Shape::Torus {
+            major_radius: 1.0,
+            minor_radius: 0.3,
+            phi_min_degrees: 0.0,
+            phi_max_degrees: 360.0,
+            theta_max_degrees: 360.0,
+        },
+        DMat4::from_rotation_x(std::f64::consts::FRAC_PI_2)
+            * DMat4::from_translation(DVec3::new(0.0, 0.0, 0.0)),
+        a,
+    );
+    let scene = b.build();
+    for integrator in [
+        raytracer::integrators::IntegratorKind::DirectLighting { max_depth: 5 },
+        raytracer::integrators::IntegratorKind::Path { max_depth: 64, rr_depth: 5 },
+    ] {
+        let out = render(
+            &scene,
+            &RenderOptions { spp: Some(4), depth: true, integrator: Some(integrator), ..Default::default() },
+        )
+        .unwrap();
+        assert!(out.image.pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(out.depth.unwrap().values.iter().all(|v| *v >= 0.0));
+        assert!(!out.warnings.is_empty());
+    }
+}

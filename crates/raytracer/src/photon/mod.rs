@@ -33,14 +33,15 @@ pub mod kdtree;
 mod render;
 pub(crate) mod shoot;
 
-use crate::diagnostics::Diagnostics;
-use crate::world::World;
+use crate::integrators::{Integrator, Radiance, RayCounters};
+use crate::sampler::Sampler;
+use crate::world::{Ray, World};
 use cull::{CullReason, LightBounds};
 pub use estimate::PhotonFilter;
 use glam::Vec3;
 use kdtree::{KdTree, Positioned};
 use rayon::prelude::*;
-use rib_parser::scene::{AttributesId, ParamList, Scene};
+use rib_parser::scene::ParamList;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -319,6 +320,8 @@ pub struct PhotonStats {
     pub culled: Vec<(CullReason, u64)>,
     /// What the analysis skipped and why.
     pub skipped: Vec<String>,
+    /// Problems met while preparing (e.g. shooting stopped at the path limit).
+    pub warnings: Vec<String>,
 }
 
 impl PhotonStats {
@@ -379,30 +382,10 @@ pub struct PhotonMapper {
     counters: SharedCounters,
 }
 
-/// The attribute states some shape is rendered with.
-fn used_attributes(scene: &Scene) -> Vec<AttributesId> {
-    let mut ids: Vec<AttributesId> = scene.shapes.iter().map(|s| s.attributes).collect();
-    ids.extend(scene.instances.iter().map(|i| i.attributes));
-    for inst in &scene.instances {
-        if let Some(def) = scene.objects.get(inst.object.0 as usize) {
-            ids.extend(def.shapes.iter().map(|s| s.attributes));
-        }
-    }
-    ids.sort_by_key(|a| a.0);
-    ids.dedup();
-    ids
-}
-
 impl PhotonMapper {
-    /// Shoots the photons and builds the maps for `world` (built from `scene`). Skips are
-    /// recorded in `diagnostics` (and the stats); `seed` seeds every photon path.
-    pub fn prepare(
-        world: &World,
-        scene: &Scene,
-        settings: PhotonMapSettings,
-        seed: u64,
-        diagnostics: &mut Diagnostics,
-    ) -> PhotonMapper {
+    /// Shoots the photons and builds the maps for `world`; `seed` seeds every photon path.
+    /// What the analysis skipped is in [`PhotonMapper::stats`].
+    pub fn prepare(world: &World, settings: PhotonMapSettings, seed: u64) -> PhotonMapper {
         let mut stats = PhotonStats { final_gather: settings.final_gather, ..PhotonStats::default() };
         let analysis = settings.scene_analysis;
         let (_, radius) = world.bounding_sphere();
@@ -410,20 +393,17 @@ impl PhotonMapper {
         stats.max_dist = max_dist;
         let max_d2 = max_dist * max_dist;
 
-        // What the scene's surfaces can do.
+        // What the scene's surfaces can do (every attribute state's shader: conservative, an
+        // unused one can only keep a map that the pilot then finds empty).
         let mut has_specular = false;
         let mut has_non_specular = false;
-        for a in used_attributes(scene) {
-            let Some(m) = world.materials.get(a.0 as usize) else { continue };
+        for m in &world.materials {
             let bsdf = m.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, glam::Vec2::ZERO);
             has_specular |= m.has_specular();
             has_non_specular |= bsdf.has_non_specular();
         }
         let emitters = shoot::Emitters::new(world);
-        let mut skip = |what: String, stats: &mut PhotonStats| {
-            diagnostics.skip(&what);
-            stats.skipped.push(what);
-        };
+        let skip = |what: String, stats: &mut PhotonStats| stats.skipped.push(what);
 
         let mut want_caustic = settings.caustic_photons > 0;
         let mut want_indirect = settings.indirect_photons > 0;
@@ -506,13 +486,10 @@ impl PhotonMapper {
             gather = false;
         }
         if shot.hit_path_limit {
-            diagnostics.warn_once(
-                None,
-                format!(
-                    "photon shooting stopped after {} paths before the maps were full",
-                    shot.paths_traced
-                ),
-            );
+            stats.warnings.push(format!(
+                "photon shooting stopped after {} paths before the maps were full",
+                shot.paths_traced
+            ));
         }
 
         let build_start = Instant::now();
@@ -605,14 +582,39 @@ impl PhotonMapper {
             .collect();
         s
     }
+}
 
-    /// The skip lines for `RenderStats::skipped` after rendering: light evaluations culled.
-    pub fn culled_skips(&self) -> Vec<(String, usize)> {
-        self.stats()
-            .culled
-            .iter()
-            .map(|(r, n)| (format!("light samples and shadow rays (point {})", r.describe()), *n as usize))
-            .collect()
+impl Integrator for PhotonMapper {
+    fn name(&self) -> String {
+        "photonmap".into()
+    }
+
+    fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
+        self.radiance(world, ray, sampler, counters)
+    }
+
+    fn stats(&self) -> Vec<String> {
+        PhotonMapper::stats(self).lines()
+    }
+
+    /// The analysis' skips, then the light evaluations culled while rendering.
+    fn skipped(&self) -> Vec<(String, usize)> {
+        let s = PhotonMapper::stats(self);
+        let mut out: Vec<(String, usize)> = s.skipped.iter().map(|w| (w.clone(), 1)).collect();
+        out.extend(
+            s.culled.iter().map(|(r, n)| {
+                (format!("light samples and shadow rays (point {})", r.describe()), *n as usize)
+            }),
+        );
+        out
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.stats.warnings.clone()
+    }
+
+    fn photon_stats(&self) -> Option<PhotonStats> {
+        Some(PhotonMapper::stats(self))
     }
 }
 

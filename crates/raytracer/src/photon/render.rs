@@ -78,7 +78,13 @@ fn non_specular_albedo(bsdf: &Bsdf) -> Vec3 {
 
 impl PhotonMapper {
     /// Radiance along a camera ray.
-    pub fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Radiance {
+    pub fn radiance(
+        &self,
+        world: &World,
+        ray: Ray,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> Radiance {
         let n_used = self.settings.n_used as usize;
         let mut scratch = Scratch {
             heap: KnnHeap::new(n_used),
