@@ -98,7 +98,9 @@ impl Sampler {
         let d = self.pair;
         self.pair += 1;
         let h = mix64(self.pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        let (s0, s1, s2) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
+        // Three scramble seeds from one hash (the Laine-Karras permutation mixes them further).
+        let (s0, s1) = (h as u32, (h >> 32) as u32);
+        let s2 = s0.rotate_left(13) ^ s1.wrapping_mul(0x9e37_79b9);
         // A shuffled index, then both coordinates scrambled; dimension 0 of Sobol is the index
         // bit-reversed, so its scramble needs no reversal going in.
         let i = owen_scramble(self.index, s0);

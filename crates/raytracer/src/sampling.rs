@@ -147,6 +147,8 @@ pub struct Distribution1D {
     /// Normalised cumulative weights, `cdf[0] = 0`, `cdf[n] = 1`.
     cdf: Vec<f64>,
     weights: Vec<f32>,
+    /// `weights[i] / total`.
+    pmf: Vec<f32>,
     total: f64,
 }
 
@@ -168,7 +170,9 @@ impl Distribution1D {
                 *c /= total;
             }
         }
-        Distribution1D { cdf, weights, total }
+        let pmf =
+            weights.iter().map(|&w| if total > 0.0 { (f64::from(w) / total) as f32 } else { 0.0 }).collect();
+        Distribution1D { cdf, weights, pmf, total }
     }
 
     pub fn len(&self) -> usize {
@@ -189,6 +193,9 @@ impl Distribution1D {
     pub fn sample(&self, u: f32) -> Option<(usize, f32, f32)> {
         if self.total <= 0.0 {
             return None;
+        }
+        if self.weights.len() == 1 {
+            return Some((0, 1.0, u));
         }
         let u = f64::from(u);
         // First index whose cdf is > u, minus one.
@@ -215,10 +222,7 @@ impl Distribution1D {
 
     /// Probability of item `i`.
     pub fn pmf(&self, i: usize) -> f32 {
-        if self.total <= 0.0 || i >= self.weights.len() {
-            return 0.0;
-        }
-        (f64::from(self.weights[i]) / self.total) as f32
+        self.pmf.get(i).copied().unwrap_or(0.0)
     }
 }
 

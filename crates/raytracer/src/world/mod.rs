@@ -1,0 +1,562 @@
+//! The render-ready world: geometry in bottom-level BVHs, instances in a top-level BVH,
+//! materials, lights and light-linking sets, all in render space.
+//!
+//! Render space has the world's axes and its origin at the eye (pbrt-v4's "camera-world"
+//! space). Every transform is composed in `f64` and rounded to `f32` once, so a scene placed
+//! 1e5 units from the world origin keeps full precision near the camera.
+//!
+//! Geometry without `ObjectInstance` goes into one bottom-level BVH (BLAS) whose space is render
+//! space; each `ObjectBegin` definition gets its own BLAS in its object space, placed by
+//! instances without copying its geometry. Triangles live in their BLAS space as `f32`; quadrics
+//! keep their object space and are intersected in `f64`.
+
+mod build;
+
+pub use build::{
+    MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
+    WorldError,
+};
+
+use crate::accel::{Bvh, TraversalRay};
+use crate::lights::{Light, LightSet};
+use crate::materials::Material;
+use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
+
+use crate::shapes::{Quadric, QuadricHit, RayShear, barycentric_point, intersect_triangle};
+use glam::{DMat4, DVec3, Vec2, Vec3};
+use rib_parser::scene::AttributesId;
+use std::time::Duration;
+
+/// A ray in render space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub direction: Vec3,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, direction: Vec3) -> Ray {
+        Ray { origin, direction, t_min: 0.0, t_max: f32::INFINITY }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct TrianglePrim {
+    p: [Vec3; 3],
+    shape: u32,
+    index: u32,
+}
+
+#[derive(Clone, Debug)]
+struct QuadricPrim {
+    quadric: Quadric,
+    object_from_blas: DMat4,
+    blas_from_object: DMat4,
+    shape: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Prim {
+    Triangle(u32),
+    Quadric(u32),
+}
+
+#[derive(Clone, Debug)]
+struct BlasShape {
+    attributes: AttributesId,
+    one_sided: bool,
+    reverse: bool,
+    mesh: Option<u32>,
+}
+
+/// Shading data of a mesh (positions live in the triangles).
+#[derive(Clone, Debug)]
+struct MeshShading {
+    triangles: Vec<[u32; 3]>,
+    normals: Option<Vec<Vec3>>,
+    st: Option<Vec<Vec2>>,
+}
+
+/// A bottom-level acceleration structure and its primitives, in BVH order.
+#[derive(Debug)]
+struct Blas {
+    bvh: Bvh,
+    prims: Vec<Prim>,
+    triangles: Vec<TrianglePrim>,
+    quadrics: Vec<QuadricPrim>,
+    shapes: Vec<BlasShape>,
+    meshes: Vec<MeshShading>,
+    bounds: (Vec3, Vec3),
+}
+
+#[derive(Clone, Debug)]
+struct Instance {
+    blas: u32,
+    identity: bool,
+    render_from_blas: DMat4,
+    blas_from_render: DMat4,
+    /// Attribute state of an `ObjectInstance` (replaces the definition's).
+    attributes: Option<AttributesId>,
+    one_sided: Option<bool>,
+    reverse_xor: bool,
+    /// Light index of each BLAS shape that emits (`u32::MAX` for none); empty when none does.
+    emitters: Vec<u32>,
+}
+
+/// Where a ray hit, before the surface is evaluated.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    instance: u32,
+    detail: HitDetail,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum HitDetail {
+    /// Triangle index in its BLAS and barycentric coordinates.
+    Triangle(u32, [f64; 3]),
+    /// Quadric index in its BLAS and the object-space hit.
+    Quadric(u32, QuadricHit),
+}
+
+/// The local geometry of a hit, everything a material or light needs.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceInteraction {
+    /// Position (render space, `f32`) and a bound on its rounding error.
+    pub p: Vec3,
+    pub p_error: Vec3,
+    /// Position in `f64` before rounding.
+    pub p64: DVec3,
+    pub t: f32,
+    /// Unit geometric normal on the front side (after orientation rules).
+    pub ng: Vec3,
+    /// Unit shading normal, in the same hemisphere as `ng`.
+    pub ns: Vec3,
+    /// Normal pointing out of the solid (for dielectrics).
+    pub n_outward: Vec3,
+    pub dpdu: Vec3,
+    /// Texture coordinates.
+    pub st: Vec2,
+    /// Direction toward the ray's origin.
+    pub wo: Vec3,
+    /// True when the ray arrived on the front side.
+    pub front: bool,
+    pub attributes: AttributesId,
+    /// The area light this surface belongs to, if it emits.
+    pub emitter: Option<u32>,
+}
+
+impl SurfaceInteraction {
+    /// A ray leaving the surface in direction `d`, from an origin pushed off the surface.
+    pub fn spawn_ray(&self, d: Vec3) -> Ray {
+        Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, d), d)
+    }
+
+    /// A shadow-ray segment from this surface to a point `p` (with error `p_error` and normal
+    /// `n`, zero for points not on surfaces): origin, direction (unnormalised) and `t_max`.
+    pub fn spawn_ray_to(&self, p: Vec3, p_error: Vec3, n: Vec3) -> Ray {
+        let from = offset_ray_origin(self.p, self.p_error, self.ng, p - self.p);
+        let to = if n == Vec3::ZERO { p } else { offset_ray_origin(p, p_error, n, from - p) };
+        // Stop just short of the end: a relative epsilon (scale-free).
+        Ray { origin: from, direction: to - from, t_min: 0.0, t_max: 1.0 - 1e-4 }
+    }
+}
+
+/// Counts and timings of the world build.
+#[derive(Clone, Debug, Default)]
+pub struct WorldStats {
+    pub triangles: usize,
+    pub quadrics: usize,
+    pub blases: usize,
+    pub instances: usize,
+    pub bvh_nodes: usize,
+    pub bvh_bytes: usize,
+    pub bvh_build_time: Duration,
+    pub build_time: Duration,
+    pub lights: usize,
+    pub area_lights: usize,
+    pub top_level: bool,
+}
+
+/// The render-ready scene.
+#[derive(Debug)]
+pub struct World {
+    pub render_from_world: DMat4,
+    blases: Vec<Blas>,
+    /// Instances in top-level BVH order.
+    instances: Vec<Instance>,
+    tlas: Option<Bvh>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub light_sets: Vec<LightSet>,
+    attributes_light_set: Vec<u32>,
+    /// Render-space bounds of all geometry.
+    pub bounds: (Vec3, Vec3),
+    pub stats: WorldStats,
+}
+
+impl World {
+    /// The render-space bounding sphere of the geometry (centre, radius).
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let (lo, hi) = self.bounds;
+        if !(lo.is_finite() && hi.is_finite()) {
+            return (Vec3::ZERO, 1.0);
+        }
+        ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE))
+    }
+
+    /// The light set of an attribute state.
+    pub fn light_set(&self, attributes: AttributesId) -> &LightSet {
+        &self.light_sets[self.attributes_light_set[attributes.0 as usize] as usize]
+    }
+
+    pub fn material(&self, attributes: AttributesId) -> &Material {
+        &self.materials[attributes.0 as usize]
+    }
+
+    fn sidedness(&self, inst: &Instance, blas: &Blas, shape: u32) -> (bool, bool) {
+        let s = &blas.shapes[shape as usize];
+        (inst.one_sided.unwrap_or(s.one_sided), s.reverse ^ inst.reverse_xor)
+    }
+
+    /// The closest hit along `ray` within `(t_min, t_max)`.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut t_max = ray.t_max;
+        match &self.tlas {
+            None => {
+                if let Some(inst) = self.instances.first() {
+                    self.intersect_instance(
+                        0,
+                        inst,
+                        ray.origin,
+                        ray.direction,
+                        ray.t_min,
+                        &mut t_max,
+                        &mut best,
+                    );
+                }
+            }
+            Some(tlas) => {
+                let mut tray = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
+                tlas.closest(&mut tray, |r, slot| {
+                    let inst = &self.instances[slot as usize];
+                    let mut t = r.t_max;
+                    self.intersect_instance(
+                        slot,
+                        inst,
+                        ray.origin,
+                        ray.direction,
+                        ray.t_min,
+                        &mut t,
+                        &mut best,
+                    );
+                    (t < r.t_max).then_some(t)
+                });
+            }
+        }
+        best
+    }
+
+    /// The ray in an instance's BLAS space (the parameter `t` is preserved).
+    #[inline]
+    fn to_blas(inst: &Instance, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        if inst.identity {
+            (o, d)
+        } else {
+            let m = &inst.blas_from_render;
+            (m.transform_point3(o.as_dvec3()).as_vec3(), m.transform_vector3(d.as_dvec3()).as_vec3())
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_instance(
+        &self,
+        instance: u32,
+        inst: &Instance,
+        o: Vec3,
+        d: Vec3,
+        t_min: f32,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+    ) {
+        let blas = &self.blases[inst.blas as usize];
+        let (o, d) = Self::to_blas(inst, o, d);
+        let Some(shear) = RayShear::new(o, d) else { return };
+        let Some(mut tray) = TraversalRay::new(o, d, t_min, *t_max) else { return };
+        let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
+        blas.bvh.closest(&mut tray, |r, slot| match blas.prims[slot as usize] {
+            Prim::Triangle(i) => {
+                let tri = &blas.triangles[i as usize];
+                let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], r.t_max)?;
+                if h.t <= t_min {
+                    return None;
+                }
+                let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
+                if one_sided && (h.front == reverse) {
+                    return None;
+                }
+                *best = Some(Hit { t: h.t, instance, detail: HitDetail::Triangle(i, h.b) });
+                Some(h.t)
+            }
+            Prim::Quadric(i) => {
+                let q = &blas.quadrics[i as usize];
+                let oo = q.object_from_blas.transform_point3(o64);
+                let od = q.object_from_blas.transform_vector3(d64);
+                let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
+                let limit = f64::from(r.t_max);
+                let h = q.quadric.intersect(oo, od, f64::from(t_min), limit, |h| {
+                    let t32 = h.t as f32;
+                    if !(t32 > t_min && t32 < r.t_max) {
+                        return false;
+                    }
+                    if one_sided {
+                        let front = h.n.dot(od) < 0.0;
+                        if front == reverse {
+                            return false;
+                        }
+                    }
+                    true
+                })?;
+                let t = h.t as f32;
+                *best = Some(Hit { t, instance, detail: HitDetail::Quadric(i, h) });
+                Some(t)
+            }
+        });
+        *t_max = tray.t_max;
+    }
+
+    /// For benchmarks: the BVH and the triangles (in BVH slot order) of a one-level world
+    /// (no object instances, no quadrics), so that obvhs' own traversal can run on the same tree.
+    #[doc(hidden)]
+    pub fn single_level_triangles(&self) -> Option<(&Bvh, Vec<[Vec3; 3]>)> {
+        if self.tlas.is_some() || self.instances.len() != 1 || !self.instances[0].identity {
+            return None;
+        }
+        let blas = &self.blases[self.instances[0].blas as usize];
+        if !blas.quadrics.is_empty() {
+            return None;
+        }
+        let tris = blas
+            .prims
+            .iter()
+            .map(|p| match p {
+                Prim::Triangle(i) => blas.triangles[*i as usize].p,
+                Prim::Quadric(_) => [Vec3::ZERO; 3],
+            })
+            .collect();
+        Some((&blas.bvh, tris))
+    }
+
+    /// Fraction of light passing along the segment `ray` (origin + t direction, `t` in
+    /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
+    /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
+    pub fn transmittance(&self, ray: &Ray) -> Vec3 {
+        let mut tr = Vec3::ONE;
+        match &self.tlas {
+            None => {
+                if let Some(inst) = self.instances.first() {
+                    self.transmittance_instance(inst, ray, &mut tr);
+                }
+            }
+            Some(tlas) => {
+                let Some(tray) = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max) else {
+                    return tr;
+                };
+                tlas.any(&tray, |_, slot| {
+                    self.transmittance_instance(&self.instances[slot as usize], ray, &mut tr);
+                    tr == Vec3::ZERO
+                });
+            }
+        }
+        tr
+    }
+
+    /// Attenuation by one surface crossing: `None` means fully blocked.
+    fn attenuation(&self, attributes: AttributesId) -> Option<Vec3> {
+        let m = self.material(attributes);
+        if m.blocks_shadows() || m.opacity == Vec3::ONE { None } else { Some(Vec3::ONE - m.opacity) }
+    }
+
+    fn transmittance_instance(&self, inst: &Instance, ray: &Ray, tr: &mut Vec3) {
+        let blas = &self.blases[inst.blas as usize];
+        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction);
+        let Some(shear) = RayShear::new(o, d) else { return };
+        let Some(tray) = TraversalRay::new(o, d, ray.t_min, ray.t_max) else { return };
+        let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
+        let (t_min, t_max) = (ray.t_min, ray.t_max);
+        blas.bvh.any(&tray, |_, slot| {
+            match blas.prims[slot as usize] {
+                Prim::Triangle(i) => {
+                    let tri = &blas.triangles[i as usize];
+                    let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
+                        return false;
+                    };
+                    if h.t <= t_min {
+                        return false;
+                    }
+                    let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
+                    if one_sided && (h.front == reverse) {
+                        return false;
+                    }
+                    let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);
+                    match self.attenuation(attributes) {
+                        None => {
+                            *tr = Vec3::ZERO;
+                            true
+                        }
+                        Some(a) => {
+                            *tr *= a;
+                            *tr == Vec3::ZERO
+                        }
+                    }
+                }
+                Prim::Quadric(i) => {
+                    let q = &blas.quadrics[i as usize];
+                    let oo = q.object_from_blas.transform_point3(o64);
+                    let od = q.object_from_blas.transform_vector3(d64);
+                    let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
+                    let attributes = inst.attributes.unwrap_or(blas.shapes[q.shape as usize].attributes);
+                    let attenuation = self.attenuation(attributes);
+                    let mut blocked = false;
+                    // Visit every crossing (a closed quadric is crossed twice).
+                    q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
+                        let t32 = h.t as f32;
+                        if !(t32 > t_min && t32 < t_max) {
+                            return false;
+                        }
+                        if one_sided && ((h.n.dot(od) < 0.0) == reverse) {
+                            return false;
+                        }
+                        match attenuation {
+                            None => blocked = true,
+                            Some(a) => *tr *= a,
+                        }
+                        blocked
+                    });
+                    if blocked {
+                        *tr = Vec3::ZERO;
+                    }
+                    *tr == Vec3::ZERO
+                }
+            }
+        });
+    }
+
+    /// Evaluates the surface at a hit.
+    pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        let inst = &self.instances[hit.instance as usize];
+        let blas = &self.blases[inst.blas as usize];
+        let (p_blas, err_blas, ng_blas, ns_blas, n_outward_blas, dpdu_blas, st, shape);
+        match hit.detail {
+            HitDetail::Triangle(i, b) => {
+                let tri = &blas.triangles[i as usize];
+                let (p, err) = barycentric_point(b, tri.p[0], tri.p[1], tri.p[2]);
+                p_blas = p;
+                err_blas = err;
+                let ng = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).as_dvec3();
+                ng_blas = ng;
+                shape = tri.shape;
+                let s = &blas.shapes[tri.shape as usize];
+                let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
+                let vidx = mesh.map(|m| m.triangles[tri.index as usize]);
+                let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
+                ns_blas = match (mesh.and_then(|m| m.normals.as_ref()), vidx) {
+                    (Some(normals), Some(v)) => {
+                        let n = normals[v[0] as usize] * bw[0]
+                            + normals[v[1] as usize] * bw[1]
+                            + normals[v[2] as usize] * bw[2];
+                        if n.length_squared() > 0.0 && n.is_finite() { n.as_dvec3() } else { ng }
+                    }
+                    _ => ng,
+                };
+                n_outward_blas = ng;
+                st = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
+                    (Some(sts), Some(v)) => {
+                        sts[v[0] as usize] * bw[0] + sts[v[1] as usize] * bw[1] + sts[v[2] as usize] * bw[2]
+                    }
+                    _ => Vec2::new(bw[1], bw[2]),
+                };
+                dpdu_blas = (tri.p[1] - tri.p[0]).as_dvec3();
+            }
+            HitDetail::Quadric(i, h) => {
+                let q = &blas.quadrics[i as usize];
+                let m = &q.blas_from_object;
+                p_blas = m.transform_point3(h.p);
+                // The f64 solve and projection leave errors far below f32 rounding; bound them
+                // generously with a relative 1e-9 of the quadric's extent.
+                let extent = (q.quadric.bounds_max - q.quadric.bounds_min).length();
+                let scale = m
+                    .x_axis
+                    .truncate()
+                    .length()
+                    .max(m.y_axis.truncate().length())
+                    .max(m.z_axis.truncate().length());
+                err_blas = transform_point_error(m, h.p) + DVec3::splat(1e-9 * extent * scale);
+                let normal_matrix = &q.object_from_blas;
+                ng_blas = transform_normal(normal_matrix, h.n);
+                ns_blas = ng_blas;
+                n_outward_blas = transform_normal(normal_matrix, h.n * q.quadric.orientation);
+                dpdu_blas = m.transform_vector3(h.dpdu);
+                st = h.uv.as_vec2();
+                shape = q.shape;
+            }
+        }
+        // BLAS space to render space.
+        let (p64, err64, to_render_n): (DVec3, DVec3, Option<&DMat4>) = if inst.identity {
+            (p_blas, err_blas, None)
+        } else {
+            let m = &inst.render_from_blas;
+            let p = m.transform_point3(p_blas);
+            let abs = DMat4::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs(), glam::DVec4::ZERO);
+            let err = abs.transform_vector3(err_blas) + transform_point_error(m, p_blas);
+            (p, err, Some(&inst.blas_from_render))
+        };
+        let map_n = |n: DVec3| match to_render_n {
+            Some(inv) => transform_normal(inv, n),
+            None => n,
+        };
+        let mut ng = map_n(ng_blas).normalize_or_zero().as_vec3();
+        let mut ns = map_n(ns_blas).normalize_or_zero().as_vec3();
+        let n_outward = map_n(n_outward_blas).normalize_or_zero().as_vec3();
+        let dpdu = match to_render_n {
+            Some(_) => inst.render_from_blas.transform_vector3(dpdu_blas).as_vec3(),
+            None => dpdu_blas.as_vec3(),
+        };
+        let (_, reverse) = self.sidedness(inst, blas, shape);
+        if reverse {
+            ng = -ng;
+            ns = -ns;
+        }
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        if ng == Vec3::ZERO || !ng.is_finite() {
+            ng = -ray.direction.normalize_or(Vec3::Z);
+        }
+        if ns == Vec3::ZERO || !ns.is_finite() {
+            ns = ng;
+        }
+        let (p, p_error) = round_point(p64, err64);
+        let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
+        let emitter = inst.emitters.get(shape as usize).copied().filter(|&e| e != u32::MAX);
+        let wo = -ray.direction.normalize_or(Vec3::Z);
+        SurfaceInteraction {
+            p,
+            p_error,
+            p64,
+            t: hit.t,
+            ng,
+            ns,
+            n_outward: if n_outward == Vec3::ZERO { ng } else { n_outward },
+            dpdu,
+            st,
+            wo,
+            front: ray.direction.dot(ng) < 0.0,
+            attributes,
+            emitter,
+        }
+    }
+}
