@@ -412,3 +412,131 @@ fn photonmap_parameters_come_from_the_rib() {
     assert!(photon.indirect.as_ref().is_some_and(|m| m.photons >= 3000));
     assert!(out.warnings.iter().any(|w| w.message.contains("\"bogus\" is unknown")), "{:?}", out.warnings);
 }
+
+/// A glass sphere and a small mirror sphere over a matte floor, lit by `light` from above (a
+/// two-sided square for `LightKind::Area`): caustics focused on the floor in view.
+fn sphere_caustics(light: LightKind) -> Scene {
+    let mut b = SceneBuilder::perspective(24, 24, 50.0, DVec3::new(0.0, 4.0, 3.0), DVec3::new(0.0, 0.3, 0.0));
+    let is_area = matches!(light, LightKind::Area { .. });
+    let name = if is_area { "arealight" } else { "light" };
+    let id = b.light(light, name);
+    if is_area {
+        let lamp = b.attributes(Attributes {
+            color: Vec3::ZERO,
+            surface: Some(shader("matte", &[("Kd", 0.0), ("Ka", 0.0)])),
+            area_light: Some(id),
+            ..Attributes::default()
+        });
+        b.polygon(
+            &[
+                Vec3::new(-0.3, 3.0, -0.3),
+                Vec3::new(0.3, 3.0, -0.3),
+                Vec3::new(0.3, 3.0, 0.3),
+                Vec3::new(-0.3, 3.0, 0.3),
+            ],
+            lamp,
+        );
+    }
+    let floor = b.matte(Vec3::splat(0.6));
+    let glass = b.attributes(Attributes {
+        color: Vec3::ONE,
+        surface: Some(shader("glass", &[("eta", 1.5)])),
+        ..Attributes::default()
+    });
+    let mirror = b.attributes(Attributes {
+        color: Vec3::ONE,
+        surface: Some(shader("mirror", &[("Kr", 1.0)])),
+        ..Attributes::default()
+    });
+    b.light_everything();
+    b.polygon(
+        &[
+            Vec3::new(-2.0, 0.0, -2.0),
+            Vec3::new(-2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+        ],
+        floor,
+    );
+    let sphere =
+        |radius: f32| Shape::Sphere { radius, z_min: -radius, z_max: radius, theta_max_degrees: 360.0 };
+    b.shape(sphere(0.6), DMat4::from_translation(DVec3::new(0.0, 1.2, 0.0)), glass);
+    b.shape(sphere(0.3), DMat4::from_translation(DVec3::new(1.0, 0.6, -0.6)), mirror);
+    let mut scene = b.build();
+    if is_area {
+        scene.lights[id.0 as usize].shader = shader("arealight", &[("twosided", 1.0)]);
+    }
+    scene.render.pixel_filter = PixelFilter { name: "box".into(), x_width: 1.0, y_width: 1.0 };
+    scene
+}
+
+/// Sum of `a - b` over the image, per block of 8 x 8 pixels (the caustic part of a render when
+/// `b` is the same render without caustics).
+fn block_differences(a: &Image, b: &Image) -> Vec<f32> {
+    block_means(a, 8).iter().zip(block_means(b, 8)).map(|(x, y)| (*x - y).element_sum()).collect()
+}
+
+/// Caustic photons aimed at the specular shapes' bounding spheres carry the same caustic as
+/// photons emitted from the light's own distribution (point, spot and two-sided area lights),
+/// with far fewer paths per stored photon.
+#[test]
+fn aimed_caustic_photons_agree_with_unaimed_ones() {
+    let lights = [
+        LightKind::Point { position: DVec3::new(0.0, 3.0, 0.2), intensity: 12.0, color: Vec3::ONE },
+        LightKind::Spot {
+            position: DVec3::new(0.0, 3.0, 0.0),
+            direction: DVec3::new(0.0, -1.0, 0.0),
+            intensity: 12.0,
+            color: Vec3::ONE,
+            cone_angle: 70f32.to_radians(),
+            cone_delta_angle: 10f32.to_radians(),
+            beam_distribution: 3.0,
+        },
+        LightKind::Area { intensity: 12.0, color: Vec3::ONE },
+    ];
+    for light in lights {
+        let scene = sphere_caustics(light.clone());
+        let settings = PhotonMapSettings {
+            caustic_photons: 100_000,
+            indirect_photons: 0,
+            n_used: 300,
+            caustic_aim: true,
+            ..Default::default()
+        };
+        let aimed = run(&scene, photonmap(settings), 8, 2);
+        let unaimed = run(&scene, photonmap(PhotonMapSettings { caustic_aim: false, ..settings }), 8, 2);
+        let none = run(&scene, photonmap(PhotonMapSettings { caustic_photons: 0, ..settings }), 8, 2);
+        let map = |out: &RenderOutput| {
+            let map = out.stats.photon.as_ref().and_then(|p| p.caustic.clone()).expect("a caustic map");
+            assert!(map.photons >= 100_000, "{light:?}: {map:?}");
+            map
+        };
+        let (a, u) = (map(&aimed), map(&unaimed));
+        // The flux the caustic photons carry: the emission power estimate itself.
+        let (flux_a, flux_u) = (a.flux.element_sum(), u.flux.element_sum());
+        assert!(
+            (flux_a - flux_u).abs() <= 0.01 * flux_u,
+            "{light:?}: caustic flux {flux_a} aimed, {flux_u} unaimed"
+        );
+        let per_photon = |m: &raytracer::photon::MapStats| m.paths as f64 / m.photons as f64;
+        let (a, u) = (per_photon(&a), per_photon(&u));
+        eprintln!(
+            "{light:?}: flux {flux_a} aimed, {flux_u} unaimed; {a} paths per photon aimed, {u} unaimed"
+        );
+        assert!(a < 0.5 * u, "{light:?}: aiming traces {a} paths per caustic photon, {u} without");
+        let caustic_aimed = block_differences(&aimed.image, &none.image);
+        let caustic_unaimed = block_differences(&unaimed.image, &none.image);
+        let (total_aimed, total_unaimed): (f32, f32) =
+            (caustic_aimed.iter().sum(), caustic_unaimed.iter().sum());
+        let direct: f32 = block_means(&none.image, 8).iter().map(|v| v.element_sum()).sum();
+        assert!(total_unaimed > 0.05 * direct, "{light:?}: caustic {total_unaimed} of direct {direct}");
+        assert!(
+            (total_aimed - total_unaimed).abs() <= 0.06 * total_unaimed,
+            "{light:?}: caustic {total_aimed} aimed, {total_unaimed} unaimed"
+        );
+        let largest = caustic_unaimed.iter().fold(0.0f32, |m, &v| m.max(v));
+        for (i, (x, y)) in caustic_aimed.iter().zip(&caustic_unaimed).enumerate() {
+            assert!((x - y).abs() <= 0.1 * largest, "{light:?}: block {i}: {x} aimed, {y} unaimed");
+        }
+    }
+}

@@ -80,6 +80,8 @@ pub struct PhotonMapSettings {
     pub radiance_photons: bool,
     /// `filter`: `"box"`, `"cone"` or `"gaussian"` kernel for density estimates.
     pub filter: PhotonFilter,
+    /// `causticaim`: shoot caustic photons only toward the specular shapes (a separate pass).
+    pub caustic_aim: bool,
     /// `maxdepth` (or `maxspeculardepth`): specular bounces followed from the camera.
     pub max_depth: u32,
     /// `maxphotondepth`: bounces of a photon path (Russian roulette ends them first).
@@ -102,6 +104,7 @@ impl Default for PhotonMapSettings {
             gather_sampling: GatherSampling::Bsdf,
             radiance_photons: true,
             filter: PhotonFilter::Box,
+            caustic_aim: true,
             max_depth: 5,
             max_photon_depth: crate::integrators::UNBOUNDED_DEPTH,
             scene_analysis: true,
@@ -148,6 +151,7 @@ const KNOWN_PARAMS: &[&str] = &[
     "gathersampling",
     "radiancephotons",
     "filter",
+    "causticaim",
     "maxdepth",
     "maxspeculardepth",
     "maxphotondepth",
@@ -196,9 +200,11 @@ impl PhotonMapSettings {
                 notes.push(format!("photonmap \"gatherangle\" {a} must be in (0, 90] degrees: using 10"));
             }
         }
-        for (name, field) in
-            [("finalgather", &mut s.final_gather), ("radiancephotons", &mut s.radiance_photons)]
-        {
+        for (name, field) in [
+            ("finalgather", &mut s.final_gather),
+            ("radiancephotons", &mut s.radiance_photons),
+            ("causticaim", &mut s.caustic_aim),
+        ] {
             match bool_param(params, name) {
                 None => {}
                 Some(Ok(v)) => *field = v,
@@ -297,6 +303,10 @@ pub struct MapStats {
     /// Light paths its photons are normalised by.
     pub paths: u64,
     pub bytes: usize,
+    /// Total power of its photons: the flux the map carries onto surfaces (an unbiased
+    /// estimate, whatever the density estimates do with it). Zero for radiance photons, which
+    /// store irradiance.
+    pub flux: Vec3,
 }
 
 /// What the photon mapper built, skipped and did, for `--stats`.
@@ -452,7 +462,9 @@ impl PhotonMapper {
             max_paths: 200 * u64::from(settings.caustic_photons.max(settings.indirect_photons)) + (1 << 20),
         };
         let shoot_start = Instant::now();
-        let shot = shoot::shoot(world, &emitters, &request);
+        let aim = (want_caustic && settings.caustic_aim)
+            .then(|| shoot::Aim::from_boxes(&world.shape_bounds(|m| m.has_specular())));
+        let shot = shoot::shoot(world, &emitters, &request, aim.as_ref());
         stats.time_shoot = shoot_start.elapsed();
         stats.paths_traced = shot.paths_traced;
         stats.photon_rays = shot.rays;
@@ -497,8 +509,9 @@ impl PhotonMapper {
             if photons.is_empty() {
                 return None;
             }
+            let flux = photons.iter().fold(glam::DVec3::ZERO, |sum, p| sum + p.power.as_dvec3()).as_vec3();
             let t = KdTree::build(photons);
-            *stats = Some(MapStats { photons: t.len(), paths, bytes: t.bytes() });
+            *stats = Some(MapStats { photons: t.len(), paths, bytes: t.bytes(), flux });
             Some(t)
         };
         let caustic = tree(shot.caustic, shot.caustic_paths, &mut stats.caustic);
@@ -527,8 +540,12 @@ impl PhotonMapper {
                 )
                 .collect();
             let t = KdTree::build(photons);
-            stats.radiance =
-                Some(MapStats { photons: t.len(), paths: shot.indirect_paths, bytes: t.bytes() });
+            stats.radiance = Some(MapStats {
+                photons: t.len(),
+                paths: shot.indirect_paths,
+                bytes: t.bytes(),
+                flux: Vec3::ZERO,
+            });
             Some(t)
         } else {
             None

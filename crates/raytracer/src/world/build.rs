@@ -249,7 +249,7 @@ impl BlasBuilder {
 }
 
 /// Bounds of the transformed box (all eight corners in `f64`, rounded outward).
-fn transformed_box(m: &DMat4, lo: DVec3, hi: DVec3) -> (Vec3, Vec3) {
+pub(super) fn transformed_box(m: &DMat4, lo: DVec3, hi: DVec3) -> (Vec3, Vec3) {
     let mut bmin = DVec3::splat(f64::INFINITY);
     let mut bmax = DVec3::splat(f64::NEG_INFINITY);
     for i in 0..8 {

@@ -216,6 +216,54 @@ impl World {
         &self.materials[attributes.0 as usize]
     }
 
+    /// Render-space bounding boxes of the shapes whose material passes `select`, one per placed
+    /// shape (the photon mapper aims caustic photons at the specular ones).
+    pub fn shape_bounds(&self, mut select: impl FnMut(&Material) -> bool) -> Vec<(Vec3, Vec3)> {
+        let mut out = Vec::new();
+        for inst in &self.instances {
+            let blas = &self.blases[inst.blas as usize];
+            let wanted: Vec<bool> = blas
+                .shapes
+                .iter()
+                .map(|s| select(self.material(inst.attributes.unwrap_or(s.attributes))))
+                .collect();
+            if !wanted.contains(&true) {
+                continue;
+            }
+            let mut boxes: Vec<Option<(Vec3, Vec3)>> = vec![None; blas.shapes.len()];
+            let mut grow = |shape: u32, lo: Vec3, hi: Vec3| {
+                let b = &mut boxes[shape as usize];
+                *b = Some(match *b {
+                    Some((a, c)) => (a.min(lo), c.max(hi)),
+                    None => (lo, hi),
+                });
+            };
+            for t in &blas.triangles {
+                if wanted[t.shape as usize] {
+                    grow(t.shape, t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2]));
+                }
+            }
+            for q in &blas.quadrics {
+                if wanted[q.shape as usize] {
+                    let (lo, hi) = build::transformed_box(
+                        &q.blas_from_object,
+                        q.quadric.bounds_min,
+                        q.quadric.bounds_max,
+                    );
+                    grow(q.shape, lo, hi);
+                }
+            }
+            for (lo, hi) in boxes.into_iter().flatten() {
+                out.push(if inst.identity {
+                    (lo, hi)
+                } else {
+                    build::transformed_box(&inst.render_from_blas, lo.as_dvec3(), hi.as_dvec3())
+                });
+            }
+        }
+        out
+    }
+
     fn sidedness(&self, inst: &Instance, blas: &Blas, shape: u32) -> (bool, bool) {
         let s = &blas.shapes[shape as usize];
         (inst.one_sided.unwrap_or(s.one_sided), s.reverse ^ inst.reverse_xor)
