@@ -1,6 +1,6 @@
 //! The `hybrid-view` command line end to end (CONTRACTS.md §5): replica, masks against analytic
 //! ground truth, errors and exit codes, the window against headless. GPU tests: they need an
-//! adapter (lavapipe in CI) and, for the window, an X display (`xvfb-run`).
+//! adapter (lavapipe in CI) and, for the window, an X display (`cargo xtask test` starts Xvfb).
 
 use glam::DVec3;
 use std::path::{Path, PathBuf};
@@ -235,13 +235,10 @@ fn exr_input_is_tone_mapped() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The window shows what a headless run writes (run under xvfb-run; fails without a display).
+/// The window shows what a headless run writes (needs an X display; fails without one).
 #[test]
 fn window_screenshot_equals_headless() {
-    assert!(
-        std::env::var_os("DISPLAY").is_some(),
-        "no X display: run under xvfb-run (cargo xtask test does)"
-    );
+    assert!(std::env::var_os("DISPLAY").is_some(), "no X display: run `cargo xtask test`, which starts Xvfb");
     let dir = scratch("window");
     let input = dir.join("in.png");
     write_noise_png(&input, 512, 512);

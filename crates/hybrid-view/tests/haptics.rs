@@ -178,10 +178,7 @@ fn haptic_errors_and_exit_codes() {
 
 #[test]
 fn a_window_runs_the_real_time_haptic_thread() {
-    assert!(
-        std::env::var_os("DISPLAY").is_some(),
-        "no X display: run under xvfb-run (cargo xtask test does)"
-    );
+    assert!(std::env::var_os("DISPLAY").is_some(), "no X display: run `cargo xtask test`, which starts Xvfb");
     let dir = scratch("window");
     let [image, depth, rib] = inputs();
     let press = press();

@@ -1,5 +1,5 @@
 //! The window shows exactly what a headless run writes. Needs an X display: `cargo xtask test`
-//! runs the suite under `xvfb-run`; without a display this test fails (it never skips).
+//! runs the suite against its own Xvfb; without a display this test fails (it never skips).
 //! One test per binary: winit allows one event loop per process.
 
 mod common;
@@ -11,10 +11,7 @@ use viewer::{CompositeMode, Compositor, CompositorSettings, LiveObjects, Materia
 
 #[test]
 fn window_frame_equals_the_headless_frame() {
-    assert!(
-        std::env::var_os("DISPLAY").is_some(),
-        "no X display: run under xvfb-run (cargo xtask test does)"
-    );
+    assert!(std::env::var_os("DISPLAY").is_some(), "no X display: run `cargo xtask test`, which starts Xvfb");
     let scene = cornell_scene(vec![cornell_light()]);
     let live = LiveObjects {
         sphere: Some(Sphere {
