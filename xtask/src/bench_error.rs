@@ -21,7 +21,8 @@
 //!
 //! Options: `--scenes a,b`, `--threads N` (default 2), `--quick` (a short ladder),
 //! `--references` (re-render the cached references), `--filter TEXT` (only rungs whose label
-//! contains TEXT), `--mitsuba` (also time Mitsuba 3's scalar path tracer on the Cornell box, when
+//! contains TEXT), `--fresh` (start the results over; by default a run's rows replace the rows
+//! with the same scene and label in the existing `results.csv` and the others are kept), `--mitsuba` (also time Mitsuba 3's scalar path tracer on the Cornell box, when
 //! `python3 -c "import mitsuba"` works; never a dependency).
 //! `cargo xtask image-error A.exr B.exr` prints both metrics for two images.
 
@@ -158,6 +159,18 @@ fn scenes(root: &Path, quick: bool) -> Vec<BenchScene> {
         cornell.extend([direct_rung(4), direct_rung(16)]);
         cornell.extend([4, 8, 16, 32, 64, 128].map(path_rung));
         cornell.extend(pm(&[50_000, 200_000, 800_000], &[(2, 4), (4, 4), (4, 8), (8, 8), (16, 8), (16, 16)]));
+        // Cheap settings near relMSE 1e-2, and the bias floor: gather samples far past the
+        // point where pixel noise dominates.
+        cornell.extend(pm(&[50_000, 200_000], &[(4, 2), (8, 2), (16, 32)]));
+        // The other parameters, one at a time, at one setting.
+        for extra in [
+            "\"integer radiancephotons\" [0]",
+            "\"integer nused\" [20]",
+            "\"integer nused\" [200]",
+            "\"string gathersampling\" [\"photons\"]",
+        ] {
+            cornell.push(photon_rung(200_000, 4, 8, extra));
+        }
         other.extend([direct_rung(4), direct_rung(16)]);
         other.extend([4, 16, 64].map(path_rung));
         other.extend(pm(&[50_000, 200_000], &[(4, 4), (8, 8), (16, 16)]));
@@ -320,6 +333,7 @@ pub fn bench_error(args: &[String]) -> Result<(), String> {
     let mut only_scenes: Option<Vec<String>> = None;
     let mut filter: Option<String> = None;
     let mut mitsuba = false;
+    let mut fresh = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -333,6 +347,7 @@ pub fn bench_error(args: &[String]) -> Result<(), String> {
             "--quick" => quick = true,
             "--references" => regenerate = true,
             "--mitsuba" => mitsuba = true,
+            "--fresh" => fresh = true,
             "--scenes" => {
                 only_scenes =
                     Some(it.next().ok_or("--scenes needs a list")?.split(',').map(str::to_string).collect())
@@ -422,7 +437,64 @@ pub fn bench_error(args: &[String]) -> Result<(), String> {
             rows.extend(mitsuba_rows(&out_dir, &reference, quick)?);
         }
     }
+    if !fresh {
+        rows = merge_with_previous(&out_dir.join("results.csv"), rows);
+    }
     write_outputs(&out_dir, &rows, &machine)
+}
+
+/// The rows of an earlier `results.csv` with this run's rows in place of those with the same
+/// scene and label, and new ones appended (so `--filter` and `--scenes` runs add to one table).
+fn merge_with_previous(csv: &Path, new_rows: Vec<Row>) -> Vec<Row> {
+    let Ok(text) = std::fs::read_to_string(csv) else { return new_rows };
+    let mut merged: Vec<Row> = text.lines().skip(1).filter_map(parse_row).collect();
+    for row in new_rows {
+        match merged.iter_mut().find(|r| r.scene == row.scene && r.label == row.label) {
+            Some(old) => *old = row,
+            None => merged.push(row),
+        }
+    }
+    merged
+}
+
+/// One row as a line of `results.csv`.
+fn csv_line(r: &Row) -> String {
+    format!(
+        "{},{},{},{},{:.3},{:.3},{:.3},{:.1},{:.5e},{:.5e},{}",
+        r.scene,
+        r.series,
+        r.label,
+        r.spp,
+        r.wall_s,
+        r.cpu_s,
+        r.prepare_s,
+        r.peak_rss_mib,
+        r.rmse,
+        r.relmse,
+        r.load
+    )
+}
+
+/// One line of `results.csv` (as [`csv_line`] writes it); `None` if it is not one.
+fn parse_row(line: &str) -> Option<Row> {
+    let f: Vec<&str> = line.split(',').collect();
+    let [scene, series, label, spp, wall_s, cpu_s, prepare_s, peak_rss_mib, rmse, relmse, load] = f[..]
+    else {
+        return None;
+    };
+    Some(Row {
+        scene: scene.into(),
+        series: series.into(),
+        label: label.into(),
+        spp: spp.parse().ok()?,
+        wall_s: wall_s.parse().ok()?,
+        cpu_s: cpu_s.parse().ok()?,
+        prepare_s: prepare_s.parse().ok()?,
+        peak_rss_mib: peak_rss_mib.parse().ok()?,
+        rmse: rmse.parse().ok()?,
+        relmse: relmse.parse().ok()?,
+        load: load.into(),
+    })
 }
 
 /// Writes a modified scene under `target/bench-error/ribs` (the benchmark's scenes read no
@@ -508,21 +580,8 @@ fn write_outputs(out_dir: &Path, rows: &[Row], machine: &str) -> Result<(), Stri
     let mut csv =
         String::from("scene,series,label,spp,wall_s,cpu_s,prepare_s,peak_rss_mib,rmse,relmse,load_average\n");
     for r in rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{:.3},{:.3},{:.3},{:.1},{:.5e},{:.5e},{}",
-            r.scene,
-            r.series,
-            r.label,
-            r.spp,
-            r.wall_s,
-            r.cpu_s,
-            r.prepare_s,
-            r.peak_rss_mib,
-            r.rmse,
-            r.relmse,
-            r.load
-        );
+        csv.push_str(&csv_line(r));
+        csv.push('\n');
     }
     write_atomic(&out_dir.join("results.csv"), &csv)?;
     let mut table = format!(
@@ -691,5 +750,35 @@ mod tests {
         assert!((rel - 0.01 / 0.02 / 3.0).abs() < 1e-6);
         let c = Rgb { width: 2, height: 1, pixels: vec![[0.0; 3]; 2] };
         assert!(errors(&a, &c).is_err());
+    }
+
+    #[test]
+    fn results_merge_by_scene_and_label() {
+        let row = |label: &str, wall_s: f64| Row {
+            scene: "cornell".into(),
+            series: "path".into(),
+            label: label.into(),
+            spp: 4,
+            wall_s,
+            cpu_s: 1.5,
+            prepare_s: 0.0,
+            peak_rss_mib: 17.0,
+            rmse: 5.962e-2,
+            relmse: 5.754e-2,
+            load: "2.37 2.16 3.97".into(),
+        };
+        let parsed = parse_row(&csv_line(&row("path spp4", 2.5))).unwrap();
+        assert_eq!((parsed.label.as_str(), parsed.wall_s, parsed.relmse), ("path spp4", 2.5, 5.754e-2));
+        assert!(parse_row("scene,series,label").is_none());
+        let dir = std::env::temp_dir().join(format!("bench-error-merge-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let csv = dir.join("results.csv");
+        let old = [row("path spp4", 2.5), row("path spp8", 5.0)];
+        let text: String = old.iter().map(|r| csv_line(r) + "\n").collect();
+        std::fs::write(&csv, format!("header\n{text}")).unwrap();
+        let merged = merge_with_previous(&csv, vec![row("path spp8", 4.0), row("path spp16", 9.0)]);
+        let got: Vec<(&str, f64)> = merged.iter().map(|r| (r.label.as_str(), r.wall_s)).collect();
+        assert_eq!(got, [("path spp4", 2.5), ("path spp8", 4.0), ("path spp16", 9.0)]);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
