@@ -161,7 +161,8 @@ fn scenes(root: &Path, quick: bool) -> Vec<BenchScene> {
         cornell.extend(pm(&[50_000, 200_000, 800_000], &[(2, 4), (4, 4), (4, 8), (8, 8), (16, 8), (16, 16)]));
         // Fewer gather rays for more pixel samples (what pays near relMSE 1e-2), and the bias
         // floor: gather samples far past the point where pixel noise dominates.
-        cornell.extend(pm(&[50_000, 200_000], &[(4, 2), (8, 2), (8, 4), (16, 2), (16, 4), (16, 32), (64, 16)]));
+        cornell
+            .extend(pm(&[50_000, 200_000], &[(4, 2), (8, 2), (8, 4), (16, 2), (16, 4), (16, 32), (64, 16)]));
         // The other parameters, one at a time, at one setting.
         for extra in [
             "\"integer radiancephotons\" [0]",
