@@ -318,6 +318,8 @@ pub struct PhotonStats {
     pub radiance: Option<MapStats>,
     pub paths_traced: u64,
     pub photon_rays: u64,
+    /// Spheres the caustic photons were aimed at (`None`: not aimed).
+    pub caustic_aim_spheres: Option<usize>,
     pub max_dist: f32,
     pub final_gather: bool,
     pub time_shoot: Duration,
@@ -356,6 +358,9 @@ impl PhotonStats {
             self.time_radiance.as_secs_f64()
         ));
         out.push(map("caustic", &self.caustic));
+        if let Some(n) = self.caustic_aim_spheres {
+            out.push(format!("caustic photons aimed at {n} bounding spheres of specular shapes"));
+        }
         out.push(map("direct", &self.direct));
         out.push(map("indirect", &self.indirect));
         out.push(map("radiance-photon", &self.radiance));
@@ -465,6 +470,7 @@ impl PhotonMapper {
         let aim = (want_caustic && settings.caustic_aim)
             .then(|| shoot::Aim::from_boxes(&world.shape_bounds(|m| m.has_specular())));
         let shot = shoot::shoot(world, &emitters, &request, aim.as_ref());
+        stats.caustic_aim_spheres = aim.as_ref().map(|a| a.spheres.len()).filter(|&n| n > 0);
         stats.time_shoot = shoot_start.elapsed();
         stats.paths_traced = shot.paths_traced;
         stats.photon_rays = shot.rays;
@@ -472,7 +478,7 @@ impl PhotonMapper {
             skip(
                 format!(
                     "caustic photon map (no specular surface reached from the lights in {} photon paths)",
-                    shot.paths_traced
+                    shot.caustic_paths
                 ),
                 &mut stats,
             );
