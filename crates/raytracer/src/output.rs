@@ -16,6 +16,12 @@
 //! the display modes that contain `a` (`"rgba"`); colour is premultiplied by coverage, as
 //! RenderMan writes it. Files are written to a temporary name in the same directory and renamed
 //! into place, so a reader never sees half a file.
+//!
+//! A crop window's region is written as an image of the region's size. EXR files also record
+//! where it sits: the display window is the full frame and the data window the region (as pbrt
+//! and PRMan write crops), which is what `lrt-merge` reads to put tiles back together. Dither
+//! is a function of the full-frame pixel, so 8- and 16-bit tiles hold the same bytes as the
+//! full frame's pixels too.
 
 use crate::film::Image;
 use crate::sampling::mix64;
@@ -156,7 +162,7 @@ pub fn encode(
     }
     let linear = |p: &[f32; 4], c: usize| if c == 3 { p[3] } else { p[c] * settings.exposure.gain };
     let dynamic = match format {
-        Format::Exr => float_image(image, settings.alpha, linear),
+        Format::Exr => return Ok((encode_exr(image, settings.alpha, linear)?, notes)),
         Format::Tiff if float => float_image(image, settings.alpha, linear),
         _ => {
             let mut bits16 = float || q.max > 255;
@@ -182,7 +188,8 @@ pub fn encode(
             let value = |x: u32, y: u32, c: usize| {
                 let p = &image.pixels[(y * w + x) as usize];
                 let v = if c == 3 { p[3] } else { expose(p[c], settings.exposure) };
-                (quantize(v, q, dither_noise(x, y, c as u32)) * rescale).clamp(0.0, file_max)
+                let noise = dither_noise(x + image.x_offset, y + image.y_offset, c as u32);
+                (quantize(v, q, noise) * rescale).clamp(0.0, file_max)
             };
             let channels = if settings.alpha && format != Format::Jpeg { 4 } else { 3 };
             if bits16 {
@@ -233,6 +240,42 @@ pub fn encode(
     let mut out = Cursor::new(Vec::new());
     dynamic.write_to(&mut out, image_format).map_err(|e| e.to_string())?;
     Ok((out.into_inner(), notes))
+}
+
+/// 32-bit float RGB(A) OpenEXR with the crop region placed in the full frame (data window inside
+/// the display window).
+fn encode_exr(
+    image: &Image,
+    alpha: bool,
+    linear: impl Fn(&[f32; 4], usize) -> f32,
+) -> Result<Vec<u8>, String> {
+    use exr::prelude::{
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, IntegerBounds, Layer,
+        LayerAttributes, SmallVec, Vec2, WritableImage,
+    };
+    let channel = |name: &str, c: usize| {
+        AnyChannel::new(name, FlatSamples::F32(image.pixels.iter().map(|p| linear(p, c)).collect()))
+    };
+    let mut channels = vec![channel("R", 0), channel("G", 1), channel("B", 2)];
+    if alpha {
+        channels.push(channel("A", 3));
+    }
+    let position = |v: u32| i32::try_from(v).map_err(|_| format!("offset {v} does not fit OpenEXR"));
+    let layer_position = Vec2(position(image.x_offset)?, position(image.y_offset)?);
+    let layer = Layer::new(
+        (image.width as usize, image.height as usize),
+        LayerAttributes { layer_position, ..LayerAttributes::default() },
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    let mut exr_image = ExrImage::from_layer(layer);
+    exr_image.attributes.display_window = IntegerBounds::new(
+        (0, 0),
+        (image.full_width.max(image.width) as usize, image.full_height.max(image.height) as usize),
+    );
+    let mut out = Cursor::new(Vec::new());
+    exr_image.write().to_buffered(&mut out).map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
 }
 
 fn float_image(image: &Image, alpha: bool, linear: impl Fn(&[f32; 4], usize) -> f32) -> DynamicImage {
