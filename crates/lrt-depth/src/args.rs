@@ -4,6 +4,7 @@
 //! [`Settings::from_cli`] checks them and resolves defaults. Both stages fail with exit code 2.
 
 use clap::Parser;
+use depth_remap::CropWindow;
 use std::num::{NonZeroU32, NonZeroUsize};
 use std::path::PathBuf;
 
@@ -44,6 +45,12 @@ pub struct Cli {
     #[arg(long)]
     pub stats: bool,
 
+    /// Render only this part of the frame (replaces the RIB's CropWindow): `XMIN,XMAX,YMIN,YMAX`
+    /// in [0, 1], as CropWindow takes them. Abutting windows tile the frame exactly; EXR tiles
+    /// record their place, and `lrt-merge` joins them.
+    #[arg(long, value_name = "XMIN,XMAX,YMIN,YMAX", allow_hyphen_values = true)]
+    pub crop: Option<String>,
+
     /// Use the world of `FrameBegin N` (default: the first world of the file).
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub frame: Option<i32>,
@@ -68,6 +75,23 @@ pub struct Settings {
     pub quiet: bool,
     pub stats: bool,
     pub frame: Option<i32>,
+    pub crop: Option<CropWindow>,
+}
+
+/// Parses `--crop`: four numbers with `0 <= min < max <= 1` on each axis (CropWindow's rule).
+fn parse_crop(text: &str) -> Result<CropWindow, String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|_| format!("--crop: '{}' is not a number", v.trim())))
+        .collect::<Result<_, _>>()?;
+    let [xmin, xmax, ymin, ymax] = values[..] else {
+        return Err(format!("--crop takes four numbers XMIN,XMAX,YMIN,YMAX, not {}", values.len()));
+    };
+    let ok = values.iter().all(|v| (0.0..=1.0).contains(v)) && xmin < xmax && ymin < ymax;
+    if !ok {
+        return Err(format!("--crop {text}: must satisfy 0 <= min < max <= 1 on both axes"));
+    }
+    Ok(CropWindow { xmin, xmax, ymin, ymax })
 }
 
 impl Settings {
@@ -89,7 +113,9 @@ impl Settings {
                 return Err(format!("{flag} needs a file name"));
             }
         }
+        let crop = cli.crop.as_deref().map(parse_crop).transpose()?;
         Ok(Settings {
+            crop,
             scene: cli.scene,
             mode: if cli.check { Mode::Check } else { Mode::Render },
             output: cli.output,

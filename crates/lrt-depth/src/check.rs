@@ -29,6 +29,9 @@ pub fn load(settings: &Settings) -> Result<rib_parser::Loaded, ExitCode> {
                     loc: None,
                 });
             }
+            if let Some(crop) = settings.crop {
+                loaded.scene.camera.crop_window = crop;
+            }
             Ok(loaded)
         }
         Err(e) => {

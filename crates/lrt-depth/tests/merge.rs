@@ -1,0 +1,225 @@
+//! Splitting a frame with `--crop` and joining the tiles with `lrt-merge`: the merged image and
+//! depth table are the full-frame render's, bit for bit; bad tile sets are refused.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A frame of odd size with a wide filter (tiles must not change pixels near their edges),
+/// a sphere seen against the background (misses in the depth table) and a floor.
+const SCENE: &str = r#"
+Display "full.exr" "openexr" "rgba"
+Display "+full.png" "png" "rgb"
+Option "lrt" "string depthfile" ["full.depth"]
+Format 37 23 1
+Projection "perspective" "fov" [45]
+PixelFilter "gaussian" 3 3
+PixelSamples 2 2
+Translate 0 0 5
+WorldBegin
+  LightSource "pointlight" 1 "from" [2 3 -4] "intensity" [30]
+  LightSource "ambientlight" 2 "intensity" [0.05]
+  Surface "plastic"
+  Color [0.8 0.3 0.2]
+  Sphere 1 -1 1 360
+  Surface "matte"
+  Polygon "P" [-3 -1 -3  3 -1 -3  3 -1 3  -3 -1 3]
+WorldEnd
+"#;
+
+/// Three tiles of unequal size that cover the frame exactly once.
+const TILES: [&str; 3] = ["0,0.4,0,0.55", "0.4,1,0,0.55", "0,1,0.55,1"];
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lrt-merge-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("scene.rib"), SCENE).unwrap();
+    dir
+}
+
+fn run(program: &str, dir: &Path, args: &[&str]) -> Output {
+    Command::new(program).current_dir(dir).args(args).output().unwrap()
+}
+
+fn lrt_depth(dir: &Path, args: &[&str]) -> Output {
+    let out = run(env!("CARGO_BIN_EXE_lrt-depth"), dir, args);
+    assert!(out.status.success(), "lrt-depth {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+fn lrt_merge(dir: &Path, args: &[&str]) -> Output {
+    run(env!("CARGO_BIN_EXE_lrt-merge"), dir, args)
+}
+
+/// Renders tile `k` of [`TILES`] as `tile-k.exr`, `tile-k.png` and `tile-k.depth`.
+fn render_tile(dir: &Path, k: usize, extra: &[&str]) {
+    let (exr, depth) = (format!("tile-{k}.exr"), format!("tile-{k}.depth"));
+    let mut args = vec!["scene.rib", "--quiet", "--crop", TILES[k], "-o", &exr, "--depth", &depth];
+    args.extend(extra);
+    lrt_depth(dir, &args);
+    let png = format!("tile-{k}.png");
+    lrt_depth(dir, &["scene.rib", "--quiet", "--crop", TILES[k], "-o", &png]);
+}
+
+fn merge_args(tiles: &[usize]) -> Vec<String> {
+    let mut args: Vec<String> =
+        vec!["-o".into(), "merged.exr".into(), "--depth".into(), "merged.depth".into()];
+    for k in tiles {
+        args.extend(["--tile-depth".into(), format!("tile-{k}.depth")]);
+    }
+    args.extend(tiles.iter().map(|k| format!("tile-{k}.exr")));
+    args
+}
+
+/// Every channel of the first layer of an EXR file, as bits, with the display and data windows.
+fn exr_samples(path: &Path) -> (String, Vec<(String, Vec<u32>)>) {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .unwrap();
+    let windows = format!(
+        "display {:?}+{:?}, data {:?}+{:?}",
+        image.attributes.display_window.position,
+        image.attributes.display_window.size,
+        image.layer_data.attributes.layer_position,
+        image.layer_data.size
+    );
+    let channels = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let bits = match &c.sample_data {
+                FlatSamples::F32(v) => v.iter().map(|s| s.to_bits()).collect(),
+                other => panic!("expected f32 samples, got {other:?}"),
+            };
+            (c.name.to_string(), bits)
+        })
+        .collect();
+    (windows, channels)
+}
+
+#[test]
+fn merged_tiles_equal_the_full_frame_bit_for_bit() {
+    let dir = temp_dir("exact");
+    for k in 0..TILES.len() {
+        render_tile(&dir, k, &[]);
+    }
+    // The full frame last: the tiles' PNG renders write the RIB's depth file too.
+    lrt_depth(&dir, &["scene.rib", "--quiet"]);
+    // A tile records its place: the display window is the frame, the data window the tile.
+    let (windows, _) = exr_samples(&dir.join("tile-1.exr"));
+    assert_eq!(windows, "display Vec2(0, 0)+Vec2(37, 23), data Vec2(15, 0)+Vec2(22, 13)");
+
+    let args = merge_args(&[0, 1, 2]);
+    let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(exr_samples(&dir.join("merged.exr")), exr_samples(&dir.join("full.exr")));
+    let same_depth =
+        std::fs::read(dir.join("merged.depth")).unwrap() == std::fs::read(dir.join("full.depth")).unwrap();
+    assert!(same_depth, "the merged depth table differs from the full frame's");
+    let depth = depth_remap::DepthTable::read(dir.join("merged.depth")).unwrap();
+    assert!(depth.values().iter().any(|v| v.is_infinite()) && depth.values().iter().any(|v| v.is_finite()));
+
+    // 8-bit tiles hold the full frame's bytes too (dither follows the full-frame pixel).
+    let full = image::open(dir.join("full.png")).unwrap().to_rgb8();
+    for (k, (x0, y0)) in [(0, (0, 0)), (1, (15, 0)), (2, (0, 13))] {
+        let tile = image::open(dir.join(format!("tile-{k}.png"))).unwrap().to_rgb8();
+        for (x, y, p) in tile.enumerate_pixels() {
+            assert_eq!(p, full.get_pixel(x0 + x, y0 + y), "tile {k} pixel ({x}, {y})");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn overlapping_tiles_that_agree_merge_and_ones_that_disagree_do_not() {
+    let dir = temp_dir("overlap");
+    for k in 0..TILES.len() {
+        render_tile(&dir, k, &[]);
+    }
+    // The whole frame as a fourth tile overlaps every other one and agrees with them.
+    lrt_depth(&dir, &["scene.rib", "--quiet", "-o", "tile-3.exr", "--depth", "tile-3.depth"]);
+    let args = merge_args(&[0, 3, 1, 2]);
+    let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // A tile rendered with other settings disagrees where it overlaps.
+    lrt_depth(&dir, &["scene.rib", "--quiet", "--spp", "3", "-o", "tile-3.exr", "--depth", "tile-3.depth"]);
+    let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("overlap at pixel (") && stderr.contains("tile-3.exr"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_tile_sets_are_refused_with_the_reason() {
+    let dir = temp_dir("errors");
+    for k in 0..TILES.len() {
+        render_tile(&dir, k, &[]);
+    }
+    let code_and_error = |args: &[String]| {
+        let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+
+    // A missing tile: the gap is named and nothing is written.
+    let (code, err) = code_and_error(&merge_args(&[0, 2]));
+    assert_eq!(code, Some(1));
+    assert!(err.contains("pixels of the 37x23 frame are in no tile (the first at (15, 0))"), "{err}");
+    assert!(!dir.join("merged.exr").exists() && !dir.join("merged.depth").exists());
+
+    // A tile of another frame.
+    std::fs::write(dir.join("other.rib"), SCENE.replace("Format 37 23 1", "Format 40 23 1")).unwrap();
+    lrt_depth(
+        &dir,
+        &["other.rib", "--quiet", "--crop", TILES[2], "-o", "tile-2.exr", "--depth", "tile-2.depth"],
+    );
+    let (code, err) = code_and_error(&merge_args(&[0, 1, 2]));
+    assert_eq!(code, Some(1));
+    assert!(err.contains("not parts of one frame"), "{err}");
+
+    // Not an EXR tile, a depth table of the wrong size, bad command lines.
+    render_tile(&dir, 2, &[]);
+    let mut args = merge_args(&[0, 1, 2]);
+    *args.last_mut().unwrap() = "tile-2.png".into();
+    let (code, err) = code_and_error(&args);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("tile-2.png: cannot read it as OpenEXR"), "{err}");
+    let mut args = merge_args(&[0, 1, 2]);
+    args[5] = "tile-1.depth".into();
+    let (code, err) = code_and_error(&args);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("tile-1.depth is 22x13 but its tile tile-0.exr is 15x13"), "{err}");
+    let (code, _) = code_and_error(&[
+        "-o".into(),
+        "m.exr".into(),
+        "--depth".into(),
+        "m.depth".into(),
+        "tile-0.exr".into(),
+    ]);
+    assert_eq!(code, Some(2));
+    let (code, _) = code_and_error(&["-o".into(), "m.png".into(), "tile-0.exr".into()]);
+    assert_eq!(code, Some(2));
+    let (code, _) = code_and_error(&["-o".into(), "m.exr".into()]);
+    assert_eq!(code, Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_crop_flags_are_command_line_errors() {
+    let dir = temp_dir("crop-flags");
+    for crop in ["0,1,0", "0,1,0,x", "0.5,0.5,0,1", "0,1.5,0,1", "-0.1,1,0,1"] {
+        let out = run(env!("CARGO_BIN_EXE_lrt-depth"), &dir, &["scene.rib", "--crop", crop]);
+        assert_eq!(out.status.code(), Some(2), "--crop {crop}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--crop"), "--crop {crop}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
