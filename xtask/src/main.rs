@@ -1,6 +1,7 @@
 //! Project automation, run as `cargo xtask <command>` (alias in `.cargo/config.toml`).
 //!
-//! - `cargo xtask test`: the whole test suite, exactly what CI runs. It first makes sure the
+//! - `cargo xtask test`: the whole test suite, exactly what CI runs (`cargo fmt --check`,
+//!   `cargo clippy -D warnings` on every target, then `cargo test --workspace`). It first makes sure the
 //!   system packages the GPU and window tests need are installed (a software Vulkan driver and a
 //!   virtual X server), so the viewer's GPU code really runs on a machine without a GPU.
 //! - `cargo xtask depth-exhaustive` / `depth-study`: see `depth.rs`.
@@ -115,6 +116,12 @@ fn install_test_packages() -> Result<(), String> {
 fn test(extra: &[String]) -> Result<(), String> {
     install_test_packages()?;
     run(cargo().args(["fmt", "--all", "--", "--check"]))?;
+    // Lints are a gate too: a warning in any target (tests and benches included) fails the run.
+    let has_clippy = cargo().args(["clippy", "--version"]).output().is_ok_and(|o| o.status.success());
+    if !has_clippy {
+        run(Command::new("rustup").args(["component", "add", "clippy"]))?;
+    }
+    run(cargo().args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]))?;
     // Window tests need a display: run the suite against a private virtual X server that is
     // known to accept connections (see xvfb.rs for why not xvfb-run).
     let display = xvfb::VirtualDisplay::start()?;

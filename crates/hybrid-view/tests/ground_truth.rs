@@ -108,10 +108,10 @@ fn check(what: &str, without: &Render, with: &Render, mask: &[u8]) {
     let n = (without.size * without.size) as usize;
     assert_eq!(mask.len(), n);
     let (mut both, mut either, mut off) = (0usize, 0usize, 0usize);
-    for k in 0..n {
+    for (k, &m) in mask.iter().enumerate() {
         let (d0, d1) = (without.depth.values()[k], with.depth.values()[k]);
         let truth = d1 < d0;
-        let got = mask[k] == 255;
+        let got = m == 255;
         both += usize::from(truth && got);
         either += usize::from(truth || got);
         off += usize::from(truth != got && (d0 - d1).abs() > 1e-5 * d0);
@@ -120,11 +120,11 @@ fn check(what: &str, without: &Render, with: &Render, mask: &[u8]) {
     // Coverage alpha of the blue, unlit sphere: with one light and direct lighting only a pixel
     // is alpha * (0, 0, 1) + s * background, so red gives s and blue then gives alpha.
     let (mut both_c, mut either_c, mut off_c) = (0usize, 0usize, 0usize);
-    for k in 0..n {
+    for (k, &m) in mask.iter().enumerate() {
         let (b, c) = (without.rgb[k], with.rgb[k]);
         let alpha = if b[0] > 1e-6 { c[2] - c[0] * b[2] / b[0] } else { c[2] };
         let truth = alpha >= 0.5;
-        let got = mask[k] == 255;
+        let got = m == 255;
         both_c += usize::from(truth && got);
         either_c += usize::from(truth || got);
         off_c += usize::from(truth != got && !(0.05..=0.95).contains(&alpha));

@@ -20,7 +20,7 @@ fn box_points(n: usize, seed: u64) -> Vec<Vec3> {
         .map(|_| {
             let face = rng.below(6);
             let (a, b) = (rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0);
-            let s = if face % 2 == 0 { -1.0 } else { 1.0 };
+            let s = if face.is_multiple_of(2) { -1.0 } else { 1.0 };
             match face / 2 {
                 0 => Vec3::new(s, a, b),
                 1 => Vec3::new(a, s, b),

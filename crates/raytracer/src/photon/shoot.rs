@@ -250,7 +250,7 @@ pub(crate) fn shoot(
             let caustic = shoot_pass(
                 world,
                 emitters,
-                &ShootRequest { indirect: None, seed: mix64(request.seed ^ 0x6361_7573_7469_63), ..*request },
+                &ShootRequest { indirect: None, seed: mix64(request.seed ^ 0x63_6175_7374_6963), ..*request },
                 Some(aim),
             );
             ShootResult {
@@ -305,23 +305,21 @@ fn shoot_pass(world: &World, emitters: &Emitters, request: &ShootRequest, aim: O
             result.rays += out.rays;
             for &(path, kind, photon) in &out.photons {
                 match kind {
-                    PhotonKind::Caustic if caustic_open => {
-                        if caustic_cut.is_none_or(|c| path <= c) {
-                            result.caustic.push(photon);
-                            if caustic_cut.is_none() && result.caustic.len() >= caustic_target {
-                                caustic_cut = Some(path);
-                            }
+                    PhotonKind::Caustic if caustic_open && caustic_cut.is_none_or(|c| path <= c) => {
+                        result.caustic.push(photon);
+                        if caustic_cut.is_none() && result.caustic.len() >= caustic_target {
+                            caustic_cut = Some(path);
                         }
                     }
-                    PhotonKind::Indirect | PhotonKind::Direct if indirect_open => {
-                        if indirect_cut.is_none_or(|c| path <= c) {
-                            if kind == PhotonKind::Direct {
-                                result.direct.push(photon);
-                            } else {
-                                result.indirect.push(photon);
-                                if indirect_cut.is_none() && result.indirect.len() >= indirect_target {
-                                    indirect_cut = Some(path);
-                                }
+                    PhotonKind::Indirect | PhotonKind::Direct
+                        if indirect_open && indirect_cut.is_none_or(|c| path <= c) =>
+                    {
+                        if kind == PhotonKind::Direct {
+                            result.direct.push(photon);
+                        } else {
+                            result.indirect.push(photon);
+                            if indirect_cut.is_none() && result.indirect.len() >= indirect_target {
+                                indirect_cut = Some(path);
                             }
                         }
                     }
