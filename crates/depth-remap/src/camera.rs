@@ -56,6 +56,16 @@ impl Default for CropWindow {
     }
 }
 
+impl CropWindow {
+    /// RenderMan's rule for a crop window: every edge finite and in `[0, 1]`, `min < max` on
+    /// both axes.
+    pub fn is_valid(&self) -> bool {
+        [self.xmin, self.xmax, self.ymin, self.ymax].iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v))
+            && self.xmin < self.xmax
+            && self.ymin < self.ymax
+    }
+}
+
 /// `Clipping near far`: camera-space z of the clipping planes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Clipping {

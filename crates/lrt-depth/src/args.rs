@@ -78,7 +78,7 @@ pub struct Settings {
     pub crop: Option<CropWindow>,
 }
 
-/// Parses `--crop`: four numbers with `0 <= min < max <= 1` on each axis (CropWindow's rule).
+/// Parses `--crop`: four numbers that make a valid [`CropWindow`] (`0 <= min < max <= 1`).
 fn parse_crop(text: &str) -> Result<CropWindow, String> {
     let values: Vec<f64> = text
         .split(',')
@@ -87,11 +87,11 @@ fn parse_crop(text: &str) -> Result<CropWindow, String> {
     let [xmin, xmax, ymin, ymax] = values[..] else {
         return Err(format!("--crop takes four numbers XMIN,XMAX,YMIN,YMAX, not {}", values.len()));
     };
-    let ok = values.iter().all(|v| (0.0..=1.0).contains(v)) && xmin < xmax && ymin < ymax;
-    if !ok {
+    let crop = CropWindow { xmin, xmax, ymin, ymax };
+    if !crop.is_valid() {
         return Err(format!("--crop {text}: must satisfy 0 <= min < max <= 1 on both axes"));
     }
-    Ok(CropWindow { xmin, xmax, ymin, ymax })
+    Ok(crop)
 }
 
 impl Settings {

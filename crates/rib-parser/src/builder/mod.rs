@@ -685,17 +685,15 @@ impl RibTarget for SceneBuilder {
         if !self.option_allowed("CropWindow", cx) {
             return;
         }
-        let ok = [x_min, x_max, y_min, y_max].iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v))
-            && x_min < x_max
-            && y_min < y_max;
-        if !ok {
+        let crop = CropWindow { xmin: x_min, xmax: x_max, ymin: y_min, ymax: y_max };
+        if !crop.is_valid() {
             cx.error(
                 DiagnosticKind::BadValue,
                 format!("CropWindow [{x_min} {x_max} {y_min} {y_max}] must satisfy 0 <= min < max <= 1"),
             );
             return;
         }
-        self.opts.camera.crop_window = CropWindow { xmin: x_min, xmax: x_max, ymin: y_min, ymax: y_max };
+        self.opts.camera.crop_window = crop;
     }
 
     fn projection(&mut self, name: &str, params: ParamList, fov_degrees: Option<f64>, cx: &mut Cx<'_>) {
