@@ -272,8 +272,8 @@ fn merge(cli: &Cli) -> Result<String, String> {
         }
     }
 
-    // The depth table, when asked for.
-    let mut depth_summary = String::new();
+    // The depth table, when asked for (written only once the image is encoded too).
+    let mut merged_depth = None;
     if let Some(depth_path) = &cli.depth {
         let mut bits = vec![f32::INFINITY.to_bits(); pixels];
         for (i, (t, path)) in tiles.iter().zip(&cli.tile_depth).enumerate() {
@@ -302,9 +302,7 @@ fn merge(cli: &Cli) -> Result<String, String> {
         let values: Vec<f32> = bits.into_iter().map(f32::from_bits).collect();
         let w = u32::try_from(width).map_err(|_| "the frame is too wide for a depth table")?;
         let h = u32::try_from(height).map_err(|_| "the frame is too tall for a depth table")?;
-        let table = DepthTable::new(w, h, values).map_err(|e| e.to_string())?;
-        table.write(depth_path).map_err(|e| e.to_string())?;
-        depth_summary = format!(", {}", depth_path.display());
+        merged_depth = Some((depth_path, DepthTable::new(w, h, values).map_err(|e| e.to_string())?));
     }
 
     // The image: the whole frame as the data window.
@@ -332,6 +330,11 @@ fn merge(cli: &Cli) -> Result<String, String> {
     image.attributes.display_window = frame;
     let mut bytes = std::io::Cursor::new(Vec::new());
     image.write().to_buffered(&mut bytes).map_err(|e| format!("{}: {e}", cli.output.display()))?;
+    let mut depth_summary = String::new();
+    if let Some((depth_path, table)) = merged_depth {
+        table.write(depth_path).map_err(|e| e.to_string())?;
+        depth_summary = format!(", {}", depth_path.display());
+    }
     raytracer::output::write_atomically(&cli.output, bytes.get_ref()).map_err(|e| e.to_string())?;
     Ok(format!(
         "merged {} tiles into {} ({width}x{height}){depth_summary}",
