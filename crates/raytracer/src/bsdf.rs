@@ -444,9 +444,9 @@ impl Bsdf {
     /// Every specular direction of the BSDF with its weight (`f |cos| / pdf` of a deterministic
     /// choice): a mirror gives one, a dielectric its reflection and its refraction. Whitted-style
     /// integrators follow all of them.
-    pub fn specular_directions(&self, wo_world: Vec3, mode: TransportMode) -> Vec<(Vec3, Vec3, LobeFlags)> {
+    pub fn specular_directions(&self, wo_world: Vec3, mode: TransportMode) -> SpecularDirections {
         let wo = self.frame.to_local(wo_world);
-        let mut out = Vec::new();
+        let mut out = SpecularDirections::default();
         if wo.z == 0.0 || !wo.is_finite() {
             return out;
         }
@@ -560,6 +560,39 @@ fn lobe_pdf(lobe: &Lobe, wo: Vec3, wi: Vec3) -> f32 {
             (exponent + 1.0) * cos_h.powf(exponent) / (2.0 * PI * 4.0 * o_dot_h)
         }
         Lobe::SpecularReflection { .. } | Lobe::Dielectric { .. } => 0.0,
+    }
+}
+
+/// The specular directions of one BSDF, `(direction, weight, lobe)`: at most two per lobe, kept
+/// inline so that a Whitted-style bounce allocates nothing.
+#[derive(Clone, Copy, Debug)]
+pub struct SpecularDirections {
+    items: [(Vec3, Vec3, LobeFlags); 8],
+    len: usize,
+}
+
+impl Default for SpecularDirections {
+    fn default() -> Self {
+        SpecularDirections { items: [(Vec3::ZERO, Vec3::ZERO, LobeFlags::SPECULAR); 8], len: 0 }
+    }
+}
+
+impl SpecularDirections {
+    /// Four lobes with two directions each fill it exactly, so nothing is ever dropped.
+    fn push(&mut self, item: (Vec3, Vec3, LobeFlags)) {
+        if let Some(slot) = self.items.get_mut(self.len) {
+            *slot = item;
+            self.len += 1;
+        }
+    }
+}
+
+impl IntoIterator for SpecularDirections {
+    type Item = (Vec3, Vec3, LobeFlags);
+    type IntoIter = std::iter::Take<std::array::IntoIter<(Vec3, Vec3, LobeFlags), 8>>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.items.into_iter().take(self.len)
     }
 }
 
