@@ -137,3 +137,23 @@ impl SceneBuilder {
         self.scene
     }
 }
+
+/// A furnace: the camera inside a sphere of radius 2 that emits 1 from its inner side and
+/// reflects with albedo 0.5 (matte), so the radiance is `Le / (1 - albedo) = 2` everywhere.
+pub fn sphere_furnace() -> Scene {
+    let mut b = SceneBuilder::perspective(16, 12, 60.0, DVec3::new(0.1, 0.2, 0.3), DVec3::new(1.0, 0.0, 0.0));
+    let light = b.light(LightKind::Area { intensity: 1.0, color: Vec3::ONE }, "arealight");
+    let a = b.attributes(Attributes {
+        color: Vec3::splat(0.5),
+        surface: Some(shader("matte", &[("Kd", 1.0), ("Ka", 0.0)])),
+        reverse_orientation: true,
+        area_light: Some(light),
+        ..Attributes::default()
+    });
+    b.shape(
+        Shape::Sphere { radius: 2.0, z_min: -2.0, z_max: 2.0, theta_max_degrees: 360.0 },
+        DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)),
+        a,
+    );
+    b.build()
+}

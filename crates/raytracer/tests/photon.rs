@@ -7,7 +7,7 @@ use raytracer::film::Image;
 use raytracer::integrators::IntegratorKind;
 use raytracer::photon::PhotonMapSettings;
 use raytracer::render::{RenderOptions, RenderOutput, render};
-use raytracer::testing::{SceneBuilder, shader};
+use raytracer::testing::{SceneBuilder, shader, sphere_furnace};
 use rib_parser::scene::{Attributes, LightKind, PixelFilter, Scene, Shape};
 use std::path::PathBuf;
 
@@ -71,26 +71,6 @@ fn assert_same_within_noise(a: &Image, b: &Image, mean_tolerance: f32, block_tol
     for (i, (x, y)) in block_means(a, 8).iter().zip(block_means(b, 8)).enumerate() {
         assert!((*x - y).abs().max_element() <= block_tolerance * scale, "block {i}: {x} vs {y}");
     }
-}
-
-/// Inside a sphere that emits 1 from its inner side and reflects with albedo 0.5: the radiance
-/// is `Le / (1 - albedo) = 2` everywhere, with or without final gathering.
-fn sphere_furnace() -> Scene {
-    let mut b = SceneBuilder::perspective(16, 12, 60.0, DVec3::new(0.1, 0.2, 0.3), DVec3::new(1.0, 0.0, 0.0));
-    let light = b.light(LightKind::Area { intensity: 1.0, color: Vec3::ONE }, "arealight");
-    let a = b.attributes(Attributes {
-        color: Vec3::splat(0.5),
-        surface: Some(shader("matte", &[("Kd", 1.0), ("Ka", 0.0)])),
-        reverse_orientation: true,
-        area_light: Some(light),
-        ..Attributes::default()
-    });
-    b.shape(
-        Shape::Sphere { radius: 2.0, z_min: -2.0, z_max: 2.0, theta_max_degrees: 360.0 },
-        DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)),
-        a,
-    );
-    b.build()
 }
 
 #[test]

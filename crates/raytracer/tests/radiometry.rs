@@ -1,11 +1,11 @@
 //! Integrators against closed forms: furnaces (an emitting, reflecting enclosure has radiance
 //! `Le / (1 - albedo)` everywhere) and RenderMan's matte under a point light.
 
-use glam::{DMat4, DVec3, Vec3};
+use glam::{DVec3, Vec3};
 use raytracer::integrators::IntegratorKind;
 use raytracer::render::{RenderOptions, render};
-use raytracer::testing::{SceneBuilder, shader};
-use rib_parser::scene::{Attributes, LightKind, Shape};
+use raytracer::testing::{SceneBuilder, shader, sphere_furnace};
+use rib_parser::scene::{Attributes, LightKind};
 
 fn options(integrator: IntegratorKind, spp: u32) -> RenderOptions {
     RenderOptions {
@@ -18,25 +18,6 @@ fn options(integrator: IntegratorKind, spp: u32) -> RenderOptions {
 }
 
 const PATH: IntegratorKind = IntegratorKind::Path { max_depth: 1024, rr_depth: 5 };
-
-/// Inside a sphere that emits 1 from its inner (front) side and reflects with albedo 0.5.
-fn sphere_furnace() -> rib_parser::scene::Scene {
-    let mut b = SceneBuilder::perspective(16, 12, 60.0, DVec3::new(0.1, 0.2, 0.3), DVec3::new(1.0, 0.0, 0.0));
-    let light = b.light(LightKind::Area { intensity: 1.0, color: Vec3::ONE }, "arealight");
-    let a = b.attributes(Attributes {
-        color: Vec3::splat(0.5),
-        surface: Some(shader("matte", &[("Kd", 1.0), ("Ka", 0.0)])),
-        reverse_orientation: true,
-        area_light: Some(light),
-        ..Attributes::default()
-    });
-    b.shape(
-        Shape::Sphere { radius: 2.0, z_min: -2.0, z_max: 2.0, theta_max_degrees: 360.0 },
-        DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)),
-        a,
-    );
-    b.build()
-}
 
 #[test]
 fn sphere_furnace_path_traced_is_le_over_one_minus_albedo() {
