@@ -771,15 +771,13 @@ mod tests {
         let parsed = parse_row(&csv_line(&row("path spp4", 2.5))).unwrap();
         assert_eq!((parsed.label.as_str(), parsed.wall_s, parsed.relmse), ("path spp4", 2.5, 5.754e-2));
         assert!(parse_row("scene,series,label").is_none());
-        let dir = std::env::temp_dir().join(format!("bench-error-merge-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let csv = dir.join("results.csv");
+        let dir = tempfile::Builder::new().prefix("bench-error-merge-").tempdir().unwrap();
+        let csv = dir.path().join("results.csv");
         let old = [row("path spp4", 2.5), row("path spp8", 5.0)];
         let text: String = old.iter().map(|r| csv_line(r) + "\n").collect();
         std::fs::write(&csv, format!("header\n{text}")).unwrap();
         let merged = merge_with_previous(&csv, vec![row("path spp8", 4.0), row("path spp16", 9.0)]);
         let got: Vec<(&str, f64)> = merged.iter().map(|r| (r.label.as_str(), r.wall_s)).collect();
         assert_eq!(got, [("path spp4", 2.5), ("path spp8", 4.0), ("path spp16", 9.0)]);
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

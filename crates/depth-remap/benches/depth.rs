@@ -92,8 +92,8 @@ fn benches(c: &mut Criterion) {
     }
     group.finish();
 
-    let dir = std::env::temp_dir().join(format!("depth-remap-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new().prefix("depth-remap-bench-").tempdir().unwrap();
+    let dir = scratch.path();
     let mut group = c.benchmark_group("file_4096");
     group.sample_size(10).measurement_time(Duration::from_secs(10));
     for name in ["table.depth", "table.exr"] {
@@ -108,7 +108,6 @@ fn benches(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("read", name), |b| b.iter(|| DepthTable::read(&path).unwrap()));
     }
     group.finish();
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 criterion_group!(depth, benches);

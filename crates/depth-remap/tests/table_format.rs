@@ -168,15 +168,15 @@ proptest! {
     }
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("depth-remap-test-{name}-{}", std::process::id()));
-    fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch directory for one test, removed when the test ends.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("depth-remap-test-{name}-")).tempdir().unwrap()
 }
 
 #[test]
 fn files_round_trip_atomically_as_text_and_exr() {
-    let dir = temp_dir("files");
+    let scratch_dir = temp_dir("files");
+    let dir = scratch_dir.path();
     let mut table = DepthTable::all_misses(37, 23);
     for j in 0..23 {
         for i in 0..37 {
@@ -193,18 +193,18 @@ fn files_round_trip_atomically_as_text_and_exr() {
     }
     // No temporary files are left behind.
     let mut names: Vec<String> =
-        fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
     names.sort();
     assert_eq!(names, ["T.EXR", "t.depth", "t.exr"]);
     // Writing into a missing directory fails cleanly.
     assert!(table.write(dir.join("missing/t.depth")).is_err());
-    fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn exr_without_z_or_with_nan_is_an_error() {
     use exr::prelude::*;
-    let dir = temp_dir("exr");
+    let scratch_dir = temp_dir("exr");
+    let dir = scratch_dir.path();
     let write = |name: &str, channel: &str, values: Vec<f32>| {
         let path = dir.join(name);
         let layer = Layer::new(
@@ -231,5 +231,4 @@ fn exr_without_z_or_with_nan_is_an_error() {
     let garbage = dir.join("garbage.exr");
     fs::write(&garbage, b"not an exr file").unwrap();
     assert!(DepthTable::read(&garbage).unwrap_err().to_string().starts_with(&garbage.display().to_string()));
-    fs::remove_dir_all(&dir).unwrap();
 }

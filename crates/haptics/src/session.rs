@@ -348,9 +348,8 @@ mod tests {
         };
         let session = Session::new(floor_geometry(), config).unwrap();
         let (start, end) = session.trajectory_span().unwrap();
-        let dir = std::env::temp_dir().join(format!("haptics-session-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let log = dir.join("force.csv");
+        let dir = tempfile::Builder::new().prefix("haptics-session-").tempdir().unwrap();
+        let log = dir.path().join("force.csv");
         let outcome = session.replay(start, end, Some(&log), &[-1.0, 0.0, 0.1, 5.0]).unwrap();
         assert_eq!(outcome.summary.ticks, 101);
         assert_eq!(outcome.samples[0], DVec3::new(0.0, 0.0, 0.01));
@@ -359,7 +358,6 @@ mod tests {
         assert_eq!(outcome.samples[3], outcome.samples[2]);
         let text = std::fs::read_to_string(&log).unwrap();
         assert_eq!(text.lines().count(), 102);
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

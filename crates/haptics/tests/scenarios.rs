@@ -445,8 +445,8 @@ fn passivity_check_detects_an_active_display() {
 fn replay_is_deterministic_and_the_log_is_atomic() {
     let world =
         world(&cuboid(DVec3::new(-0.0625, -0.0625, -0.125), DVec3::new(0.0625, 0.0625, 0.0)), DVec3::ZERO);
-    let dir = std::env::temp_dir().join(format!("haptics-replay-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new().prefix("haptics-replay-").tempdir().unwrap();
+    let dir = scratch.path();
     let points = [
         DVec3::new(-0.03, 0.01, 0.03),
         DVec3::new(-0.03, 0.01, 0.001),
@@ -491,5 +491,4 @@ fn replay_is_deterministic_and_the_log_is_atomic() {
     assert!(
         rows.iter().all(|r| r.split(',').count() == 10 && r.split(',').all(|v| v.parse::<f64>().is_ok()))
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }

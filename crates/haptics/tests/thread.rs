@@ -151,9 +151,8 @@ fn the_viewer_side_never_blocks() {
 
 #[test]
 fn the_force_log_gets_every_tick_without_blocking_the_loop() {
-    let dir = std::env::temp_dir().join(format!("haptics-thread-log-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("force.csv");
+    let dir = tempfile::Builder::new().prefix("haptics-thread-log-").tempdir().unwrap();
+    let path = dir.path().join("force.csv");
     let device = SimulatedDevice::fixed(DVec3::new(0.0, 0.0, 0.002));
     let renderer = renderer_for(&device);
     let log = ForceLogWriter::create(&path).unwrap();
@@ -169,5 +168,4 @@ fn the_force_log_gets_every_tick_without_blocking_the_loop() {
     let last = text.lines().last().unwrap();
     let fz: f64 = last.rsplit(',').next().unwrap().parse().unwrap();
     assert!((fz - STIFFNESS * 0.003).abs() < 1e-9, "{last}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }

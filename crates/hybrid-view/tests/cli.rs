@@ -15,10 +15,8 @@ fn cornell() -> PathBuf {
 }
 
 /// A scratch directory for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hybrid-view-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("hybrid-view-{name}-")).tempdir().unwrap()
 }
 
 fn hybrid_view(args: &[&str]) -> Output {
@@ -48,7 +46,8 @@ fn write_noise_png(path: &Path, w: u32, h: u32) -> image::RgbaImage {
 
 #[test]
 fn headless_replica_in_both_modes() {
-    let dir = scratch("replica");
+    let scratch_dir = scratch("replica");
+    let dir = scratch_dir.path();
     let input = dir.join("in.png");
     let img = write_noise_png(&input, 512, 512);
     for mode in ["points", "fullscreen"] {
@@ -72,14 +71,14 @@ fn headless_replica_in_both_modes() {
         let m = image::open(&mask).unwrap().to_luma8();
         assert!(m.pixels().all(|p| p.0[0] == 0), "{mode}: the mask is not empty");
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The mask of `--sphere` against the analytic ground truth (the exact depth table of the
 /// Cornell box), including where the sphere passes behind the tall box and cuts through a wall.
 #[test]
 fn sphere_masks_match_the_analytic_ground_truth() {
-    let dir = scratch("masks");
+    let scratch_dir = scratch("masks");
+    let dir = scratch_dir.path();
     let input = dir.join("in.png");
     write_noise_png(&input, 512, 512);
     let rib = cornell().join("cornell.rib");
@@ -131,12 +130,12 @@ fn sphere_masks_match_the_analytic_ground_truth() {
         assert!(occluded > 100, "{what}: partly hidden by the scene");
         assert!(iou >= 0.99, "{what}: IoU {iou}");
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn size_mismatch_names_both_sizes() {
-    let dir = scratch("mismatch");
+    let scratch_dir = scratch("mismatch");
+    let dir = scratch_dir.path();
     let input = dir.join("small.png");
     write_noise_png(&input, 256, 200);
     let out = hybrid_view(&[
@@ -148,12 +147,12 @@ fn size_mismatch_names_both_sizes() {
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("256x200") && err.contains("512x512"), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn malformed_inputs_fail_with_exit_code_1() {
-    let dir = scratch("malformed");
+    let scratch_dir = scratch("malformed");
+    let dir = scratch_dir.path();
     let input = dir.join("in.png");
     write_noise_png(&input, 4, 2);
     let bad_depth = dir.join("bad.depth");
@@ -186,7 +185,6 @@ fn malformed_inputs_fail_with_exit_code_1() {
     let out = hybrid_view(&[s(&input), s(&good_depth), s(&rib), "--headless", "--screenshot", s(&shot)]);
     assert_eq!(out.status.code(), Some(0));
     assert!(image::open(&shot).unwrap().to_rgba8() == image::open(&input).unwrap().to_rgba8());
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -210,7 +208,8 @@ fn bad_command_lines_exit_with_2() {
 /// An OpenEXR image is tone-mapped with the RIB's Exposure exactly as the 8-bit writer does.
 #[test]
 fn exr_input_is_tone_mapped() {
-    let dir = scratch("exr");
+    let scratch_dir = scratch("exr");
+    let dir = scratch_dir.path();
     let exr = cornell().join("reference-path-11520spp.exr");
     let shot = dir.join("shot.png");
     let out = hybrid_view(&[
@@ -232,14 +231,14 @@ fn exr_input_is_tone_mapped() {
         }
         assert_eq!(g.0[3], 255);
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The window shows what a headless run writes (needs an X display; fails without one).
 #[test]
 fn window_screenshot_equals_headless() {
     assert!(std::env::var_os("DISPLAY").is_some(), "no X display: run `cargo xtask test`, which starts Xvfb");
-    let dir = scratch("window");
+    let scratch_dir = scratch("window");
+    let dir = scratch_dir.path();
     let input = dir.join("in.png");
     write_noise_png(&input, 512, 512);
     let common = [
@@ -262,5 +261,4 @@ fn window_screenshot_equals_headless() {
     let a = image::open(&window_shot).unwrap().to_rgba8();
     let b = image::open(&headless_shot).unwrap().to_rgba8();
     assert!(a == b, "the window's frame differs from the headless frame");
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -76,10 +76,9 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hybrid-view-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch directory for one test, removed when the test ends.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("hybrid-view-{name}-")).tempdir().unwrap()
 }
 
 /// Runs `hybrid-view --headless --sphere ... --mask` and returns the mask.
@@ -144,7 +143,8 @@ fn check(what: &str, without: &Render, with: &Render, mask: &[u8]) {
 #[test]
 fn sphere_mask_matches_the_ray_traced_sphere() {
     let size = 384;
-    let dir = scratch("ground-truth");
+    let scratch_dir = scratch("ground-truth");
+    let dir = scratch_dir.path();
     let without = render_with_library(&cornell_rib(size, None, None), size);
     // hybrid-view's inputs: the image (any 8-bit encoding will do for masks), the depth table
     // and the RIB, all without the sphere.
@@ -158,10 +158,9 @@ fn sphere_mask_matches_the_ray_traced_sphere() {
     std::fs::write(&rib_path, cornell_rib(size, None, None)).unwrap();
     for (what, centre, radius) in CASES {
         let with = render_with_library(&cornell_rib(size, Some((centre, radius)), None), size);
-        let mask = composite_mask(&image_path, &depth_path, &rib_path, centre, radius, &dir);
+        let mask = composite_mask(&image_path, &depth_path, &rib_path, centre, radius, dir);
         check(what, &without, &with, &mask);
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Renders `rib` with the `lrt-depth` binary named by `LRT_DEPTH` and reads its outputs.
@@ -191,9 +190,10 @@ fn lrt_depth_renders_agree_at_full_resolution() {
     let lrt_depth =
         PathBuf::from(std::env::var_os("LRT_DEPTH").expect("LRT_DEPTH: the lrt-depth binary to test with"));
     let size = 512;
-    let dir = scratch("lrt-depth-ground-truth");
+    let scratch_dir = scratch("lrt-depth-ground-truth");
+    let dir = scratch_dir.path();
     let without_rib = cornell_rib(size, None, Some((&dir.join("without.exr"), &dir.join("without.depth"))));
-    let (without, image, depth) = render_with_lrt_depth(&lrt_depth, &without_rib, &dir, "without", size);
+    let (without, image, depth) = render_with_lrt_depth(&lrt_depth, &without_rib, dir, "without", size);
     let rib_path = dir.join("without.rib");
     for (k, (what, centre, radius)) in CASES.into_iter().enumerate() {
         let name = format!("with{k}");
@@ -202,9 +202,8 @@ fn lrt_depth_renders_agree_at_full_resolution() {
             Some((centre, radius)),
             Some((&dir.join(format!("{name}.exr")), &dir.join(format!("{name}.depth")))),
         );
-        let (with, _, _) = render_with_lrt_depth(&lrt_depth, &rib, &dir, &name, size);
-        let mask = composite_mask(&image, &depth, &rib_path, centre, radius, &dir);
+        let (with, _, _) = render_with_lrt_depth(&lrt_depth, &rib, dir, &name, size);
+        let mask = composite_mask(&image, &depth, &rib_path, centre, radius, dir);
         check(what, &without, &with, &mask);
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -13,10 +13,9 @@ fn cornell() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/cornell"))
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hybrid-view-haptics-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch directory for one test, removed when the test ends.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("hybrid-view-haptics-{name}-")).tempdir().unwrap()
 }
 
 fn hybrid_view(args: &[&str]) -> Output {
@@ -55,7 +54,8 @@ fn rows(log: &Path) -> Vec<[f64; 10]> {
 
 #[test]
 fn headless_replay_is_deterministic_and_renders_the_cornell_box_forces() {
-    let dir = scratch("replay");
+    let scratch_dir = scratch("replay");
+    let dir = scratch_dir.path();
     let [image, depth, rib] = inputs();
     let press = press();
     let mut logs = Vec::new();
@@ -99,7 +99,6 @@ fn headless_replay_is_deterministic_and_renders_the_cornell_box_forces() {
     assert!(close(&rows[700][7..10], [0.0, 5.0, 0.0]), "{:?}", rows[700]);
     assert!(close(&rows[1400][7..10], [5.0, 5.0, 0.0]), "{:?}", rows[1400]);
     assert!(close(&rows[1400][4..7], [-0.9, -0.9, 0.5]), "{:?}", rows[1400]);
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -107,7 +106,8 @@ fn the_sphere_is_drawn_at_the_proxy() {
     // Frame 42 of a headless run happens at 42 / 60 = 0.7 s, when the proxy rests on the floor
     // at (-0.6, -0.9, 0.5) while the device is 5 mm below: the frame must be the one
     // `--sphere` gives at that point.
-    let dir = scratch("proxy");
+    let scratch_dir = scratch("proxy");
+    let dir = scratch_dir.path();
     let [image, depth, rib] = inputs();
     let driven = dir.join("driven.png");
     let placed = dir.join("placed.png");
@@ -128,7 +128,6 @@ fn the_sphere_is_drawn_at_the_proxy() {
     c.extend(["--screenshot", s(&bare)]);
     assert_eq!(hybrid_view(&c).status.code(), Some(0));
     assert!(std::fs::read(&bare).unwrap() != y, "the sphere is hidden at the proxy's position");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -141,7 +140,8 @@ fn list_devices_needs_no_inputs() {
 
 #[test]
 fn haptic_errors_and_exit_codes() {
-    let dir = scratch("errors");
+    let scratch_dir = scratch("errors");
+    let dir = scratch_dir.path();
     let [image, depth, rib] = inputs();
     let base = [s(&image), s(&depth), s(&rib), "--headless"];
     // Bad command lines: 2.
@@ -173,13 +173,13 @@ fn haptic_errors_and_exit_codes() {
         assert_eq!(out.status.code(), Some(1));
         assert!(String::from_utf8_lossy(&out.stderr).contains("no SpaceMouse connected"));
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn a_window_runs_the_real_time_haptic_thread() {
     assert!(std::env::var_os("DISPLAY").is_some(), "no X display: run `cargo xtask test`, which starts Xvfb");
-    let dir = scratch("window");
+    let scratch_dir = scratch("window");
+    let dir = scratch_dir.path();
     let [image, depth, rib] = inputs();
     let press = press();
     let log = dir.join("force.csv");
@@ -213,5 +213,4 @@ fn a_window_runs_the_real_time_haptic_thread() {
         assert!(w[1][0] > w[0][0]);
     }
     assert!(rows.iter().all(|r| (r[7] * r[7] + r[8] * r[8] + r[9] * r[9]).sqrt() <= 8.0 + 1e-9));
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1,7 +1,7 @@
 //! Splitting a frame with `--crop` and joining the tiles with `lrt-merge`: the merged image and
 //! depth table are the full-frame render's, bit for bit; bad tile sets are refused.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// A frame of odd size with a wide filter (tiles must not change pixels near their edges),
@@ -29,11 +29,10 @@ WorldEnd
 /// Three tiles of unequal size that cover the frame exactly once.
 const TILES: [&str; 3] = ["0,0.4,0,0.55", "0.4,1,0,0.55", "0,1,0.55,1"];
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lrt-merge-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("scene.rib"), SCENE).unwrap();
+/// A scratch directory holding the scene, removed when the test ends.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    let dir = tempfile::Builder::new().prefix(&format!("lrt-merge-{name}-")).tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.rib"), SCENE).unwrap();
     dir
 }
 
@@ -107,18 +106,19 @@ fn exr_samples(path: &Path) -> (String, Vec<(String, Vec<u32>)>) {
 
 #[test]
 fn merged_tiles_equal_the_full_frame_bit_for_bit() {
-    let dir = temp_dir("exact");
+    let scratch_dir = temp_dir("exact");
+    let dir = scratch_dir.path();
     for k in 0..TILES.len() {
-        render_tile(&dir, k, &[]);
+        render_tile(dir, k, &[]);
     }
     // The full frame last: the tiles' PNG renders write the RIB's depth file too.
-    lrt_depth(&dir, &["scene.rib", "--quiet"]);
+    lrt_depth(dir, &["scene.rib", "--quiet"]);
     // A tile records its place: the display window is the frame, the data window the tile.
     let (windows, _) = exr_samples(&dir.join("tile-1.exr"));
     assert_eq!(windows, "display Vec2(0, 0)+Vec2(37, 23), data Vec2(15, 0)+Vec2(22, 13)");
 
     let args = merge_args(&[0, 1, 2]);
-    let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert_eq!(exr_samples(&dir.join("merged.exr")), exr_samples(&dir.join("full.exr")));
     let same_depth =
@@ -135,38 +135,38 @@ fn merged_tiles_equal_the_full_frame_bit_for_bit() {
             assert_eq!(p, full.get_pixel(x0 + x, y0 + y), "tile {k} pixel ({x}, {y})");
         }
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn overlapping_tiles_that_agree_merge_and_ones_that_disagree_do_not() {
-    let dir = temp_dir("overlap");
+    let scratch_dir = temp_dir("overlap");
+    let dir = scratch_dir.path();
     for k in 0..TILES.len() {
-        render_tile(&dir, k, &[]);
+        render_tile(dir, k, &[]);
     }
     // The whole frame as a fourth tile overlaps every other one and agrees with them.
-    lrt_depth(&dir, &["scene.rib", "--quiet", "-o", "tile-3.exr", "--depth", "tile-3.depth"]);
+    lrt_depth(dir, &["scene.rib", "--quiet", "-o", "tile-3.exr", "--depth", "tile-3.depth"]);
     let args = merge_args(&[0, 3, 1, 2]);
-    let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 
     // A tile rendered with other settings disagrees where it overlaps.
-    lrt_depth(&dir, &["scene.rib", "--quiet", "--spp", "3", "-o", "tile-3.exr", "--depth", "tile-3.depth"]);
-    let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    lrt_depth(dir, &["scene.rib", "--quiet", "--spp", "3", "-o", "tile-3.exr", "--depth", "tile-3.depth"]);
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("overlap at pixel (") && stderr.contains("tile-3.exr"), "{stderr}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn bad_tile_sets_are_refused_with_the_reason() {
-    let dir = temp_dir("errors");
+    let scratch_dir = temp_dir("errors");
+    let dir = scratch_dir.path();
     for k in 0..TILES.len() {
-        render_tile(&dir, k, &[]);
+        render_tile(dir, k, &[]);
     }
     let code_and_error = |args: &[String]| {
-        let out = lrt_merge(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+        let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
         (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
     };
 
@@ -179,7 +179,7 @@ fn bad_tile_sets_are_refused_with_the_reason() {
     // A tile of another frame.
     std::fs::write(dir.join("other.rib"), SCENE.replace("Format 37 23 1", "Format 40 23 1")).unwrap();
     lrt_depth(
-        &dir,
+        dir,
         &["other.rib", "--quiet", "--crop", TILES[2], "-o", "tile-2.exr", "--depth", "tile-2.depth"],
     );
     let (code, err) = code_and_error(&merge_args(&[0, 1, 2]));
@@ -187,7 +187,7 @@ fn bad_tile_sets_are_refused_with_the_reason() {
     assert!(err.contains("not parts of one frame"), "{err}");
 
     // Not an EXR tile, a depth table of the wrong size, bad command lines.
-    render_tile(&dir, 2, &[]);
+    render_tile(dir, 2, &[]);
     let mut args = merge_args(&[0, 1, 2]);
     *args.last_mut().unwrap() = "tile-2.png".into();
     let (code, err) = code_and_error(&args);
@@ -210,16 +210,15 @@ fn bad_tile_sets_are_refused_with_the_reason() {
     assert_eq!(code, Some(2));
     let (code, _) = code_and_error(&["-o".into(), "m.exr".into()]);
     assert_eq!(code, Some(2));
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn bad_crop_flags_are_command_line_errors() {
-    let dir = temp_dir("crop-flags");
+    let scratch_dir = temp_dir("crop-flags");
+    let dir = scratch_dir.path();
     for crop in ["0,1,0", "0,1,0,x", "0.5,0.5,0,1", "0,1.5,0,1", "-0.1,1,0,1"] {
-        let out = run(env!("CARGO_BIN_EXE_lrt-depth"), &dir, &["scene.rib", "--crop", crop]);
+        let out = run(env!("CARGO_BIN_EXE_lrt-depth"), dir, &["scene.rib", "--crop", crop]);
         assert_eq!(out.status.code(), Some(2), "--crop {crop}");
         assert!(String::from_utf8_lossy(&out.stderr).contains("--crop"), "--crop {crop}");
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }

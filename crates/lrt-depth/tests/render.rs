@@ -1,6 +1,6 @@
 //! The render path of `lrt-depth`, run as a program: outputs, exit codes, determinism.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 const SCENE: &str = r#"
@@ -24,11 +24,9 @@ WorldBegin
 WorldEnd
 "#;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lrt-depth-render-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch directory for one test, removed when the test ends.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("lrt-depth-render-{name}-")).tempdir().unwrap()
 }
 
 fn run(dir: &Path, args: &[&str]) -> Output {
@@ -37,9 +35,10 @@ fn run(dir: &Path, args: &[&str]) -> Output {
 
 #[test]
 fn renders_every_display_and_the_depth_table() {
-    let dir = temp_dir("displays");
+    let scratch_dir = temp_dir("displays");
+    let dir = scratch_dir.path();
     std::fs::write(dir.join("small.rib"), SCENE).unwrap();
-    let out = run(&dir, &["small.rib", "--threads", "2", "--stats"]);
+    let out = run(dir, &["small.rib", "--threads", "2", "--stats"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let png = image::open(dir.join("small.png")).unwrap();
     assert_eq!((png.width(), png.height()), (24, 16));
@@ -58,36 +57,39 @@ fn renders_every_display_and_the_depth_table() {
 
 #[test]
 fn output_is_the_same_for_any_thread_count() {
-    let dir = temp_dir("threads");
+    let scratch_dir = temp_dir("threads");
+    let dir = scratch_dir.path();
     std::fs::write(dir.join("small.rib"), SCENE).unwrap();
-    assert!(run(&dir, &["small.rib", "-o", "one.exr", "--threads", "1", "-q"]).status.success());
-    assert!(run(&dir, &["small.rib", "-o", "two.exr", "--threads", "2", "-q"]).status.success());
+    assert!(run(dir, &["small.rib", "-o", "one.exr", "--threads", "1", "-q"]).status.success());
+    assert!(run(dir, &["small.rib", "-o", "two.exr", "--threads", "2", "-q"]).status.success());
     assert_eq!(std::fs::read(dir.join("one.exr")).unwrap(), std::fs::read(dir.join("two.exr")).unwrap());
 }
 
 #[test]
 fn no_depth_table_without_a_request() {
-    let dir = temp_dir("nodepth");
+    let scratch_dir = temp_dir("nodepth");
+    let dir = scratch_dir.path();
     let scene = SCENE.replace("Option \"lrt\" \"string depthfile\" [\"small.depth\"]", "");
     std::fs::write(dir.join("small.rib"), scene).unwrap();
-    let out = run(&dir, &["small.rib", "--stats"]);
+    let out = run(dir, &["small.rib", "--stats"]);
     assert!(out.status.success());
     assert!(!dir.join("small.depth").exists());
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("skipped: depth table"), "{stdout}");
     // --depth adds the request from the command line.
-    assert!(run(&dir, &["small.rib", "-q", "--depth", "cli.depth"]).status.success());
+    assert!(run(dir, &["small.rib", "-q", "--depth", "cli.depth"]).status.success());
     assert!(dir.join("cli.depth").exists());
 }
 
 #[test]
 fn exit_codes() {
-    let dir = temp_dir("codes");
+    let scratch_dir = temp_dir("codes");
+    let dir = scratch_dir.path();
     std::fs::write(dir.join("bad.rib"), "WorldBegin\nSphere 1 -1 1\nWorldEnd\n").unwrap();
-    let out = run(&dir, &["bad.rib"]);
+    let out = run(dir, &["bad.rib"]);
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("bad.rib:3:1: error:"), "{stderr}");
-    assert_eq!(run(&dir, &["bad.rib", "--spp", "0"]).status.code(), Some(2));
-    assert_eq!(run(&dir, &["missing.rib"]).status.code(), Some(1));
+    assert_eq!(run(dir, &["bad.rib", "--spp", "0"]).status.code(), Some(2));
+    assert_eq!(run(dir, &["missing.rib"]).status.code(), Some(1));
 }

@@ -320,8 +320,8 @@ mod tests {
 
     #[test]
     fn formats_round_trip() {
-        let dir = std::env::temp_dir().join(format!("raytracer-output-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let scratch = tempfile::Builder::new().prefix("raytracer-output-").tempdir().unwrap();
+        let dir = scratch.path();
         for (name, s) in [
             ("a.png", settings(255, 255, 1.0)),
             ("b.png", settings(65535, 65535, 1.0)),
@@ -348,13 +348,12 @@ mod tests {
             }
         }
         // No temporary files are left behind.
-        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        let leftovers: Vec<_> = std::fs::read_dir(dir)
             .unwrap()
             .filter_map(|e| e.ok())
             .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
             .collect();
         assert!(leftovers.is_empty());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

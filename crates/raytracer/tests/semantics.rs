@@ -151,8 +151,8 @@ fn unknown_shaders_warn_once_by_name() {
 
 #[test]
 fn paintedplastic_reads_its_texture_map_at_st() {
-    let dir = std::env::temp_dir().join(format!("raytracer-texture-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new().prefix("raytracer-texture-").tempdir().unwrap();
+    let dir = scratch.path();
     let path = dir.join("halves.png");
     // Left half red, right half blue.
     let img =
@@ -176,7 +176,6 @@ fn paintedplastic_reads_its_texture_map_at_st() {
     let right = out.image.rgb(7, 4);
     assert!(left.x > 0.9 && left.z < 0.1, "{left}");
     assert!(right.z > 0.9 && right.x < 0.1, "{right}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

@@ -197,15 +197,14 @@ mod tests {
         assert_eq!(g.to_byte(0.25), ((0.5f32).powf(1.0 / 2.2) * 255.0).round() as u8);
     }
 
-    fn scratch(name: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("viewer-backdrop-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
+    fn scratch(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("viewer-backdrop-{name}-")).tempdir().unwrap()
     }
 
     #[test]
     fn float_images_are_tone_mapped_and_8bit_images_copied() {
-        let dir = scratch("read");
+        let scratch_dir = scratch("read");
+        let dir = scratch_dir.path();
         let value = |x: usize, y: usize| (x as f32 * 0.3, y as f32 * 0.45, 1.7 - x as f32 * 0.2);
         let exr_path = dir.join("a.exr");
         exr::prelude::write_rgb_file(&exr_path, 5, 3, value).unwrap();
@@ -232,6 +231,5 @@ mod tests {
         assert!(Rgba8Image::read(&dir.join("missing.png"), tone).is_err());
         std::fs::write(dir.join("junk.png"), b"not an image").unwrap();
         assert!(Rgba8Image::read(&dir.join("junk.png"), tone).is_err());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

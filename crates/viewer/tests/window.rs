@@ -22,8 +22,8 @@ fn window_frame_equals_the_headless_frame() {
         meshes: Vec::new(),
     };
     let settings = CompositorSettings { mode: CompositeMode::Points, ..CompositorSettings::default() };
-    let dir = std::env::temp_dir().join(format!("viewer-window-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::Builder::new().prefix("viewer-window-test-").tempdir().unwrap();
+    let dir = scratch.path();
     let screenshot = dir.join("window.png");
     let mask = dir.join("mask.png");
     // Moves the sphere a little each frame, as a haptic device would.
@@ -67,5 +67,4 @@ fn window_frame_equals_the_headless_frame() {
     let shown_mask = image::open(&mask).unwrap().to_luma8();
     assert!(shown_mask.as_raw() == &frame.mask);
     assert!(frame.mask.contains(&255));
-    std::fs::remove_dir_all(&dir).unwrap();
 }
