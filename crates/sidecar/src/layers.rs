@@ -1,0 +1,183 @@
+//! The light layers of one rendered frame: what each light adds directly at the primary hit,
+//! what the camera sees emitted, the indirect remainder, and the surface at the primary hit.
+
+/// At most this many per-light layers; a scene with more lights gets this many light groups
+/// (contiguous runs of lights in scene order, see [`light_layer_of`]).
+pub const MAX_LIGHT_LAYERS: usize = 16;
+
+/// How many `light.K` layers a scene with `light_count` lights gets.
+pub fn light_layer_count(light_count: usize) -> usize {
+    light_count.min(MAX_LIGHT_LAYERS)
+}
+
+/// The layer holding the scene's light number `light` (0-based, scene order) of `light_count`:
+/// `light * layers / light_count`, so each layer holds a contiguous run of lights and with at
+/// most [`MAX_LIGHT_LAYERS`] lights, light `k` is layer `k`.
+pub fn light_layer_of(light: usize, light_count: usize) -> usize {
+    let layers = light_layer_count(light_count);
+    if layers == 0 {
+        return 0;
+    }
+    // u128 so that no light count can overflow the product.
+    ((light as u128 * layers as u128) / light_count as u128) as usize
+}
+
+/// One light of the scene as the layers refer to it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LightSource {
+    /// The light's position in the scene's light list: RIB `LightSource` and `AreaLightSource`
+    /// requests in the order they appear (the order `rib_parser::scene::Scene::lights` keeps).
+    pub index: u32,
+    /// A human-readable description, e.g. `pointlight at scene.rib:12:1` (ASCII; other
+    /// characters are replaced by `?` when written).
+    pub description: String,
+}
+
+impl LightSource {
+    pub fn new(index: u32, description: impl Into<String>) -> LightSource {
+        LightSource { index, description: description.into() }
+    }
+}
+
+/// What the reader expects of a layers file: the size of the image it is paired with and,
+/// when known, the fingerprint of its depth table ([`crate::depth_fingerprint`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LayerExpectation {
+    pub width: u32,
+    pub height: u32,
+    pub depth_fingerprint: Option<u64>,
+}
+
+/// Light layers of a `width x height` frame, every buffer in row order, top row first, linear
+/// radiance in the image's own units (before exposure and quantisation) for the radiance layers.
+///
+/// `beauty = sum(light) + emission + indirect` per pixel and channel, up to float rounding.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightLayers {
+    pub width: u32,
+    pub height: u32,
+    /// [`crate::depth_fingerprint`] of the depth table rendered with these layers.
+    pub depth_fingerprint: u64,
+    /// Every light of the scene in scene order; `lights.len()` decides the layer count.
+    pub lights: Vec<LightSource>,
+    /// `light.K`: the direct light of the lights in layer `K` reflected at the primary hit.
+    pub light: Vec<Vec<[f32; 3]>>,
+    /// `emission`: what the camera sees emitted at the primary hit (area lights seen
+    /// directly) and the background where the ray misses.
+    pub emission: Vec<[f32; 3]>,
+    /// `indirect`: everything else (light reflected more than once, specular paths, caustics).
+    pub indirect: Vec<[f32; 3]>,
+    /// `normal`: the pixel-filtered world-space shading normal at the primary hit, turned toward
+    /// the camera; zero where the ray misses (not renormalised: edges average).
+    pub normal: Vec<[f32; 3]>,
+    /// `albedo`: the pixel-filtered diffuse albedo (`Kd * Color` for matte and plastic) at the
+    /// primary hit; zero where the ray misses or the surface has no diffuse lobe.
+    pub albedo: Vec<[f32; 3]>,
+}
+
+impl LightLayers {
+    /// Zero-filled layers for `lights`.
+    pub fn new(width: u32, height: u32, depth_fingerprint: u64, lights: Vec<LightSource>) -> LightLayers {
+        let n = width as usize * height as usize;
+        let zero = vec![[0.0f32; 3]; n];
+        LightLayers {
+            width,
+            height,
+            depth_fingerprint,
+            light: vec![zero.clone(); light_layer_count(lights.len())],
+            lights,
+            emission: zero.clone(),
+            indirect: zero.clone(),
+            normal: zero.clone(),
+            albedo: zero,
+        }
+    }
+
+    /// Pixels per buffer.
+    pub fn pixel_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// The `light.K` buffer.
+    pub fn light_mut(&mut self, layer: usize) -> &mut [[f32; 3]] {
+        &mut self.light[layer]
+    }
+
+    /// The lights (positions in [`LightLayers::lights`]) that layer `layer` holds.
+    pub fn lights_of_layer(&self, layer: usize) -> std::ops::Range<usize> {
+        let n = self.lights.len();
+        let start = (0..n).find(|&k| light_layer_of(k, n) == layer).unwrap_or(n);
+        let end = (start..n).find(|&k| light_layer_of(k, n) != layer).unwrap_or(n);
+        start..end
+    }
+
+    /// The sum of the radiance layers per pixel: the beauty image before quantisation.
+    pub fn beauty(&self) -> Vec<[f32; 3]> {
+        let mut sum = self.emission.clone();
+        for layer in self.light.iter().chain(std::iter::once(&self.indirect)) {
+            for (s, v) in sum.iter_mut().zip(layer) {
+                for c in 0..3 {
+                    s[c] += v[c];
+                }
+            }
+        }
+        sum
+    }
+
+    /// Every buffer with its EXR layer name, in the order the format lists them.
+    pub fn named_buffers(&self) -> Vec<(String, &[[f32; 3]])> {
+        let mut out: Vec<(String, &[[f32; 3]])> = Vec::new();
+        for (k, layer) in self.light.iter().enumerate() {
+            out.push((format!("light.{k}"), layer));
+        }
+        out.push(("emission".into(), &self.emission));
+        out.push(("indirect".into(), &self.indirect));
+        out.push(("normal".into(), &self.normal));
+        out.push(("albedo".into(), &self.albedo));
+        out
+    }
+
+    pub(crate) fn named_buffers_mut(&mut self) -> Vec<(String, &mut Vec<[f32; 3]>)> {
+        let mut out: Vec<(String, &mut Vec<[f32; 3]>)> = Vec::new();
+        for (k, layer) in self.light.iter_mut().enumerate() {
+            out.push((format!("light.{k}"), layer));
+        }
+        out.push(("emission".into(), &mut self.emission));
+        out.push(("indirect".into(), &mut self.indirect));
+        out.push(("normal".into(), &mut self.normal));
+        out.push(("albedo".into(), &mut self.albedo));
+        out
+    }
+}
+
+/// The channel suffixes of a buffer: `X`, `Y`, `Z` for `normal`, `R`, `G`, `B` otherwise.
+pub(crate) fn channel_suffixes(layer: &str) -> [&'static str; 3] {
+    if layer == "normal" { ["X", "Y", "Z"] } else { ["R", "G", "B"] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn groups_are_contiguous_and_cover_every_layer() {
+        for n in [0usize, 1, 5, 16, 17, 40, 1000] {
+            let layers = light_layer_count(n);
+            let mut previous = 0;
+            for k in 0..n {
+                let l = light_layer_of(k, n);
+                assert!(l < layers && l >= previous && l - previous <= 1, "n={n} k={k}");
+                previous = l;
+            }
+            if n > 0 {
+                assert_eq!(previous, layers - 1);
+            }
+        }
+        assert_eq!(light_layer_of(7, 10), 7);
+        let lights = (0..40).map(|k| LightSource::new(k, "l")).collect();
+        let layers = LightLayers::new(1, 1, 0, lights);
+        assert_eq!(layers.light.len(), 16);
+        assert_eq!(layers.lights_of_layer(0), 0..3);
+        assert_eq!(layers.lights_of_layer(15), 38..40);
+    }
+}

@@ -1,0 +1,41 @@
+//! The compositing data `lrt-depth` writes next to the depth table, defined once for the ray
+//! tracer that writes it and the viewer that reads it (docs/sidecar.md).
+//!
+//! - [`SidecarPaths`]: the file names, derived from the depth table's (or the image's) path,
+//!   e.g. `out.depth` -> `out.layers.exr`.
+//! - [`LightLayers`]: per-pixel light layers (each light's or light group's direct
+//!   contribution, emission, the indirect remainder) plus the shading normal and diffuse albedo
+//!   at the primary hit, such that the beauty image is the sum of the radiance layers.
+//! - [`write_layers`] writes them atomically; [`read_layers`] refuses anything that does not
+//!   belong to the image it is paired with, naming the file.
+//!
+//! ```
+//! use sidecar::{LayerExpectation, LightLayers, LightSource, SidecarPaths, depth_fingerprint};
+//! let dir = tempfile::TempDir::new().unwrap();
+//! let depth = [1.0_f32, 2.0, f32::INFINITY, 4.0];
+//! let mut layers = LightLayers::new(2, 2, depth_fingerprint(&depth), vec![LightSource::new(0, "pointlight")]);
+//! layers.light_mut(0)[0] = [0.5, 0.25, 0.125];
+//! let paths = SidecarPaths::for_depth(&dir.path().join("out.depth"));
+//! sidecar::write_layers(&layers, &paths.layers).unwrap();
+//! let expect = LayerExpectation { width: 2, height: 2, depth_fingerprint: Some(depth_fingerprint(&depth)) };
+//! let back = sidecar::read_layers(&paths.layers, &expect, Default::default()).unwrap();
+//! assert_eq!(back, layers);
+//! assert_eq!(back.beauty()[0], [0.5, 0.25, 0.125]);
+//! ```
+
+mod error;
+mod fingerprint;
+mod layers;
+mod layers_io;
+mod paths;
+
+pub use error::{SidecarError, SidecarErrorKind};
+pub use fingerprint::depth_fingerprint;
+pub use layers::{
+    LayerExpectation, LightLayers, LightSource, MAX_LIGHT_LAYERS, light_layer_count, light_layer_of,
+};
+pub use layers_io::{ReadLimits, channel_names, read_layers, write_layers};
+pub use paths::SidecarPaths;
+
+/// The sidecar format version written in every file's header (`lrt.sidecar.version`).
+pub const FORMAT_VERSION: i32 = 1;

@@ -1,0 +1,177 @@
+//! The layers file round-trips exactly, and every kind of bad file is refused with an error
+//! naming it.
+
+use exr::prelude::*;
+use sidecar::{
+    LayerExpectation, LightLayers, LightSource, SidecarErrorKind, SidecarPaths, channel_names,
+    depth_fingerprint, read_layers, write_layers,
+};
+use std::path::Path;
+
+fn sample_layers(lights: usize) -> LightLayers {
+    let sources =
+        (0..lights).map(|k| LightSource::new(k as u32, format!("pointlight at s.rib:{k}:1 é"))).collect();
+    let mut layers = LightLayers::new(3, 2, 0xdead_beef_0123_4567, sources);
+    for (k, layer) in layers.light.iter_mut().enumerate() {
+        for (i, p) in layer.iter_mut().enumerate() {
+            *p = [k as f32 + 0.5, i as f32 * 0.25, -0.125];
+        }
+    }
+    layers.indirect[4] = [1e-30, 3.0e5, 0.1];
+    layers.emission[0] = [7.0, 7.0, 7.0];
+    layers.normal[1] = [0.0, -1.0, 0.0];
+    layers.albedo[2] = [0.8, 0.5, 0.25];
+    layers
+}
+
+fn expectation(layers: &LightLayers) -> LayerExpectation {
+    LayerExpectation {
+        width: layers.width,
+        height: layers.height,
+        depth_fingerprint: Some(layers.depth_fingerprint),
+    }
+}
+
+/// Writes an arbitrary EXR with the given channels and header attributes.
+fn write_raw(path: &Path, size: (usize, usize), channels: &[(&str, f32)], attrs: &[(&str, AttributeValue)]) {
+    let list = channels
+        .iter()
+        .map(|(name, v)| AnyChannel::new(*name, FlatSamples::F32(vec![*v; size.0 * size.1])))
+        .collect();
+    let mut attributes = LayerAttributes::default();
+    for (k, v) in attrs {
+        attributes.other.insert(Text::from(*k), v.clone());
+    }
+    let layer = Layer::new(size, attributes, Encoding::UNCOMPRESSED, AnyChannels::sort(list));
+    Image::from_layer(layer).write().to_file(path).unwrap();
+}
+
+fn good_attrs(lights: usize) -> Vec<(&'static str, AttributeValue)> {
+    vec![
+        ("lrt.sidecar.version", AttributeValue::I32(1)),
+        ("lrt.sidecar.kind", AttributeValue::Text(Text::from("layers"))),
+        ("lrt.depth.fingerprint", AttributeValue::Text(Text::from("00000000000000ff"))),
+        ("lrt.light.layers", AttributeValue::I32(lights as i32)),
+        (
+            "lrt.lights",
+            AttributeValue::TextVector(
+                (0..lights).map(|k| Text::from(format!("{k} light").as_str())).collect(),
+            ),
+        ),
+    ]
+}
+
+#[test]
+fn round_trip_is_exact_and_beauty_is_the_sum() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = SidecarPaths::for_depth(&dir.path().join("out.depth")).layers;
+    for lights in [0, 2, 20] {
+        let layers = sample_layers(lights);
+        write_layers(&layers, &path).unwrap();
+        let back = read_layers(&path, &expectation(&layers), Default::default()).unwrap();
+        let mut expected = layers.clone();
+        for l in &mut expected.lights {
+            l.description = l.description.replace('é', "?");
+        }
+        assert_eq!(back, expected);
+        assert_eq!(back.light.len(), lights.min(16));
+        let beauty = back.beauty();
+        let p = 4;
+        let direct: f32 = (0..back.light.len()).map(|k| back.light[k][p][1]).sum();
+        assert_eq!(beauty[p][1], direct + 3.0e5);
+    }
+    // Nothing but the file itself is left in the directory (atomic write cleans up).
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    // Without a fingerprint to check, any render of the right size is accepted.
+    let layers = sample_layers(1);
+    write_layers(&layers, &path).unwrap();
+    let loose = LayerExpectation { depth_fingerprint: None, ..expectation(&layers) };
+    assert!(read_layers(&path, &loose, Default::default()).is_ok());
+}
+
+#[test]
+fn bad_files_get_errors_naming_the_file() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = dir.path().join("bad.layers.exr");
+    let layers = sample_layers(2);
+    write_layers(&layers, &path).unwrap();
+    let read = |expect: &LayerExpectation| {
+        let e = read_layers(&path, expect, Default::default()).unwrap_err();
+        assert!(e.to_string().starts_with(&format!("{}: error: ", path.display())), "{e}");
+        e.kind
+    };
+
+    let wrong_size = LayerExpectation { width: 4, ..expectation(&layers) };
+    assert!(matches!(read(&wrong_size), SidecarErrorKind::SizeMismatch { expected: (4, 2), found: (3, 2) }));
+    let other_render =
+        LayerExpectation { depth_fingerprint: Some(depth_fingerprint(&[1.0])), ..expectation(&layers) };
+    assert!(matches!(read(&other_render), SidecarErrorKind::Stale { .. }));
+
+    let expect = LayerExpectation { width: 3, height: 2, depth_fingerprint: Some(0xff) };
+    let names = channel_names(2);
+    let all: Vec<(&str, f32)> = names.iter().map(|n| (n.as_str(), 0.5)).collect();
+
+    // A NaN in one channel.
+    let mut with_nan = all.clone();
+    with_nan[4].1 = f32::NAN;
+    write_raw(&path, (3, 2), &with_nan, &good_attrs(2));
+    match read(&expect) {
+        SidecarErrorKind::NonFinite { channel, x: 0, y: 0, value } => {
+            assert_eq!(channel, "light.1.G");
+            assert!(value.is_nan());
+        }
+        other => panic!("{other:?}"),
+    }
+    // An infinity.
+    let mut with_inf = all.clone();
+    with_inf[names.len() - 1].1 = f32::INFINITY;
+    write_raw(&path, (3, 2), &with_inf, &good_attrs(2));
+    assert!(matches!(read(&expect), SidecarErrorKind::NonFinite { .. }));
+    // A missing layer.
+    write_raw(&path, (3, 2), &all[3..], &good_attrs(2));
+    assert!(matches!(read(&expect), SidecarErrorKind::MissingChannel { name, .. } if name == "light.0.R"));
+    // A layer the format does not have (the header claims 1 light, the file holds 2).
+    write_raw(&path, (3, 2), &all, &good_attrs(1));
+    assert!(
+        matches!(read(&expect), SidecarErrorKind::UnexpectedChannel { name } if name.starts_with("light.1"))
+    );
+    // Light count and layer count disagree.
+    let mut attrs = good_attrs(2);
+    attrs[3].1 = AttributeValue::I32(5);
+    write_raw(&path, (3, 2), &all, &attrs);
+    assert!(matches!(read(&expect), SidecarErrorKind::BadAttribute { .. }));
+    // Any other EXR (e.g. the beauty image itself).
+    write_raw(&path, (3, 2), &[("R", 1.0), ("G", 1.0), ("B", 1.0)], &[]);
+    assert!(
+        matches!(read(&expect), SidecarErrorKind::MissingAttribute { name } if name == "lrt.sidecar.version")
+    );
+    // A probes file where layers were expected.
+    let mut attrs = good_attrs(2);
+    attrs[1].1 = AttributeValue::Text(Text::from("probes"));
+    write_raw(&path, (3, 2), &all, &attrs);
+    assert!(matches!(read(&expect), SidecarErrorKind::WrongKind { .. }));
+    // A future version.
+    let mut attrs = good_attrs(2);
+    attrs[0].1 = AttributeValue::I32(2);
+    write_raw(&path, (3, 2), &all, &attrs);
+    assert!(matches!(read(&expect), SidecarErrorKind::UnsupportedVersion { found: 2 }));
+    // Not an EXR at all, and no file at all.
+    std::fs::write(&path, b"# lrt-depth v1 width=3 height=2\n").unwrap();
+    assert!(matches!(read(&expect), SidecarErrorKind::Exr { .. } | SidecarErrorKind::Io(_)));
+    std::fs::remove_file(&path).unwrap();
+    assert!(matches!(read(&expect), SidecarErrorKind::Io(_)));
+}
+
+#[test]
+fn writer_refuses_non_finite_values_and_keeps_the_old_file() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = dir.path().join("out.layers.exr");
+    let good = sample_layers(1);
+    write_layers(&good, &path).unwrap();
+    let mut bad = good.clone();
+    bad.albedo[5] = [0.0, f32::NAN, 0.0];
+    let e = write_layers(&bad, &path).unwrap_err();
+    assert!(matches!(e.kind, SidecarErrorKind::NonFinite { x: 2, y: 1, .. }), "{e}");
+    assert_eq!(read_layers(&path, &expectation(&good), Default::default()).unwrap().albedo, good.albedo);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
