@@ -66,6 +66,7 @@ fn render_with_library(rib: &str, size: u32) -> Render {
         integrator: Some(IntegratorKind::DirectLighting { max_depth: 1 }),
         depth: true,
         progress: None,
+        ..Default::default()
     };
     let out = render(&loaded.scene, &options).unwrap();
     let rgb = out.image.pixels.iter().map(|p| [p[0], p[1], p[2]]).collect();

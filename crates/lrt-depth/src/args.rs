@@ -33,6 +33,16 @@ pub struct Cli {
     #[arg(long, value_name = "N")]
     pub spp: Option<u32>,
 
+    /// Render in passes until this many seconds have gone by (at least one pass; the image is
+    /// the average of the passes done, written as always).
+    #[arg(long = "time", value_name = "SECONDS")]
+    pub time: Option<f64>,
+
+    /// Stop sampling each pixel once its estimated relative error (relative standard error,
+    /// the square root of the estimated relMSE) is at most E.
+    #[arg(long = "target-error", value_name = "E")]
+    pub target_error: Option<f64>,
+
     /// Worker threads (default: all cores).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
@@ -76,7 +86,12 @@ pub struct Settings {
     pub stats: bool,
     pub frame: Option<i32>,
     pub crop: Option<CropWindow>,
+    pub time_budget: Option<std::time::Duration>,
+    pub target_error: Option<f32>,
 }
+
+/// The longest `--time` accepted: a week.
+const MAX_TIME_SECONDS: f64 = 7.0 * 24.0 * 3600.0;
 
 /// Parses `--crop`: four numbers that make a valid [`CropWindow`] (`0 <= min < max <= 1`).
 fn parse_crop(text: &str) -> Result<CropWindow, String> {
@@ -114,6 +129,22 @@ impl Settings {
             }
         }
         let crop = cli.crop.as_deref().map(parse_crop).transpose()?;
+        let time_budget = match cli.time {
+            None => None,
+            Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIME_SECONDS => {
+                Some(std::time::Duration::from_secs_f64(t))
+            }
+            Some(t) => {
+                return Err(format!(
+                    "--time {t}: must be a positive number of seconds, at most {MAX_TIME_SECONDS}"
+                ));
+            }
+        };
+        let target_error = match cli.target_error {
+            None => None,
+            Some(e) if e.is_finite() && e > 0.0 && e < 1e3 => Some(e as f32),
+            Some(e) => return Err(format!("--target-error {e}: must be a positive relative error")),
+        };
         Ok(Settings {
             crop,
             scene: cli.scene,
@@ -125,6 +156,8 @@ impl Settings {
             quiet: cli.quiet,
             stats: cli.stats,
             frame: cli.frame,
+            time_budget,
+            target_error,
         })
     }
 }
@@ -165,6 +198,22 @@ mod tests {
         assert_eq!(s.frame, Some(-3));
         assert!(s.stats && !s.quiet);
         assert_eq!(parse(&["-"]).unwrap().scene, PathBuf::from("-"));
+    }
+
+    #[test]
+    fn time_and_target_error_parse_and_are_checked() {
+        let s = parse(&["s.rib", "--time", "2.5", "--target-error", "0.02"]).unwrap();
+        assert_eq!(s.time_budget, Some(std::time::Duration::from_millis(2500)));
+        assert_eq!(s.target_error, Some(0.02));
+        for bad in [
+            ["--time", "0"],
+            ["--time", "-1"],
+            ["--time", "inf"],
+            ["--target-error", "0"],
+            ["--target-error", "nan"],
+        ] {
+            assert!(parse(&["s.rib", bad[0], bad[1]]).is_err(), "{bad:?}");
+        }
     }
 
     #[test]

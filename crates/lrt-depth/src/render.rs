@@ -145,6 +145,8 @@ pub fn run(settings: &Settings) -> ExitCode {
         integrator: None,
         depth: scene.depth_request.is_some(),
         progress: bar.as_ref().map(|(_, f)| f.clone()),
+        time_budget: settings.time_budget,
+        target_error: settings.target_error,
     };
     let out = match render(scene, &options) {
         Ok(out) => out,

@@ -292,6 +292,16 @@ pub trait Integrator: Sync {
     fn photon_stats(&self) -> Option<PhotonStats> {
         None
     }
+    /// Passes a render with this integrator takes by default (`None`: one pass, unless
+    /// `--time` or `--target-error` ask for more); see [`crate::passes`].
+    fn default_passes(&self) -> Option<u32> {
+        None
+    }
+    /// The integrator of the next pass when it differs from this one (progressive photon
+    /// mapping: new photons, a smaller radius); `None` renders the next pass with this one.
+    fn next_pass(&self, _world: &World) -> Option<Box<dyn Integrator>> {
+        None
+    }
 }
 
 /// Preparation of an integrator: threads are the render's pool (already installed), `seed` the

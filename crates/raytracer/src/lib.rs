@@ -15,6 +15,8 @@
 //!   precomputed radiance photons, scene analysis that skips what a scene does not need).
 //! - [`render`]: camera rays from `depth_remap::Camera`, parallel deterministic tiles, pixel
 //!   filters ([`film`]), the depth table's distances; [`output`] writes TIFF, PNG, JPEG and EXR.
+//! - [`passes`]: renders in passes (progressive photon mapping, `--time`, `--target-error`
+//!   with a per-pixel error estimate).
 //!
 //! Spawned rays start at points pushed off their surface by a bound on the point's rounding
 //! error ([`math::offset_ray_origin`]): there is no fixed epsilon anywhere, so a scene renders
@@ -54,6 +56,7 @@ pub mod lights;
 pub mod materials;
 pub mod math;
 pub mod output;
+pub mod passes;
 pub mod photon;
 pub mod render;
 pub mod sampler;

@@ -37,6 +37,12 @@ pub struct RenderOptions {
     /// Compute the depth table (the caller decides from the scene's request or `--depth`).
     pub depth: bool,
     pub progress: Option<ProgressFn>,
+    /// Render passes until this much time has gone by since the render started (at least one
+    /// pass; [`crate::passes`]).
+    pub time_budget: Option<Duration>,
+    /// Stop sampling a pixel once its estimated relative error is below this
+    /// ([`crate::passes`]).
+    pub target_error: Option<f32>,
 }
 
 impl std::fmt::Debug for RenderOptions {
@@ -47,6 +53,8 @@ impl std::fmt::Debug for RenderOptions {
             .field("seed", &self.seed)
             .field("integrator", &self.integrator)
             .field("depth", &self.depth)
+            .field("time_budget", &self.time_budget)
+            .field("target_error", &self.target_error)
             .finish()
     }
 }
@@ -73,6 +81,8 @@ pub struct RenderStats {
     pub skipped: Vec<(String, usize)>,
     /// The photon mapper's maps, timings and counts (`photonmap` only).
     pub photon: Option<crate::photon::PhotonStats>,
+    /// What a render in passes did (progressive photon mapping, `--time`, `--target-error`).
+    pub passes: Option<crate::passes::PassStats>,
 }
 
 impl RenderStats {
@@ -234,8 +244,8 @@ fn render_in_pool(
 
     let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
     let prepare_start = Instant::now();
-    let integrator = kind.prepare(&world, PrepareContext { seed: options.seed, threads });
-    let time_prepare = prepare_start.elapsed();
+    let mut integrator = kind.prepare(&world, PrepareContext { seed: options.seed, threads });
+    let mut time_prepare = prepare_start.elapsed();
     let filter = Filter::from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
         Filter { kind: crate::film::FilterKind::Gaussian, x_width: 2.0, y_width: 2.0 }
@@ -255,49 +265,29 @@ fn render_in_pool(
 
     // Image.
     let render_start = Instant::now();
-    let mut tiles = Vec::new();
-    let mut ty = y0;
-    while ty < y1 {
-        let mut tx = x0;
-        while tx < x1 {
-            tiles.push((tx, ty, (tx + TILE).min(x1), (ty + TILE).min(y1)));
-            tx += TILE;
-        }
-        ty += TILE;
-    }
+    let frame = Frame {
+        world: &world,
+        rays: &rays,
+        filter: &filter,
+        spp,
+        seed: options.seed,
+        bounds: (x0, y0, x1, y1),
+        progress: options.progress.clone(),
+    };
     let total = u64::from(w) * u64::from(h);
-    let done = AtomicU64::new(0);
-    let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
-        .par_iter()
-        .map(|&(tx0, ty0, tx1, ty1)| {
-            let r = render_tile(
-                &world,
-                &rays,
-                integrator.as_ref(),
-                &filter,
-                spp,
-                options.seed,
-                (tx0, ty0, tx1, ty1),
-            );
-            let n = u64::from(tx1 - tx0) * u64::from(ty1 - ty0);
-            let d = done.fetch_add(n, Ordering::Relaxed) + n;
-            if let Some(p) = &options.progress {
-                p(d, total);
+    let (pixels_out, counters, pass_stats) =
+        match crate::passes::PassPlan::new(integrator.as_ref(), options, spp) {
+            Some(plan) => {
+                let r = crate::passes::render_passes(&frame, integrator, &plan, build_start);
+                integrator = r.last;
+                time_prepare += r.time_prepare;
+                (r.pixels, r.counters, Some(r.stats))
             }
-            r
-        })
-        .collect();
-    let mut pixels_out = vec![[0.0f32; 4]; (w * h) as usize];
-    let mut counters = RayCounters::default();
-    for (&(tx0, ty0, tx1, ty1), (tile, c)) in tiles.iter().zip(&tile_results) {
-        counters.add(c);
-        let tw = tx1 - tx0;
-        for y in ty0..ty1 {
-            for x in tx0..tx1 {
-                pixels_out[((y - y0) * w + (x - x0)) as usize] = tile[((y - ty0) * tw + (x - tx0)) as usize];
+            None => {
+                let (pixels, counters) = frame.render(integrator.as_ref(), 0, None);
+                (pixels, counters, None)
             }
-        }
-    }
+        };
     let time_render = render_start.elapsed();
 
     // Depth: only when asked for.
@@ -319,9 +309,14 @@ fn render_in_pool(
     for w in integrator.warnings() {
         diagnostics.warn_once(None, w);
     }
+    let mut integrator_stats = integrator.stats();
+    if let Some(p) = &pass_stats {
+        integrator_stats.extend(p.lines());
+    }
     let stats = RenderStats {
         integrator: integrator.name(),
-        integrator_stats: integrator.stats(),
+        integrator_stats,
+        passes: pass_stats,
         time_prepare,
         samples_per_pixel: spp,
         threads,
@@ -346,6 +341,78 @@ fn render_in_pool(
         pixels: pixels_out,
     };
     Ok(RenderOutput { image, depth, stats, warnings: diagnostics.warnings })
+}
+
+/// What every pass of a render shares: the world, the camera rays, the filter and the pixels.
+pub(crate) struct Frame<'a> {
+    pub world: &'a World,
+    pub rays: &'a CameraRays,
+    pub filter: &'a Filter,
+    /// Samples per pixel of one pass.
+    pub spp: u32,
+    pub seed: u64,
+    /// `(x0, y0, x1, y1)`: the pixels rendered (the crop window), full-frame coordinates.
+    pub bounds: (u32, u32, u32, u32),
+    pub progress: Option<ProgressFn>,
+}
+
+impl Frame<'_> {
+    pub fn width(&self) -> u32 {
+        self.bounds.2 - self.bounds.0
+    }
+
+    pub fn height(&self) -> u32 {
+        self.bounds.3 - self.bounds.1
+    }
+
+    /// Renders every pixel (or those `active` marks, row-major over the bounds; the others are
+    /// left zero) with samples `first_sample..first_sample + spp` of each pixel.
+    pub fn render(
+        &self,
+        integrator: &dyn Integrator,
+        first_sample: u32,
+        active: Option<&[bool]>,
+    ) -> (Vec<[f32; 4]>, RayCounters) {
+        let (x0, y0, x1, y1) = self.bounds;
+        let (w, h) = (self.width(), self.height());
+        let mut tiles = Vec::new();
+        let mut ty = y0;
+        while ty < y1 {
+            let mut tx = x0;
+            while tx < x1 {
+                tiles.push((tx, ty, (tx + TILE).min(x1), (ty + TILE).min(y1)));
+                tx += TILE;
+            }
+            ty += TILE;
+        }
+        let total = u64::from(w) * u64::from(h);
+        let done = AtomicU64::new(0);
+        let tile_results: Vec<(Vec<[f32; 4]>, RayCounters)> = tiles
+            .par_iter()
+            .map(|&tile| {
+                let r = render_tile(self, integrator, first_sample, active, tile);
+                let n = u64::from(tile.2 - tile.0) * u64::from(tile.3 - tile.1);
+                let d = done.fetch_add(n, Ordering::Relaxed) + n;
+                if let Some(p) = &self.progress {
+                    p(d, total);
+                }
+                r
+            })
+            .collect();
+        let mut pixels_out = vec![[0.0f32; 4]; (w * h) as usize];
+        let mut counters = RayCounters::default();
+        for (&(tx0, ty0, tx1, ty1), (tile, c)) in tiles.iter().zip(&tile_results) {
+            counters.add(c);
+            let tw = tx1 - tx0;
+            for y in ty0..ty1 {
+                for x in tx0..tx1 {
+                    pixels_out[((y - y0) * w + (x - x0)) as usize] =
+                        tile[((y - ty0) * tw + (x - tx0)) as usize];
+                }
+            }
+        }
+        (pixels_out, counters)
+    }
 }
 
 /// Distance along the pixel-centre ray of pixel `(i, j)` to the first surface it stops at
@@ -375,16 +442,43 @@ struct Sample {
 
 /// Renders the pixels `[x0, x1) x [y0, y1)`: samples of the pixels within the filter's reach
 /// (inside or outside the frame), then each pixel's filtered sum in a fixed order.
+/// Pixels `active` leaves out (and samples no active pixel's filter reaches) are skipped.
 fn render_tile(
-    world: &World,
-    rays: &CameraRays,
+    frame: &Frame,
     integrator: &dyn Integrator,
-    filter: &Filter,
-    spp: u32,
-    seed: u64,
+    first_sample: u32,
+    active: Option<&[bool]>,
     (x0, y0, x1, y1): (u32, u32, u32, u32),
 ) -> (Vec<[f32; 4]>, RayCounters) {
+    let (world, rays, filter, spp, seed) = (frame.world, frame.rays, frame.filter, frame.spp, frame.seed);
+    let (fx0, fy0, fx1, fy1) = frame.bounds;
+    let fw = (fx1 - fx0) as usize;
+    let is_active = |x: i64, y: i64| -> bool {
+        match active {
+            None => true,
+            Some(mask) => {
+                x >= i64::from(fx0)
+                    && x < i64::from(fx1)
+                    && y >= i64::from(fy0)
+                    && y < i64::from(fy1)
+                    && mask[(y - i64::from(fy0)) as usize * fw + (x - i64::from(fx0)) as usize]
+            }
+        }
+    };
     let (mx, my) = filter.pixel_margin();
+    if active.is_some() && !(y0..y1).any(|y| (x0..x1).any(|x| is_active(i64::from(x), i64::from(y)))) {
+        return (vec![[0.0f32; 4]; ((x1 - x0) * (y1 - y0)) as usize], RayCounters::default());
+    }
+    // A sample is needed when an active pixel's filter reaches its pixel.
+    let needed = |px: i64, py: i64| -> bool {
+        active.is_none()
+            || ((py - i64::from(my)).max(i64::from(y0))..=(py + i64::from(my)).min(i64::from(y1) - 1)).any(
+                |y| {
+                    ((px - i64::from(mx)).max(i64::from(x0))..=(px + i64::from(mx)).min(i64::from(x1) - 1))
+                        .any(|x| is_active(x, y))
+                },
+            )
+    };
     let (sx0, sy0) = (x0 as i64 - i64::from(mx), y0 as i64 - i64::from(my));
     let (sx1, sy1) = (x1 as i64 + i64::from(mx), y1 as i64 + i64::from(my));
     let sw = (sx1 - sx0) as usize;
@@ -393,8 +487,17 @@ fn render_tile(
     let mut counters = RayCounters::default();
     for py in sy0..sy1 {
         for px in sx0..sx1 {
+            if !needed(px, py) {
+                samples.extend((0..spp).map(|_| Sample {
+                    x: px as f32,
+                    y: py as f32,
+                    rgb: Vec3::ZERO,
+                    alpha: 0.0,
+                }));
+                continue;
+            }
             for s in 0..spp as u32 {
-                let mut sampler = Sampler::new(seed, px, py, s);
+                let mut sampler = Sampler::new(seed, px, py, first_sample.wrapping_add(s));
                 // The first pair of dimensions places the sample in the pixel (stratified).
                 let jitter = sampler.uniform2();
                 let x = px as f64 + f64::from(jitter.x);
@@ -411,6 +514,9 @@ fn render_tile(
     let mut out = vec![[0.0f32; 4]; tw * (y1 - y0) as usize];
     for y in y0..y1 {
         for x in x0..x1 {
+            if !is_active(i64::from(x), i64::from(y)) {
+                continue;
+            }
             let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
             let mut sum = [0.0f64; 4];
             let mut weight = 0.0f64;

@@ -30,6 +30,7 @@
 pub mod cull;
 pub mod estimate;
 pub mod kdtree;
+pub mod progressive;
 mod render;
 pub(crate) mod shoot;
 
@@ -89,6 +90,14 @@ pub struct PhotonMapSettings {
     /// Analyse the scene and skip what it does not need (tests turn it off to show that the
     /// skips change nothing).
     pub scene_analysis: bool,
+    /// `progressive`: render in passes with fresh photons and fixed-radius estimates whose
+    /// radius shrinks each pass ([`progressive`]): consistent, no bias floor.
+    pub progressive: bool,
+    /// `alpha`: the fraction of photons kept per pass of the radius reduction (Knaus and
+    /// Zwicker's `alpha`, in (0, 1)).
+    pub alpha: f32,
+    /// `passes`: passes of a progressive render (unless `--time` or `--target-error` decide).
+    pub passes: u32,
 }
 
 impl Default for PhotonMapSettings {
@@ -108,6 +117,9 @@ impl Default for PhotonMapSettings {
             max_depth: 5,
             max_photon_depth: crate::integrators::UNBOUNDED_DEPTH,
             scene_analysis: true,
+            progressive: false,
+            alpha: progressive::DEFAULT_ALPHA,
+            passes: progressive::DEFAULT_PASSES,
         }
     }
 }
@@ -155,6 +167,9 @@ const KNOWN_PARAMS: &[&str] = &[
     "maxdepth",
     "maxspeculardepth",
     "maxphotondepth",
+    "progressive",
+    "alpha",
+    "passes",
 ];
 
 impl PhotonMapSettings {
@@ -186,6 +201,17 @@ impl PhotonMapSettings {
         s.max_depth = count(depth_name, s.max_depth, 0, crate::integrators::UNBOUNDED_DEPTH, &mut notes);
         s.max_photon_depth =
             count("maxphotondepth", s.max_photon_depth, 1, crate::integrators::UNBOUNDED_DEPTH, &mut notes);
+        s.passes = count("passes", s.passes, 1, progressive::MAX_PASSES, &mut notes);
+        if let Some(a) = params.float("alpha") {
+            if a.is_finite() && a > 0.0 && a < 1.0 {
+                s.alpha = a;
+            } else {
+                notes.push(format!(
+                    "photonmap \"alpha\" {a} must be in (0, 1): using {}",
+                    progressive::DEFAULT_ALPHA
+                ));
+            }
+        }
         if let Some(d) = params.float("maxdist") {
             if d.is_finite() && d > 0.0 {
                 s.max_dist = Some(d);
@@ -204,6 +230,7 @@ impl PhotonMapSettings {
             ("finalgather", &mut s.final_gather),
             ("radiancephotons", &mut s.radiance_photons),
             ("causticaim", &mut s.caustic_aim),
+            ("progressive", &mut s.progressive),
         ] {
             match bool_param(params, name) {
                 None => {}
@@ -334,6 +361,8 @@ pub struct PhotonStats {
     pub skipped: Vec<String>,
     /// Problems met while preparing (e.g. shooting stopped at the path limit).
     pub warnings: Vec<String>,
+    /// Progressive mode: the pass and its search radii (squared).
+    pub progressive: Option<(u32, progressive::Radii)>,
 }
 
 impl PhotonStats {
@@ -368,6 +397,21 @@ impl PhotonStats {
             "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4})",
             self.lookups, self.gather_rays, self.max_dist
         ));
+        if let Some((pass, r)) = &self.progressive {
+            let median = |f: &Option<std::sync::Arc<progressive::RadiusField>>| {
+                f.as_ref().map_or("none".to_string(), |f| {
+                    let (sites, r0) = f.summary();
+                    format!("{:.5} ({sites} sites)", r0 * r.scale.sqrt())
+                })
+            };
+            out.push(format!(
+                "progressive photon mapping: pass {}, radii {:.4} of the first; median radius {} (gather), {} (caustic)",
+                pass + 1,
+                r.scale.sqrt(),
+                median(&r.global),
+                median(&r.caustic)
+            ));
+        }
         out
     }
 }
@@ -395,12 +439,38 @@ pub struct PhotonMapper {
     cull_lights: bool,
     stats: PhotonStats,
     counters: SharedCounters,
+    /// Progressive mode: all stored photons in one map, read where gather rays land.
+    global: Option<KdTree<Photon>>,
+    /// Progressive mode: the fixed search radii of this pass.
+    fixed: Option<progressive::Radii>,
+    /// The render's seed and this map's pass (progressive mode prepares one mapper per pass).
+    seed: u64,
+    pass: u32,
+    /// The radii of the first pass, which later passes shrink.
+    first_radii: Option<progressive::Radii>,
 }
 
 impl PhotonMapper {
     /// Shoots the photons and builds the maps for `world`; `seed` seeds every photon path.
     /// What the analysis skipped is in [`PhotonMapper::stats`].
     pub fn prepare(world: &World, settings: PhotonMapSettings, seed: u64) -> PhotonMapper {
+        PhotonMapper::prepare_pass(world, settings, seed, 0, None)
+    }
+
+    /// The mapper of pass `pass` of a progressive render (fresh photons, shrunk radii); for a
+    /// plain photon map the same as [`PhotonMapper::prepare`].
+    pub fn next_pass(&self, world: &World) -> PhotonMapper {
+        PhotonMapper::prepare_pass(world, self.settings, self.seed, self.pass + 1, self.first_radii.clone())
+    }
+
+    fn prepare_pass(
+        world: &World,
+        settings: PhotonMapSettings,
+        render_seed: u64,
+        pass: u32,
+        first_radii: Option<progressive::Radii>,
+    ) -> PhotonMapper {
+        let seed = if settings.progressive { progressive::pass_seed(render_seed, pass) } else { render_seed };
         let mut stats = PhotonStats { final_gather: settings.final_gather, ..PhotonStats::default() };
         let analysis = settings.scene_analysis;
         let (_, radius) = world.bounding_sphere();
@@ -456,7 +526,8 @@ impl PhotonMapper {
             caustic: want_caustic.then_some(settings.caustic_photons as usize),
             indirect: want_indirect.then_some(settings.indirect_photons as usize),
             direct: settings.final_gather,
-            radiance_fraction: if settings.final_gather && settings.radiance_photons {
+            radiance_fraction: if settings.final_gather && settings.radiance_photons && !settings.progressive
+            {
                 RADIANCE_FRACTION
             } else {
                 0.0
@@ -511,6 +582,9 @@ impl PhotonMapper {
         }
 
         let build_start = Instant::now();
+        // Progressive gathering reads every stored photon with one fixed-radius estimate.
+        let global_photons = (settings.progressive && gather)
+            .then(|| [&shot.direct, &shot.indirect, &shot.caustic].into_iter().flatten().copied().collect());
         let tree = |photons: Vec<Photon>, paths: u64, stats: &mut Option<MapStats>| {
             if photons.is_empty() {
                 return None;
@@ -523,7 +597,22 @@ impl PhotonMapper {
         let caustic = tree(shot.caustic, shot.caustic_paths, &mut stats.caustic);
         let direct = tree(shot.direct, shot.indirect_paths, &mut stats.direct);
         let indirect = tree(shot.indirect, shot.indirect_paths, &mut stats.indirect);
+        let global = global_photons.and_then(|p: Vec<Photon>| (!p.is_empty()).then(|| KdTree::build(p)));
         stats.time_build = build_start.elapsed();
+        let (fixed, first_radii) = if settings.progressive {
+            let k = settings.n_used as usize;
+            let first = first_radii.unwrap_or_else(|| progressive::Radii {
+                global: progressive::RadiusField::new(global.as_ref().or(indirect.as_ref()), k, max_d2)
+                    .map(std::sync::Arc::new),
+                caustic: progressive::RadiusField::new(caustic.as_ref(), k, max_d2).map(std::sync::Arc::new),
+                scale: 1.0,
+            });
+            let radii = first.at_pass(pass, settings.alpha);
+            stats.progressive = Some((pass, radii.clone()));
+            (Some(radii), Some(first))
+        } else {
+            (None, None)
+        };
 
         let radiance_start = Instant::now();
         let radiance = if gather && settings.radiance_photons && !shot.sites.is_empty() {
@@ -571,6 +660,11 @@ impl PhotonMapper {
             cull_lights: analysis,
             stats,
             counters: SharedCounters::default(),
+            global,
+            fixed,
+            seed: render_seed,
+            pass,
+            first_radii,
         }
     }
 
@@ -638,6 +732,16 @@ impl Integrator for PhotonMapper {
 
     fn photon_stats(&self) -> Option<PhotonStats> {
         Some(PhotonMapper::stats(self))
+    }
+
+    fn default_passes(&self) -> Option<u32> {
+        self.settings.progressive.then_some(self.settings.passes)
+    }
+
+    fn next_pass(&self, world: &World) -> Option<Box<dyn Integrator>> {
+        self.settings
+            .progressive
+            .then(|| Box::new(PhotonMapper::next_pass(self, world)) as Box<dyn Integrator>)
     }
 }
 

@@ -2,6 +2,7 @@
 
 use super::estimate::{self, NORMAL_COSINE, Query};
 use super::kdtree::KnnHeap;
+use super::progressive::RANGE_CAPACITY;
 use super::{GatherSampling, PhotonMapper, unpack_unit};
 use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
 use crate::integrators::{
@@ -85,9 +86,10 @@ impl PhotonMapper {
         sampler: &mut Sampler,
         counters: &mut RayCounters,
     ) -> Radiance {
-        let n_used = self.settings.n_used as usize;
+        // Fixed-radius estimates (progressive mode) keep every photon in the radius.
+        let capacity = if self.fixed.is_some() { RANGE_CAPACITY } else { self.settings.n_used as usize };
         let mut scratch = Scratch {
-            heap: KnnHeap::new(n_used),
+            heap: KnnHeap::new(capacity),
             guide_heap: KnnHeap::new(GUIDE_PHOTONS),
             guide_dirs: Vec::new(),
             gather_rays: 0,
@@ -139,15 +141,19 @@ impl PhotonMapper {
         if !bsdf.is_black() {
             if bsdf.has_non_specular() {
                 l += self.direct(world, &si, &bsdf, sampler, counters, scratch);
-                let q = Query { p: si.p, n: facing_normal(&si), max_d2: self.max_d2 };
+                let n = facing_normal(&si);
                 if let Some(map) = &self.caustic {
                     scratch.lookups += 1;
+                    let max_d2 = self.fixed.as_ref().map_or(self.max_d2, |r| r.caustic_d2(si.p));
+                    let q = Query { p: si.p, n, max_d2 };
                     l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
                 }
                 if self.gather {
                     l += self.gather(world, &si, &bsdf, sampler, counters, scratch);
                 } else if let Some(map) = &self.indirect {
                     scratch.lookups += 1;
+                    let max_d2 = self.fixed.as_ref().map_or(self.max_d2, |r| r.global_d2(si.p));
+                    let q = Query { p: si.p, n, max_d2 };
                     l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
                 }
             }
@@ -375,6 +381,10 @@ impl PhotonMapper {
     fn exitant(&self, si: &SurfaceInteraction, bsdf: &Bsdf, scratch: &mut Scratch) -> Vec3 {
         let n = facing_normal(si);
         scratch.lookups += 1;
+        if let (Some(map), Some(r)) = (&self.global, &self.fixed) {
+            let q = Query { p: si.p, n, max_d2: r.global_d2(si.p) };
+            return estimate::radiance(map, &q, bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+        }
         if let Some(rp) = &self.radiance {
             return match rp.nearest(si.p, self.max_d2, |r| unpack_unit(r.n).dot(n) > NORMAL_COSINE) {
                 Some(r) => non_specular_albedo(bsdf) * FRAC_1_PI * r.irradiance,
