@@ -14,6 +14,7 @@ mod bench_error;
 mod colocation;
 mod cornell;
 mod depth;
+mod mitsuba;
 mod raytracer;
 mod rib;
 mod xvfb;
@@ -88,10 +89,16 @@ fn package_installed(name: &str) -> bool {
 /// Installs [`TEST_PACKAGES`] with apt when any is missing. Fails loudly rather than letting GPU
 /// tests silently skip: a test must never pass because no adapter was found.
 fn install_test_packages() -> Result<(), String> {
+    install_packages(TEST_PACKAGES, "a Vulkan driver (lavapipe) and Xvfb")
+}
+
+/// Installs the Debian `packages` that are missing with apt (as root, or through sudo);
+/// `what` names them for the error on a machine without dpkg.
+fn install_packages(packages: &[&str], what: &str) -> Result<(), String> {
     if !have_program("dpkg-query") {
-        return Err("this machine has no dpkg; install a Vulkan driver (lavapipe) and Xvfb by hand".into());
+        return Err(format!("this machine has no dpkg; install {what} by hand"));
     }
-    let missing: Vec<&str> = TEST_PACKAGES.iter().copied().filter(|p| !package_installed(p)).collect();
+    let missing: Vec<&str> = packages.iter().copied().filter(|p| !package_installed(p)).collect();
     if missing.is_empty() {
         return Ok(());
     }

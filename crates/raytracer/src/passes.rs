@@ -134,11 +134,11 @@ struct PixelSums {
 
 impl PixelSums {
     fn add(&mut self, v: [f32; 4]) {
-        for c in 0..4 {
-            self.sum[c] += f64::from(v[c]);
+        for (s, x) in self.sum.iter_mut().zip(v) {
+            *s += f64::from(x);
         }
-        for c in 0..3 {
-            self.sum_sq[c] += f64::from(v[c]) * f64::from(v[c]);
+        for (s, x) in self.sum_sq.iter_mut().zip(v) {
+            *s += f64::from(x) * f64::from(x);
         }
         self.passes += 1;
     }
@@ -205,16 +205,16 @@ pub(crate) fn render_passes(
             }
         }
         pass += 1;
-        if let Some(t) = target_mse {
-            if pass >= MIN_PASSES {
-                for (s, on) in sums.iter().zip(active.iter_mut()) {
-                    if *on && s.rel_mse().is_some_and(|e| e <= t) {
-                        *on = false;
-                    }
+        if let Some(t) = target_mse
+            && pass >= MIN_PASSES
+        {
+            for (s, on) in sums.iter().zip(active.iter_mut()) {
+                if *on && s.rel_mse().is_some_and(|e| e <= t) {
+                    *on = false;
                 }
-                if !active.contains(&true) {
-                    break StopReason::TargetError;
-                }
+            }
+            if !active.contains(&true) {
+                break StopReason::TargetError;
             }
         }
         if pass >= plan.max_passes {
