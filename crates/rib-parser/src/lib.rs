@@ -41,6 +41,7 @@
 //! ```
 
 pub mod basis;
+pub mod blobby;
 pub mod builder;
 pub mod diagnostics;
 mod lexer;

@@ -569,14 +569,15 @@ pub struct SubdivisionMesh {
     pub primvars: PrimVars,
 }
 
-/// `Points`: kept; consumers may skip them with a warning.
+/// `Points`: particles of diameter `width` (vertex) or `constantwidth` (constant), default 1.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Points {
     pub positions: Vec<Vec3>,
     pub primvars: PrimVars,
 }
 
-/// `Curves`: kept; consumers may skip them with a warning.
+/// `Curves`: linear or cubic (with `v_basis`) curves of width `width` (varying) or
+/// `constantwidth` (constant), default 1.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Curves {
     pub cubic: bool,
@@ -584,6 +585,21 @@ pub struct Curves {
     pub wrap: Wrap,
     pub v_basis: Basis,
     pub positions: Vec<Vec3>,
+    pub primvars: PrimVars,
+}
+
+/// `Blobby`: an implicit surface, the level set of a field built from primitive fields
+/// (opcodes 1000 constant, 1001 ellipsoid, 1002 segment, 1003 plane, 1004 plugin) combined by
+/// the operators of RISpec 3.2 Table 5.3 (0 add, 1 multiply, 2 maximum, 3 minimum, 4 subtract,
+/// 5 divide, 6 negate, 7 identity). The parser has checked the program: every opcode is known,
+/// every operand indexes `floats`, `strings` or an earlier instruction's result, and the number
+/// of primitive fields is `leaf_count`. The field is the last instruction's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Blobby {
+    pub leaf_count: u32,
+    pub code: Vec<i32>,
+    pub floats: Vec<f32>,
+    pub strings: Vec<String>,
     pub primvars: PrimVars,
 }
 
@@ -637,6 +653,7 @@ pub enum Shape {
     SubdivisionMesh(SubdivisionMesh),
     Points(Points),
     Curves(Curves),
+    Blobby(Blobby),
 }
 
 /// A shape placed in the world with the attribute state it was made under.

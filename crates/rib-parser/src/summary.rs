@@ -61,6 +61,7 @@ pub fn shape_kind(shape: &Shape) -> &'static str {
         Shape::SubdivisionMesh(_) => "SubdivisionMesh",
         Shape::Points(_) => "Points",
         Shape::Curves(_) => "Curves",
+        Shape::Blobby(_) => "Blobby",
     }
 }
 
@@ -221,6 +222,13 @@ fn shape_text(shape: &Shape) -> String {
         Shape::Points(p) => {
             format!("Points n={} primvars=[{}]", p.positions.len(), primvar_names(&p.primvars))
         }
+        Shape::Blobby(b) => format!(
+            "Blobby leaves={} code={} floats={} primvars=[{}]",
+            b.leaf_count,
+            b.code.len(),
+            b.floats.len(),
+            primvar_names(&b.primvars)
+        ),
         Shape::Curves(c) => format!(
             "Curves {} n={} vertices={} wrap={:?}",
             if c.cubic { "cubic" } else { "linear" },

@@ -242,7 +242,8 @@ pub trait RibTarget {
         params: ParamList,
         cx: &mut Cx<'_>,
     );
-    fn blobby(&mut self, leaf_count: i32, cx: &mut Cx<'_>) {
+    /// `Blobby`, its program checked ([`crate::blobby::decode_blobby`]).
+    fn blobby(&mut self, blobby: crate::scene::Blobby, cx: &mut Cx<'_>) {
         cx.warn(DiagnosticKind::Unsupported, "Blobby is not supported; skipped");
     }
     /// `Geometry "type"` (e.g. `"teapot"`).

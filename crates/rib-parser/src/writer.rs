@@ -549,6 +549,14 @@ impl Writer {
                 let pos: Vec<f32> = p.positions.iter().flat_map(|v| v.to_array()).collect();
                 format!("Points \"vertex point P\" {}{}", floats(&pos), param_list(&p.primvars))
             }
+            Shape::Blobby(b) => format!(
+                "Blobby {} {} {} {}{}",
+                b.leaf_count,
+                ints(&b.code),
+                floats(&b.floats),
+                strings(&b.strings),
+                param_list(&b.primvars)
+            ),
             Shape::Curves(c) => {
                 self.line(format!("Basis {} {}", basis(&c.v_basis), basis(&c.v_basis)));
                 let pos: Vec<f32> = c.positions.iter().flat_map(|v| v.to_array()).collect();

@@ -29,6 +29,7 @@ fn strip_shape(s: &Shape) -> Shape {
         Shape::SubdivisionMesh(m) => strip_params(&mut m.primvars),
         Shape::Points(m) => strip_params(&mut m.primvars),
         Shape::Curves(m) => strip_params(&mut m.primvars),
+        Shape::Blobby(m) => strip_params(&mut m.primvars),
         _ => {}
     }
     s

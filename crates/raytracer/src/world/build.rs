@@ -72,6 +72,7 @@ fn control_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
         Shape::NuPatch(m) => {
             Box::new(m.positions.iter().filter(|p| p.w != 0.0).map(|p| (p.truncate() / p.w).as_dvec3()))
         }
+        Shape::Blobby(_) => return rib_parser::tessellate::shape_bounds(shape),
         _ => return None,
     };
     let mut lo = DVec3::splat(f64::INFINITY);

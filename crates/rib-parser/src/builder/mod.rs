@@ -1182,6 +1182,10 @@ impl RibTarget for SceneBuilder {
         let shape = shapes::curves(cubic, vertices_per_curve, wrap, self.gs.attrs.v_basis, params);
         self.add_shape(shape, cx);
     }
+
+    fn blobby(&mut self, blobby: crate::scene::Blobby, cx: &mut Cx<'_>) {
+        self.add_shape(Shape::Blobby(blobby), cx);
+    }
 }
 
 /// Exporters write camera and object matrices whose projective row holds float noise

@@ -330,9 +330,30 @@ impl Reader {
                 t.curves(cubic, nverts, wrap, params, &mut self.cx(loc));
             }
             "Blobby" => {
-                let leaves = self.arg_i32(r, "the number of leaves")?;
-                self.skip_to_request();
-                t.blobby(leaves, &mut self.cx(loc));
+                let leaf_count = self.arg_count(r, "the number of leaves")?;
+                let code = self.arg_int_array(r, "the code array")?;
+                let floats = self.arg_float_array(r, "the float array")?;
+                let strings = self.arg_string_array(r, "the string array")?;
+                let params = self.geometry_params(r)?;
+                if let Some(i) = floats.iter().position(|v| !v.is_finite()) {
+                    return Err(self.bad(&loc, format!("Blobby: float {i} is not a finite number")));
+                }
+                crate::blobby::decode_blobby(leaf_count, &code, floats.len(), strings.len())
+                    .map_err(|m| self.bad(&loc, format!("Blobby: {m}")))?;
+                let n = leaf_count as usize;
+                let counts = ClassCounts {
+                    constant: 1,
+                    uniform: 1,
+                    varying: n,
+                    vertex: n,
+                    face_varying: n,
+                    face_vertex: n,
+                };
+                self.check_counts(r, &params, &counts)?;
+                t.blobby(
+                    crate::scene::Blobby { leaf_count, code, floats, strings, primvars: params },
+                    &mut self.cx(loc),
+                );
             }
             "Geometry" => {
                 let kind = self.arg_string(r, "the geometry type")?;

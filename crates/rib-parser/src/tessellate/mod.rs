@@ -52,6 +52,7 @@
 // Numeric kernels index several arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
+mod blobby;
 mod grid;
 mod mesh;
 mod nurbs;
@@ -63,6 +64,7 @@ mod quadric;
 mod subdiv;
 mod trim;
 
+pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
 pub use mesh::TriangleMesh;
 pub use placed::{
     MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,
@@ -229,6 +231,7 @@ pub fn shape_kind(shape: &Shape) -> &'static str {
         Shape::SubdivisionMesh(_) => "SubdivisionMesh",
         Shape::Points(_) => "Points",
         Shape::Curves(_) => "Curves",
+        Shape::Blobby(_) => "Blobby",
     }
 }
 
@@ -277,6 +280,7 @@ pub(crate) fn tessellate_scaled(
         Shape::Patches(patches) => patch::tessellate_patches(patches, tol, scale)?,
         Shape::NuPatch(nupatch) => nurbs::tessellate_nupatch(nupatch, tol, scale, options)?,
         Shape::SubdivisionMesh(subdiv) => subdiv::tessellate_subdivision(subdiv, tol, scale)?,
+        Shape::Blobby(blobby) => blobby::tessellate_blobby(blobby, tol, scale)?,
         quadric => quadric::tessellate_quadric(quadric, tol, scale)?,
     };
     mesh.check_finite(shape_kind(shape))?;

@@ -1,7 +1,7 @@
 //! Placing tessellations in the world: transforms in `f64`, RenderMan orientation, and the
 //! scene-level walk over shapes and object instances.
 
-use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, tessellate_scaled};
+use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, blobby, tessellate_scaled};
 use crate::scene::{Attributes, AttributesId, FileLoc, ObjectId, Scene, Shape, ShapeEntity};
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 
@@ -296,6 +296,7 @@ pub fn shape_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
         Shape::Patches(p) => from_points(&mut p.positions.iter().filter_map(homogeneous)),
         Shape::NuPatch(p) => from_points(&mut p.positions.iter().filter_map(homogeneous)),
         Shape::SubdivisionMesh(s) => from_points(&mut s.positions.iter().map(|p| p.as_dvec3())),
+        Shape::Blobby(b) => blobby::BlobbyField::new(b).ok().and_then(|f| f.bounds),
         Shape::Points(_) | Shape::Curves(_) => None,
     }
 }

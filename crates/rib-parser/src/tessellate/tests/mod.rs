@@ -1,5 +1,6 @@
 //! Tests of the tessellators against closed-form surfaces.
 
+mod blobby;
 mod nurbs;
 mod patch;
 mod placed;
