@@ -215,7 +215,8 @@ mod tests {
     }
 
     #[test]
-    fn points_are_reported_not_touched() {
+    fn points_are_touched_as_spheres_of_their_width() {
+        // RenderMan's default width is 1: a sphere of radius 1/2 around the point.
         let points = Shape::Points(rib_parser::scene::Points {
             positions: vec![glam::Vec3::ZERO],
             primvars: Default::default(),
@@ -224,8 +225,13 @@ mod tests {
             &scene_with(vec![(points, DVec3::ZERO, HapticMaterial::default())]),
             &tessellation_tolerance(None),
         );
-        assert_eq!(geometry.mesh.triangle_count(), 0);
-        assert_eq!(geometry.warnings.len(), 1);
-        assert!(geometry.warnings[0].starts_with("test.rib:1:1: warning:"), "{}", geometry.warnings[0]);
+        assert!(geometry.warnings.is_empty(), "{:?}", geometry.warnings);
+        assert!(geometry.mesh.triangle_count() > 100);
+        for t in 0..geometry.mesh.triangle_count() {
+            for p in geometry.mesh.triangle_local(t) {
+                let r = geometry.mesh.world_from_local(p).length();
+                assert!((r - 0.5).abs() < 1e-4, "{r}");
+            }
+        }
     }
 }

@@ -36,16 +36,16 @@ fn the_cornell_box_checks_with_a_one_line_summary() {
 
 #[test]
 fn standard_input_and_stats() {
-    let rib = "Option \"lrt\" \"depthfile\" [\"x.depth\"]\nWorldBegin\nSphere 1 -1 1 360\nPoints \"P\" [0 0 0]\nWorldEnd\n";
+    let rib = "Option \"lrt\" \"depthfile\" [\"x.depth\"]\nWorldBegin\nSphere 1 -1 1 360\nBlobby 1 [1003 0 0] [0 0 0 0] [\"flat.zfile\"]\nWorldEnd\n";
     let out = lrt_depth(&["--check", "--stats", "-"], Some(rib));
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(stdout.starts_with("-: ok: 5 requests, 2 shapes, 0 lights, "), "{stdout}");
     assert!(stdout.contains("1 warnings"), "{stdout}");
     assert!(stdout.contains("stats: depth table requested: x.depth (Option)"), "{stdout}");
-    // The Points shape is not a surface: a located warning, not an error.
+    // A Blobby plane needs a depth map that is never read: a located warning, not an error.
     let stderr = text(&out.stderr);
-    assert!(stderr.starts_with("-:4:1: warning: not tessellated: Points is not a surface"), "{stderr}");
+    assert!(stderr.starts_with("-:4:1: warning: not tessellated: invalid Blobby: plane"), "{stderr}");
     // --depth overrides the request.
     let out = lrt_depth(&["--check", "--stats", "--depth", "cli.depth", "-"], Some(rib));
     assert!(text(&out.stdout).contains("stats: depth table requested: cli.depth (CommandLine)"));

@@ -185,7 +185,11 @@ pub fn pixel_footprint(camera: &Camera) -> PixelFootprint {
     match camera.tan_half_fov() {
         // Screen units are tan(fov/2) per unit at the centre; an angle is at least that small.
         Some(t) => PixelFootprint::Perspective { radians_per_pixel: (per_pixel * t).atan() },
-        None => PixelFootprint::Orthographic { size: per_pixel },
+        None => {
+            let centre = glam::DVec2::new(f64::from(w), f64::from(h)) * 0.5;
+            let view_direction = camera.world_ray_through_raster(centre).direction;
+            PixelFootprint::Orthographic { size: per_pixel, view_direction }
+        }
     }
 }
 

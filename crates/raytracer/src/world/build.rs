@@ -10,7 +10,10 @@ use crate::materials::{Material, MaterialNote};
 use crate::sampling::Distribution1D;
 use crate::texture::Texture;
 use rib_parser::scene::{AttributesId, LightKind, Scene, Shape, ShapeEntity};
-use rib_parser::tessellate::{Tolerance, TriangleMesh, is_quadric, shape_kind, tessellate_placed};
+use rib_parser::tessellate::{
+    RibbonFacing, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths, shape_kind,
+    tessellate_placed,
+};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -27,6 +30,8 @@ struct BlasBuilder {
 enum Geometry {
     Mesh(TriangleMesh),
     Quadric(Quadric),
+    /// `Points`: exact spheres of their width, each with its object-from-sphere translation.
+    Spheres(Vec<(Quadric, DMat4)>),
 }
 
 /// How large a pixel is at a distance from the eye: the tessellation of curved surfaces aims
@@ -35,8 +40,9 @@ enum Geometry {
 pub enum PixelFootprint {
     /// A perspective camera: one pixel spans this angle (radians, the smaller of x and y).
     Perspective { radians_per_pixel: f64 },
-    /// An orthographic camera: one pixel spans this size in world units.
-    Orthographic { size: f64 },
+    /// An orthographic camera: one pixel spans this size in world units; every ray goes along
+    /// `view_direction` (world space; ribbons face against it).
+    Orthographic { size: f64, view_direction: DVec3 },
     /// No camera: tessellate relative to each shape's size only.
     Unknown,
 }
@@ -45,7 +51,7 @@ impl PixelFootprint {
     fn at(&self, distance: f64) -> Option<f64> {
         let s = match *self {
             PixelFootprint::Perspective { radians_per_pixel } => radians_per_pixel * distance,
-            PixelFootprint::Orthographic { size } => size,
+            PixelFootprint::Orthographic { size, .. } => size,
             PixelFootprint::Unknown => return None,
         };
         (s.is_finite() && s > 0.0).then_some(s)
@@ -73,6 +79,7 @@ fn control_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
             Box::new(m.positions.iter().filter(|p| p.w != 0.0).map(|p| (p.truncate() / p.w).as_dvec3()))
         }
         Shape::Blobby(_) => return rib_parser::tessellate::shape_bounds(shape),
+        Shape::Curves(c) => Box::new(c.positions.iter().map(|p| p.as_dvec3())),
         _ => return None,
     };
     let mut lo = DVec3::splat(f64::INFINITY);
@@ -115,12 +122,46 @@ fn place_geometry(
     if is_quadric(shape) {
         return Quadric::new(shape).map(Geometry::Quadric).map_err(|e| e.0.to_string());
     }
+    if let Shape::Points(points) = shape {
+        return points_as_spheres(points);
+    }
     let tolerance = tolerance_for(shape, blas_from_object, footprint);
-    let mesh = tessellate_placed(shape, blas_from_object, false, &tolerance).map_err(|e| e.to_string())?;
+    let mesh = match shape {
+        // Seen from the eye (the render-space origin), curves are ribbons facing it; in an
+        // object definition, where no eye is known, round tubes.
+        Shape::Curves(curves) if footprint.is_some() => {
+            let facing = match footprint {
+                Some(PixelFootprint::Orthographic { view_direction, .. }) => {
+                    RibbonFacing::Direction(-*view_direction)
+                }
+                _ => RibbonFacing::Eye(DVec3::ZERO),
+            };
+            curve_ribbons(curves, blas_from_object, facing, &tolerance).map_err(|e| e.to_string())?
+        }
+        _ => tessellate_placed(shape, blas_from_object, false, &tolerance).map_err(|e| e.to_string())?,
+    };
     if mesh.is_empty() {
         return Err("it has no area".into());
     }
     Ok(Geometry::Mesh(mesh))
+}
+
+/// `Points` as exact spheres of diameter `width` (RenderMan's default 1) around each point.
+fn points_as_spheres(points: &rib_parser::scene::Points) -> Result<Geometry, String> {
+    let mut spheres = Vec::with_capacity(points.positions.len());
+    for (p, width) in points.positions.iter().zip(point_widths(points)) {
+        let radius = (0.5 * width.abs()) as f32;
+        if !(radius > 0.0 && radius.is_finite() && p.is_finite()) {
+            continue;
+        }
+        let sphere = Shape::Sphere { radius, z_min: -radius, z_max: radius, theta_max_degrees: 360.0 };
+        let q = Quadric::new(&sphere).map_err(|e| e.0.to_string())?;
+        spheres.push((q, DMat4::from_translation(p.as_dvec3())));
+    }
+    if spheres.is_empty() {
+        return Err("no point has a positive width".into());
+    }
+    Ok(Geometry::Spheres(spheres))
 }
 
 /// Emission parameters of an area light: radiance and two-sidedness.
@@ -184,6 +225,27 @@ impl BlasBuilder {
                     one_sided: attrs.sides == 1,
                     reverse: attrs.reverse_orientation,
                     mesh: Some(self.meshes.len() as u32 - 1),
+                });
+            }
+            Geometry::Spheres(spheres) => {
+                for (q, object_from_sphere) in spheres {
+                    let blas_from_sphere = *blas_from_object * *object_from_sphere;
+                    let sphere_from_blas = blas_from_sphere.inverse();
+                    if !sphere_from_blas.is_finite() {
+                        return None;
+                    }
+                    self.quadrics.push(QuadricPrim {
+                        quadric: *q,
+                        object_from_blas: sphere_from_blas,
+                        blas_from_object: blas_from_sphere,
+                        shape: shape_index,
+                    });
+                }
+                self.shapes.push(BlasShape {
+                    attributes,
+                    one_sided: attrs.sides == 1,
+                    reverse: attrs.reverse_orientation,
+                    mesh: None,
                 });
             }
             Geometry::Quadric(q) => {
@@ -685,6 +747,8 @@ fn emitter_shape(
             let area: f32 = areas.iter().sum();
             Some(EmitterShape::Triangles { triangles, normals, by_area: Distribution1D::new(&areas), area })
         }
+        // Points do not emit: an area light on them is left out.
+        Geometry::Spheres(_) => None,
         Geometry::Quadric(q) => {
             let object_from_render = render_from_object.inverse();
             let det = glam::DMat3::from_mat4(*render_from_object).determinant();

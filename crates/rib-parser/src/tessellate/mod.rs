@@ -53,6 +53,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod blobby;
+mod curves;
 mod grid;
 mod mesh;
 mod nurbs;
@@ -65,6 +66,7 @@ mod subdiv;
 mod trim;
 
 pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
+pub use curves::{CurvePolyline, RibbonFacing, curve_polylines, curve_ribbons, point_widths};
 pub use mesh::TriangleMesh;
 pub use placed::{
     MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,
@@ -179,7 +181,8 @@ impl Tolerance {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TessellateError {
-    /// `Points` and `Curves` are not surfaces: consumers warn and skip them.
+    /// A shape that is not a surface and has no triangles (no tessellator returns it today;
+    /// `Points` and `Curves` become spheres and tubes).
     #[error("{kind} is not a surface and has no triangles")]
     NotASurface { kind: &'static str },
     /// The shape's data is inconsistent (counts, indices, knots).
@@ -250,7 +253,8 @@ pub fn is_quadric(shape: &Shape) -> bool {
     )
 }
 
-/// True for shapes that have triangles (everything but `Points` and `Curves`).
+/// True for shapes that are surfaces in the RenderMan sense (everything but `Points` and
+/// `Curves`, which [`tessellate`] still turns into spheres and tubes of their width).
 pub fn is_surface(shape: &Shape) -> bool {
     !matches!(shape, Shape::Points(_) | Shape::Curves(_))
 }
@@ -258,8 +262,10 @@ pub fn is_surface(shape: &Shape) -> bool {
 /// Tessellates one shape in its object space. See the [module docs](self) for the tolerance
 /// and winding conventions.
 ///
-/// Returns [`TessellateError::NotASurface`] for `Points` and `Curves`, and an empty mesh for
-/// shapes that are degenerate but valid (zero radius, zero sweep, a polygon with no area).
+/// `Points` become spheres and `Curves` round tubes (closed by flat caps) of their width, so
+/// the haptics can touch them; the ray tracer renders curves as ribbons facing the eye
+/// ([`curve_ribbons`]) and points as exact spheres. Returns an empty mesh for shapes that are
+/// degenerate but valid (zero radius, zero sweep, a polygon with no area).
 pub fn tessellate(shape: &Shape, tol: &Tolerance) -> Result<TriangleMesh, TessellateError> {
     tessellate_scaled(shape, tol, 1.0, ShapeOptions::default())
 }
@@ -274,8 +280,8 @@ pub(crate) fn tessellate_scaled(
 ) -> Result<TriangleMesh, TessellateError> {
     tol.validate()?;
     let mesh = match shape {
-        Shape::Points(_) => return Err(TessellateError::NotASurface { kind: "Points" }),
-        Shape::Curves(_) => return Err(TessellateError::NotASurface { kind: "Curves" }),
+        Shape::Points(points) => curves::tessellate_points(points, tol, scale)?,
+        Shape::Curves(c) => curves::tessellate_curves(c, tol, scale)?,
         Shape::Polygons(polygons) => polygon::tessellate_polygons(polygons, tol)?,
         Shape::Patches(patches) => patch::tessellate_patches(patches, tol, scale)?,
         Shape::NuPatch(nupatch) => nurbs::tessellate_nupatch(nupatch, tol, scale, options)?,

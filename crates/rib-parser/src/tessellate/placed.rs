@@ -256,8 +256,10 @@ fn trim_keeps_outside(a: &Attributes) -> bool {
 
 /// Object-space bounds of a surface shape: of its control points for polygons, patches, NURBS
 /// and subdivision meshes (the surface lies within them for B-spline and Bezier bases, near
-/// them for others), of the full revolution for quadrics. `None` for `Points`, `Curves`, empty
-/// or non-finite shapes.
+/// them for others), of the full revolution for quadrics, of the primitives' supports for
+/// `Blobby`, of the positions grown by half the widest width for `Points` and `Curves` (the
+/// control points of a cubic curve hold it for B-spline and Bezier bases). `None` for empty or
+/// non-finite shapes.
 pub fn shape_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
     let from_points = |points: &mut dyn Iterator<Item = DVec3>| {
         let mut lo = DVec3::splat(f64::INFINITY);
@@ -297,7 +299,26 @@ pub fn shape_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
         Shape::NuPatch(p) => from_points(&mut p.positions.iter().filter_map(homogeneous)),
         Shape::SubdivisionMesh(s) => from_points(&mut s.positions.iter().map(|p| p.as_dvec3())),
         Shape::Blobby(b) => blobby::BlobbyField::new(b).ok().and_then(|f| f.bounds),
-        Shape::Points(_) | Shape::Curves(_) => None,
+        Shape::Points(p) => {
+            let half =
+                p.positions.iter().zip(super::point_widths(p)).map(|(&q, w)| (q.as_dvec3(), 0.5 * w.abs()));
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            for (q, r) in half {
+                lo = lo.min(q - DVec3::splat(r));
+                hi = hi.max(q + DVec3::splat(r));
+            }
+            (lo.x <= hi.x && lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+        }
+        Shape::Curves(c) => {
+            let w = c.primvars.float("constantwidth").map(f64::from).unwrap_or_else(|| {
+                c.primvars
+                    .floats("width")
+                    .map_or(1.0, |v| v.iter().fold(0.0f64, |m, &x| m.max(f64::from(x).abs())))
+            });
+            from_points(&mut c.positions.iter().map(|p| p.as_dvec3()))
+                .map(|(lo, hi)| (lo - DVec3::splat(0.5 * w), hi + DVec3::splat(0.5 * w)))
+        }
     }
 }
 

@@ -1,6 +1,7 @@
 //! Tests of the tessellators against closed-form surfaces.
 
 mod blobby;
+mod curves;
 mod nurbs;
 mod patch;
 mod placed;

@@ -170,8 +170,15 @@ fn test_scene() -> Scene {
         attributes: vec![Attributes::default(), reversed, trim_outside],
         shapes: vec![
             entity(unit_sphere(), DMat4::from_translation(DVec3::X * 5.0), 0),
+            // A Blobby plane needs a depth map: skipped with the reason.
             entity(
-                Shape::Points(Points { positions: vec![Vec3::ZERO], primvars: ParamList::default() }),
+                Shape::Blobby(crate::scene::Blobby {
+                    leaf_count: 1,
+                    code: vec![1003, 0, 0],
+                    floats: vec![0.0; 4],
+                    strings: vec!["flat.zfile".into()],
+                    primvars: ParamList::default(),
+                }),
                 DMat4::IDENTITY,
                 0,
             ),
@@ -216,7 +223,7 @@ fn the_scene_walk_places_shapes_and_instances() {
     let out = tessellate_scene(&scene, &Tolerance::absolute(1e-2));
     assert_eq!(out.meshes.len(), 4);
     assert_eq!(out.skipped.len(), 1);
-    assert!(out.skipped[0].error.is_not_a_surface());
+    assert!(matches!(out.skipped[0].error, TessellateError::InvalidShape { kind: "Blobby", .. }));
     assert_eq!(out.skipped[0].origin, MeshOrigin::Shape { index: 1 });
     assert_eq!(out.skipped[0].loc.line, 10);
 

@@ -1,0 +1,87 @@
+//! Blobby, Points and Curves in the ray tracer against closed forms, through the depth table
+//! of an orthographic camera (one ray per pixel centre, parallel): covered area, and depth.
+
+use depth_remap::Camera;
+use raytracer::render::{RenderOptions, render};
+
+/// 200 x 200 pixels over [-2, 2]^2: a pixel is 0.02 units wide; the eye is 10 units away.
+const CAMERA: &str = r#"
+Format 200 200 1
+Projection "orthographic"
+ScreenWindow -2 2 -2 2
+Translate 0 0 10
+"#;
+
+const PIXEL: f64 = 0.02;
+
+/// The depth table of the world block, and the number of pixels that hit something.
+fn depths(world: &str) -> (Vec<f32>, usize) {
+    let rib = format!("{CAMERA}WorldBegin\n{world}\nWorldEnd\n");
+    let scene = rib_parser::load_bytes("geometry.rib", rib.into_bytes(), &Default::default()).unwrap().scene;
+    let out =
+        render(&scene, &RenderOptions { spp: Some(1), depth: true, threads: Some(2), ..Default::default() })
+            .unwrap();
+    let depth = out.depth.unwrap();
+    let camera = Camera::new(scene.camera.clone()).unwrap();
+    assert_eq!(camera.resolution(), (200, 200));
+    let hits = depth.values.iter().filter(|v| v.is_finite()).count();
+    (depth.values, hits)
+}
+
+fn assert_area(hits: usize, area: f64, what: &str) {
+    let measured = hits as f64 * PIXEL * PIXEL;
+    eprintln!("{what}: area {measured} by pixel count, {area} exact");
+    assert!((measured - area).abs() <= 0.01 * area, "{what}: area {measured} by pixel count, {area} exact");
+}
+
+#[test]
+fn a_single_ellipsoid_blobby_is_the_sphere_of_half_its_scale() {
+    // Matrix scale 1.6: the level set 0.421875 of (1 - r^2)^3 is r = 1/2, a sphere of radius 0.8.
+    let (depth, hits) = depths("Blobby 1 [1001 0 0 1 0] [1.6 0 0 0 0 1.6 0 0 0 0 1.6 0 0 0 0 1] [\"\"]");
+    assert_area(hits, std::f64::consts::PI * 0.64, "Blobby");
+    // The centre pixel's ray (through (0.01, -0.01)) meets the sphere at depth 10 - sqrt(r^2 - rho^2),
+    // within the tessellation tolerance (half a pixel at most, 1e-2 of its size).
+    let centre = f64::from(depth[100 * 200 + 100]);
+    let exact = 10.0 - (0.64f64 - 2.0 * 0.01 * 0.01).sqrt();
+    assert!((centre - exact).abs() < 0.8 * 2.0 * 1e-2, "depth {centre}, exact {exact}");
+}
+
+#[test]
+fn points_are_spheres_that_cover_their_width() {
+    let (depth, hits) =
+        depths("Points \"P\" [-1 0 0  1 0 0  0 1.2 0] \"constant float constantwidth\" [0.8]");
+    assert_area(hits, 3.0 * std::f64::consts::PI * 0.16, "Points");
+    // Exact spheres: the depth at a pixel centre is the sphere's own.
+    let (x, y) = (-1.0 + 0.01f64, 0.01f64);
+    let (i, j) = (((x + 2.0) / PIXEL) as usize, ((2.0 - y) / PIXEL) as usize);
+    let exact = 10.0 - (0.16 - (x + 1.0).powi(2) - y * y).sqrt();
+    assert!((f64::from(depth[j * 200 + i]) - exact).abs() < 1e-5, "{} vs {exact}", depth[j * 200 + i]);
+}
+
+#[test]
+fn curves_are_ribbons_of_their_projected_width() {
+    // A straight linear curve and a cubic Bezier arch, both 0.1 wide (5 pixels), facing the
+    // orthographic camera: the covered area is length times width.
+    let (_, hits) = depths(
+        "Curves \"linear\" [2] \"nonperiodic\" \"P\" [-1.5 -1.2 0  1.4 1.1 0] \"constant float constantwidth\" [0.1]",
+    );
+    // Diagonal, so that pixel rows do not line up with its edges.
+    assert_area(hits, (2.9f64.hypot(2.3)) * 0.1, "linear curve");
+    let (_, hits) = depths(
+        "Basis \"bezier\" 3 \"bezier\" 3\nCurves \"cubic\" [4] \"nonperiodic\" \"P\" [-1 0 0  -1 1.5 0  1 1.5 0  1 0 0] \"varying float width\" [0.1 0.1]",
+    );
+    // Length of the arch by fine sampling of the Bezier curve.
+    let b = |t: f64| {
+        let s = 1.0 - t;
+        let x = -s * s * s - 3.0 * s * s * t + 3.0 * s * t * t + t * t * t;
+        let y = 3.0 * 1.5 * (s * s * t + s * t * t);
+        (x, y)
+    };
+    let length: f64 = (0..10_000)
+        .map(|k| {
+            let (a, c) = (b(k as f64 / 1e4), b((k + 1) as f64 / 1e4));
+            ((c.0 - a.0).powi(2) + (c.1 - a.1).powi(2)).sqrt()
+        })
+        .sum();
+    assert_area(hits, length * 0.1, "cubic curve");
+}
