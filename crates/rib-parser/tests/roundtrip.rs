@@ -243,6 +243,7 @@ WorldBegin
     Points "P" [0 0 0 1 1 1] "width" [0.1 0.2]
     Basis "bezier" 3 "bezier" 3
     Curves "cubic" [4] "nonperiodic" "P" [0 0 0 1 1 0 2 1 0 3 0 0] "constantwidth" [0.05]
+    Blobby 2 [1001 0 1002 16 0 2 0 1 4 0 2] [1 0 0 0 0 1 0 0 0 0 1 0 0.5 0 0 1 0 0 0 1 0 0 0.25 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1] [""] "varying color Cs" [1 0 0 0 1 0]
   AttributeEnd
   ObjectBegin "cube"
     Color [1 0 0]
@@ -261,7 +262,7 @@ FrameEnd
 fn a_scene_with_every_feature_round_trips() {
     let loaded = load_bytes("everything.rib", EVERYTHING.as_bytes().to_vec(), &LoadOptions::default())
         .unwrap_or_else(|e| panic!("{}", e.render()));
-    assert_eq!(loaded.scene.shapes.len(), 19);
+    assert_eq!(loaded.scene.shapes.len(), 20);
     assert_eq!(loaded.scene.instances.len(), 1);
     round_trip(&loaded.scene);
 }
