@@ -193,6 +193,8 @@ pub(crate) fn render_passes(
     let mut pixel_passes = 0u64;
     let target_mse = plan.target_error.map(|e| f64::from(e) * f64::from(e));
     let mut pass = 0u32;
+    // Preparing the integrator of the pass just rendered (its photons), part of its cost.
+    let mut last_prepare = Duration::ZERO;
     let stopped = loop {
         let pass_start = Instant::now();
         let mask = (target_mse.is_some() && pass >= MIN_PASSES).then_some(active.as_slice());
@@ -223,7 +225,7 @@ pub(crate) fn render_passes(
         if let Some(budget) = plan.time_budget {
             // The next pass is assumed to take as long as this one (its photons included).
             let elapsed = start.elapsed();
-            if elapsed + pass_start.elapsed() > budget {
+            if elapsed + pass_start.elapsed() + last_prepare > budget {
                 break StopReason::TimeBudget;
             }
         }
@@ -231,7 +233,8 @@ pub(crate) fn render_passes(
         if let Some(next) = integrator.next_pass(frame.world) {
             integrator = next;
         }
-        time_prepare += prepare_start.elapsed();
+        last_prepare = prepare_start.elapsed();
+        time_prepare += last_prepare;
     };
     let pixels: Vec<[f32; 4]> = sums.iter().map(PixelSums::mean).collect();
     let estimates: Vec<f64> = sums.iter().filter_map(PixelSums::rel_mse).collect();
