@@ -65,6 +65,7 @@ fn render_with_library(rib: &str, size: u32) -> Render {
         seed: 7,
         integrator: Some(IntegratorKind::DirectLighting { max_depth: 1 }),
         depth: true,
+        layers: false,
         progress: None,
         ..Default::default()
     };

@@ -144,6 +144,8 @@ pub fn run(settings: &Settings) -> ExitCode {
         seed: 0,
         integrator: None,
         depth: scene.depth_request.is_some(),
+        // The sidecar's light layers go with every depth table (docs/sidecar.md).
+        layers: scene.depth_request.is_some(),
         progress: bar.as_ref().map(|(_, f)| f.clone()),
         time_budget: settings.time_budget,
         target_error: settings.target_error,
@@ -208,6 +210,39 @@ fn write_outputs(
         }
         if !settings.quiet {
             println!("wrote {} ({}x{} depth table)", request.path.display(), depth.width, depth.height);
+        }
+        let layers_path = sidecar::SidecarPaths::for_depth(&request.path).layers;
+        match &out.layers {
+            Some(layers) => {
+                // The fingerprint of exactly the values written, as the viewer will read them.
+                let layers = sidecar::LightLayers {
+                    depth_fingerprint: sidecar::depth_fingerprint(table.values()),
+                    ..layers.clone()
+                };
+                if let Err(e) = sidecar::write_layers(&layers, &layers_path) {
+                    return fail(e);
+                }
+                if !settings.quiet {
+                    println!(
+                        "wrote {} ({} light layers for {} lights)",
+                        layers_path.display(),
+                        layers.light.len(),
+                        layers.lights.len()
+                    );
+                }
+            }
+            None => {
+                if !settings.quiet {
+                    warn(
+                        None,
+                        format!(
+                            "{}: not written: light layers cover full frames rendered in one pass (no --crop, --time, --target-error or progressive passes)",
+                            layers_path.display()
+                        ),
+                        sources,
+                    );
+                }
+            }
         }
     }
     ExitCode::SUCCESS

@@ -238,6 +238,7 @@ pub fn direct_from_light(
             }
         }
     }
+    crate::light_layers::direct(light_index, total);
     total
 }
 
@@ -381,6 +382,9 @@ fn whitted(
         l += world.lights[e as usize].emitted(si.ng, si.wo);
     }
     let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+    if depth == 0 {
+        crate::light_layers::primary_vertex(world, &si, material, &bsdf, weight);
+    }
     if !bsdf.is_black() {
         if bsdf.has_non_specular() {
             let set = world.light_set(si.attributes);
@@ -397,6 +401,7 @@ fn whitted(
                     DirectStrategy::Both,
                 );
             }
+            crate::light_layers::end_primary();
         }
         if depth < max_depth {
             for (wi, w, _) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
@@ -465,7 +470,11 @@ fn path(
                         let pick = set.pmf(e);
                         if pick > 0.0 {
                             let light_pdf = pick * light.pdf_li(p_prev, -si.wo, si.p64, si.ng);
-                            l += beta * le * power_heuristic(pdf_bsdf, light_pdf);
+                            let c = beta * le * power_heuristic(pdf_bsdf, light_pdf);
+                            l += c;
+                            if depth == 1 {
+                                crate::light_layers::direct_via_bsdf(e, c);
+                            }
                         }
                     }
                 }
@@ -473,11 +482,15 @@ fn path(
         }
         l += beta * surface_terms(world, &si, material);
         let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        if depth == 0 {
+            crate::light_layers::primary_vertex(world, &si, material, &bsdf, beta);
+        }
         if bsdf.is_black() || depth >= max_depth {
             break;
         }
         if bsdf.has_non_specular() {
             l += beta * sample_one_light(world, &si, &bsdf, LobeFlags::ALL, sampler, counters);
+            crate::light_layers::end_primary();
         }
         let Some(bs) = bsdf.sample(
             si.wo,

@@ -52,6 +52,8 @@ pub mod bsdf;
 pub mod diagnostics;
 pub mod film;
 pub mod integrators;
+mod layered_render;
+pub mod light_layers;
 pub mod lights;
 pub mod materials;
 pub mod math;

@@ -9,6 +9,7 @@
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{Integrator, IntegratorKind, PrepareContext, RayCounters};
+use crate::layered_render::{LayerPlan, assemble, render_layered};
 use crate::sampler::Sampler;
 use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
@@ -36,6 +37,9 @@ pub struct RenderOptions {
     pub integrator: Option<IntegratorKind>,
     /// Compute the depth table (the caller decides from the scene's request or `--depth`).
     pub depth: bool,
+    /// Render the sidecar's light layers too (docs/sidecar.md): full frames rendered in one
+    /// pass only.
+    pub layers: bool,
     pub progress: Option<ProgressFn>,
     /// Render passes until this much time has gone by since the render started (at least one
     /// pass; [`crate::passes`]).
@@ -53,6 +57,7 @@ impl std::fmt::Debug for RenderOptions {
             .field("seed", &self.seed)
             .field("integrator", &self.integrator)
             .field("depth", &self.depth)
+            .field("layers", &self.layers)
             .field("time_budget", &self.time_budget)
             .field("target_error", &self.target_error)
             .finish()
@@ -98,6 +103,8 @@ impl RenderStats {
 pub struct RenderOutput {
     pub image: Image,
     pub depth: Option<DepthImage>,
+    /// The light layers, when asked for and the render is a full frame in one pass.
+    pub layers: Option<sidecar::LightLayers>,
     pub stats: RenderStats,
     pub warnings: Vec<Warning>,
 }
@@ -120,7 +127,7 @@ pub enum RenderError {
 pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// Pixels per tile side.
-const TILE: u32 = 32;
+pub(crate) const TILE: u32 = 32;
 
 /// Camera rays in render space, clipped to `Clipping`: depth_remap's world rays (unit length
 /// in world units, so `t` is a distance in scene units) moved to render space.
@@ -279,6 +286,8 @@ fn render_in_pool(
         progress: options.progress.clone(),
     };
     let total = u64::from(w) * u64::from(h);
+    let full_frame = (x0, y0, w, h) == (0, 0, full_w, full_h);
+    let mut layer_pixels = None;
     let (pixels_out, counters, pass_stats) =
         match crate::passes::PassPlan::new(integrator.as_ref(), options, spp) {
             Some(plan) => {
@@ -286,6 +295,12 @@ fn render_in_pool(
                 integrator = r.last;
                 time_prepare += r.time_prepare;
                 (r.pixels, r.counters, Some(r.stats))
+            }
+            None if options.layers && full_frame => {
+                let plan = LayerPlan::new(&world, scene);
+                let (pixels, layered, counters) = render_layered(&frame, integrator.as_ref(), &plan);
+                layer_pixels = Some((plan, layered));
+                (pixels, counters, None)
             }
             None => {
                 let (pixels, counters) = frame.render(integrator.as_ref(), 0, None);
@@ -344,7 +359,8 @@ fn render_in_pool(
         full_height: full_h,
         pixels: pixels_out,
     };
-    Ok(RenderOutput { image, depth, stats, warnings: diagnostics.warnings })
+    let layers = layer_pixels.map(|(plan, layered)| assemble(scene, &plan, &image, &layered, depth.as_ref()));
+    Ok(RenderOutput { image, depth, layers, stats, warnings: diagnostics.warnings })
 }
 
 /// What every pass of a render shares: the world, the camera rays, the filter and the pixels.

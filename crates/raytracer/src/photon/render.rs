@@ -138,9 +138,13 @@ impl PhotonMapper {
             l += world.lights[e as usize].emitted(si.ng, si.wo);
         }
         let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        if depth == 0 {
+            crate::light_layers::primary_vertex(world, &si, material, &bsdf, weight);
+        }
         if !bsdf.is_black() {
             if bsdf.has_non_specular() {
                 l += self.direct(world, &si, &bsdf, sampler, counters, scratch);
+                crate::light_layers::end_primary();
                 let n = facing_normal(&si);
                 if let Some(map) = &self.caustic {
                     scratch.lookups += 1;

@@ -429,6 +429,7 @@ impl World {
         };
 
         let mut lights: Vec<Light> = Vec::new();
+        let mut light_sources: Vec<u32> = Vec::new();
         // Scene light id -> our light index, for non-area lights.
         let mut light_index: HashMap<u32, u32> = HashMap::new();
         for (i, l) in scene.lights.iter().enumerate() {
@@ -485,6 +486,7 @@ impl World {
                 if valid {
                     light_index.insert(i as u32, lights.len() as u32);
                     lights.push(light);
+                    light_sources.push(i as u32);
                 } else {
                     diagnostics
                         .warn_once(Some(&l.shader.loc), "light with non-finite values skipped".to_string());
@@ -613,6 +615,7 @@ impl World {
             }
             emitter_light[k] = lights.len() as u32;
             lights.push(Light::Area { shape, radiance, two_sided });
+            light_sources.push(scene_light);
             area_lights += 1;
         }
         for inst in &mut instances {
@@ -697,6 +700,7 @@ impl World {
             tlas,
             materials,
             lights,
+            light_sources,
             light_sets,
             attributes_light_set,
             bounds,

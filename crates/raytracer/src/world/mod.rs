@@ -190,6 +190,8 @@ pub struct World {
     tlas: Option<Bvh>,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
+    /// For each of `lights`, the index of the scene light it comes from (`Scene::lights`).
+    pub light_sources: Vec<u32>,
     pub light_sets: Vec<LightSet>,
     attributes_light_set: Vec<u32>,
     /// Render-space bounds of all geometry.
