@@ -230,6 +230,18 @@ fn write_outputs(
                         layers.lights.len()
                     );
                 }
+                if let Some(probes) = &out.probes {
+                    let probes_path = sidecar::SidecarPaths::for_depth(&request.path).probes;
+                    let probes =
+                        sidecar::ProbeGrid { depth_fingerprint: layers.depth_fingerprint, ..probes.clone() };
+                    if let Err(e) = sidecar::write_probes(&probes, &probes_path) {
+                        return fail(e);
+                    }
+                    if !settings.quiet {
+                        let [x, y, z] = probes.counts;
+                        println!("wrote {} ({x}x{y}x{z} irradiance probes)", probes_path.display());
+                    }
+                }
             }
             None => {
                 if !settings.quiet {
@@ -277,12 +289,13 @@ fn print_stats(s: &RenderStats, parse: Duration, write: Duration, scene: &Scene)
         println!("stats: {}: {line}", s.integrator);
     }
     println!(
-        "stats: time: parse {}, build {}, prepare {}, render {}, depth {}, write {}",
+        "stats: time: parse {}, build {}, prepare {}, render {}, depth {}, probes {}, write {}",
         seconds(parse),
         seconds(s.time_build),
         seconds(s.time_prepare),
         seconds(s.time_render),
         seconds(s.time_depth),
+        seconds(s.time_probes),
         seconds(write)
     );
     println!(

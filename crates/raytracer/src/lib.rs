@@ -60,6 +60,7 @@ pub mod math;
 pub mod output;
 pub mod passes;
 pub mod photon;
+pub mod probe_bake;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

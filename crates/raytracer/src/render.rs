@@ -82,6 +82,8 @@ pub struct RenderStats {
     pub time_prepare: Duration,
     pub time_render: Duration,
     pub time_depth: Duration,
+    /// Baking the sidecar's probes (zero without layers).
+    pub time_probes: Duration,
     /// What was skipped and why, with counts.
     pub skipped: Vec<(String, usize)>,
     /// The photon mapper's maps, timings and counts (`photonmap` only).
@@ -105,6 +107,8 @@ pub struct RenderOutput {
     pub depth: Option<DepthImage>,
     /// The light layers, when asked for and the render is a full frame in one pass.
     pub layers: Option<sidecar::LightLayers>,
+    /// The irradiance probes, baked with the layers.
+    pub probes: Option<sidecar::ProbeGrid>,
     pub stats: RenderStats,
     pub warnings: Vec<Warning>,
 }
@@ -288,7 +292,7 @@ fn render_in_pool(
     let total = u64::from(w) * u64::from(h);
     let full_frame = (x0, y0, w, h) == (0, 0, full_w, full_h);
     let mut layer_pixels = None;
-    let (pixels_out, counters, pass_stats) =
+    let (pixels_out, mut counters, pass_stats) =
         match crate::passes::PassPlan::new(integrator.as_ref(), options, spp) {
             Some(plan) => {
                 let r = crate::passes::render_passes(&frame, integrator, &plan, build_start);
@@ -308,6 +312,22 @@ fn render_in_pool(
             }
         };
     let time_render = render_start.elapsed();
+
+    // Probes go with the layers.
+    let probes_start = Instant::now();
+    let mut probes = None;
+    if layer_pixels.is_some()
+        && let Some((grid, c)) = crate::probe_bake::bake_probes(
+            &world,
+            integrator.as_ref(),
+            options.seed,
+            crate::probe_bake::ProbeLimits::default(),
+        )
+    {
+        counters.add(&c);
+        probes = Some(grid);
+    }
+    let time_probes = probes_start.elapsed();
 
     // Depth: only when asked for.
     let depth_start = Instant::now();
@@ -347,6 +367,7 @@ fn render_in_pool(
         time_build,
         time_render,
         time_depth,
+        time_probes,
         skipped: diagnostics.skipped.clone(),
         photon: integrator.photon_stats(),
     };
@@ -360,7 +381,11 @@ fn render_in_pool(
         pixels: pixels_out,
     };
     let layers = layer_pixels.map(|(plan, layered)| assemble(scene, &plan, &image, &layered, depth.as_ref()));
-    Ok(RenderOutput { image, depth, layers, stats, warnings: diagnostics.warnings })
+    let probes = probes.map(|p| sidecar::ProbeGrid {
+        depth_fingerprint: depth.as_ref().map_or(0, |d| sidecar::depth_fingerprint(&d.values)),
+        ..p
+    });
+    Ok(RenderOutput { image, depth, layers, probes, stats, warnings: diagnostics.warnings })
 }
 
 /// What every pass of a render shares: the world, the camera rays, the filter and the pixels.

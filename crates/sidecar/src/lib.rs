@@ -28,6 +28,9 @@ mod fingerprint;
 mod layers;
 mod layers_io;
 mod paths;
+mod probes;
+mod probes_io;
+pub mod sh;
 
 pub use error::{SidecarError, SidecarErrorKind};
 pub use fingerprint::depth_fingerprint;
@@ -36,6 +39,11 @@ pub use layers::{
 };
 pub use layers_io::{ReadLimits, channel_names, read_layers, write_layers};
 pub use paths::SidecarPaths;
+pub use probes::{
+    ProbeGrid, VISIBILITY_TEXELS, octahedral_direction, octahedral_texel, octahedral_texel_direction,
+    octahedral_uv,
+};
+pub use probes_io::{read_probes, write_probes};
 
 /// The sidecar format version written in every file's header (`lrt.sidecar.version`).
 pub const FORMAT_VERSION: i32 = 1;

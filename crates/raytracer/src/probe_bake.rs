@@ -1,0 +1,115 @@
+//! Baking the sidecar's irradiance probes (docs/sidecar.md) from the render's own integrator:
+//! a grid of probes at the cell centres of the scene's bounds, each with the SH projection of
+//! the radiance the integrator returns along a spherical Fibonacci set of rays, and the
+//! distance to the first surface through each octahedral visibility texel.
+
+use crate::integrators::{Integrator, RayCounters};
+use crate::sampler::Sampler;
+use crate::world::{Ray, World};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use sidecar::sh::{ShProjector, fibonacci_sphere};
+use sidecar::{ProbeGrid, VISIBILITY_TEXELS, octahedral_texel_direction};
+
+/// One probe's radiance SH, visibility texels and the rays it traced.
+type BakedProbe = ([[f32; 3]; 9], Vec<[f32; 2]>, RayCounters);
+
+/// Bounds on the bake's work.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProbeLimits {
+    /// Probes along the scene's longest axis (fewer along the others, in proportion).
+    pub probes_along_longest: u32,
+    /// Radiance rays per probe (each one the integrator's full estimate).
+    pub radiance_rays: u32,
+    /// Most probes in all.
+    pub max_probes: u32,
+}
+
+impl Default for ProbeLimits {
+    /// 8 probes along the longest axis, 64 radiance rays each, at most 512 probes: a few
+    /// percent of a 256x256, 16-sample render.
+    fn default() -> Self {
+        ProbeLimits { probes_along_longest: 8, radiance_rays: 64, max_probes: 512 }
+    }
+}
+
+/// The probe grid over `world`'s bounds (world space), or `None` for an empty or unbounded
+/// scene. Deterministic for a seed (every probe has its own sampler streams).
+pub fn bake_probes(
+    world: &World,
+    integrator: &dyn Integrator,
+    seed: u64,
+    limits: ProbeLimits,
+) -> Option<(ProbeGrid, RayCounters)> {
+    let (lo, hi) = world.bounds;
+    let extent = hi - lo;
+    if !lo.is_finite() || !hi.is_finite() || extent.max_element() <= 0.0 {
+        return None;
+    }
+    let along = limits.probes_along_longest.clamp(1, 64);
+    let cell = extent.max_element() / along as f32;
+    let mut counts = [0u32; 3];
+    for a in 0..3 {
+        counts[a] = ((extent[a] / cell).round() as u32).clamp(1, along);
+    }
+    while counts.iter().map(|&c| u64::from(c)).product::<u64>() > u64::from(limits.max_probes.max(1)) {
+        let largest = (0..3).max_by_key(|&a| counts[a]).unwrap_or(0);
+        counts[largest] = (counts[largest] - 1).max(1);
+    }
+    // Probes at cell centres, so none sits on the bounding walls.
+    let spacing: [f32; 3] = std::array::from_fn(|a| (extent[a] / counts[a] as f32).max(cell * 1e-3));
+    let eye = world.render_from_world.inverse().transform_point3(DVec3::ZERO);
+    let origin_render: [f32; 3] = std::array::from_fn(|a| lo[a] + spacing[a] * 0.5);
+    let origin_world: [f32; 3] = std::array::from_fn(|a| (f64::from(origin_render[a]) + eye[a]) as f32);
+    let n = counts.iter().map(|&c| c as usize).product::<usize>();
+    let miss_distance = 2.0 * extent.length();
+    let texels = VISIBILITY_TEXELS * VISIBILITY_TEXELS;
+    let results: Vec<BakedProbe> = (0..n)
+        .into_par_iter()
+        .map(|index| {
+            let (x, y, z) = (
+                index % counts[0] as usize,
+                (index / counts[0] as usize) % counts[1] as usize,
+                index / (counts[0] as usize * counts[1] as usize),
+            );
+            let p = Vec3::new(
+                origin_render[0] + x as f32 * spacing[0],
+                origin_render[1] + y as f32 * spacing[1],
+                origin_render[2] + z as f32 * spacing[2],
+            );
+            let mut counters = RayCounters::default();
+            let mut projector = ShProjector::default();
+            // A different rotation of the direction set per probe avoids aliasing across the grid.
+            let twist = index as f32 * 2.399_963;
+            for (k, d) in
+                fibonacci_sphere(limits.radiance_rays.max(1) as usize, twist).into_iter().enumerate()
+            {
+                let mut sampler = Sampler::new(seed ^ 0x70b3_5eed, index as i64, -1, k as u32);
+                let r = integrator.li(world, Ray::new(p, Vec3::from_array(d)), &mut sampler, &mut counters);
+                let rgb = if r.rgb.is_finite() { r.rgb } else { Vec3::ZERO };
+                projector.add(d, rgb.to_array());
+            }
+            let visibility = (0..texels)
+                .map(|t| {
+                    let d = Vec3::from_array(octahedral_texel_direction(t));
+                    counters.shadow += 1;
+                    let distance =
+                        world.intersect(&Ray::new(p, d)).map_or(miss_distance, |h| h.t.min(miss_distance));
+                    [distance, distance * distance]
+                })
+                .collect();
+            (projector.finish(), visibility, counters)
+        })
+        .collect();
+    let mut counters = RayCounters::default();
+    let mut radiance_sh = Vec::with_capacity(n);
+    let mut visibility = Vec::with_capacity(n * texels);
+    for (sh, vis, c) in results {
+        counters.add(&c);
+        radiance_sh.push(sh);
+        visibility.extend(vis);
+    }
+    let grid =
+        ProbeGrid { depth_fingerprint: 0, origin: origin_world, spacing, counts, radiance_sh, visibility };
+    Some((grid, counters))
+}
