@@ -76,7 +76,8 @@ impl FileSystem for CorpusFs {
 /// Every corpus file as (repo, flattened name), sorted.
 pub fn corpus_files() -> Vec<(String, String)> {
     let mut out = Vec::new();
-    let Ok(repos) = std::fs::read_dir(corpus_dir()) else { return out };
+    let repos = std::fs::read_dir(corpus_dir())
+        .unwrap_or_else(|e| panic!("cannot read the RIB corpus at {}: {e}", corpus_dir().display()));
     for repo in repos.flatten() {
         if !repo.path().is_dir() {
             continue;
@@ -89,6 +90,12 @@ pub fn corpus_files() -> Vec<(String, String)> {
             }
         }
     }
+    // An absent corpus must fail the tests that read it, never let them pass over no files.
+    assert!(
+        !out.is_empty(),
+        "no RIB files under {}: the tests need the shared corpus beside the repository",
+        corpus_dir().display()
+    );
     out.sort();
     out
 }
