@@ -10,7 +10,7 @@ use crate::geometry::{CollisionMesh, MaterialId};
 use crate::material::MaterialSpec;
 use glam::DVec3;
 use rib_parser::scene::{AttributesId, HapticMaterial, Scene};
-use rib_parser::tessellate::{SceneMeshes, Tolerance, WorldMesh, tessellate_scene};
+use tessellate::{SceneMeshes, Tolerance, WorldMesh, tessellate_scene};
 
 /// The material a RIB attribute state asks for (`None` fields take the device's defaults).
 pub fn material_spec(haptic: &HapticMaterial) -> MaterialSpec {

@@ -3,7 +3,7 @@
 
 use glam::{DVec3, Vec3};
 use rib_parser::scene::{LightId, LightKind, Scene};
-use rib_parser::tessellate::{Tolerance, tessellate_placed};
+use tessellate::{Tolerance, tessellate_placed};
 use viewer::{LiveLight, ToneMap};
 
 /// What the conversion could not use, as warnings for the user.

@@ -3,12 +3,12 @@
 use crate::args::Settings;
 use rib_parser::scene::{DepthRequest, DepthRequestSource};
 use rib_parser::summary::SceneCounts;
-use rib_parser::tessellate::{SceneMeshes, Tolerance, tessellate_scene};
 use rib_parser::{Diagnostic, DiagnosticKind, Severity};
 use std::process::ExitCode;
+use tessellate::{SceneMeshes, Tolerance, tessellate_scene};
 
 /// The tessellation `--check` counts triangles at: the default of
-/// [`rib_parser::tessellate::Tolerance`] (0.1 % of each shape's size).
+/// [`tessellate::Tolerance`] (0.1 % of each shape's size).
 fn check_tolerance() -> Tolerance {
     Tolerance::default()
 }

@@ -7,7 +7,7 @@
 //!   a top-level BVH over instances ([`accel`], obvhs' CWBVH with a conservative node test).
 //! - [`shapes`]: watertight ray-triangle intersection and exact `f64` quadrics (sphere,
 //!   cylinder, cone, disk, paraboloid, hyperboloid, torus with sweeps); patches, NURBS and
-//!   polygons come as triangles from `rib_parser::tessellate`.
+//!   polygons come as triangles from `tessellate`.
 //! - [`materials`], [`bsdf`], [`lights`]: RenderMan's standard shaders and lights (and LRT's
 //!   mirror and glass) as physically based BSDFs and emitters.
 //! - [`integrators`]: `directlighting` (Whitted) and `path` (MIS, Russian roulette);

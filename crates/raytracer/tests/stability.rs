@@ -7,11 +7,11 @@ use raytracer::sampling::Rng;
 use raytracer::testing::SceneBuilder;
 use raytracer::world::{Ray, World};
 use rib_parser::scene::{ParamList, PolygonMesh, Shape};
-use rib_parser::tessellate::{Tolerance, tessellate};
 use std::path::PathBuf;
+use tessellate::{Tolerance, tessellate};
 
 /// A closed triangle mesh (a tessellated sphere and a torus) as polygon shapes.
-fn closed_meshes() -> Vec<(rib_parser::tessellate::TriangleMesh, Shape)> {
+fn closed_meshes() -> Vec<(tessellate::TriangleMesh, Shape)> {
     let shapes = [
         Shape::Sphere { radius: 1.0, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 },
         Shape::Torus {

@@ -12,7 +12,6 @@
 //!   the camera ([`depth_remap::CameraSettings`]), lights in world space, attribute states,
 //!   shapes in object space with `f64` transforms, object instances, and the `file:line:col`
 //!   of every entity.
-//! - [`tessellate`] turns every surface shape into world-space triangles with a stated tolerance.
 //! - [`writer`] writes a scene back as RIB (an exact round trip); [`summary`] describes one in
 //!   a few lines.
 //! - [`diagnostics`]: warnings and errors rendered as `PATH:LINE:COL: error: message` with the
@@ -52,7 +51,6 @@ pub mod scene;
 pub mod source;
 pub mod summary;
 pub mod target;
-pub mod tessellate;
 pub mod writer;
 
 pub use builder::{BuildOptions, Built, FrameInfo, SceneBuilder};

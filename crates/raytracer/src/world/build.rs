@@ -10,14 +10,14 @@ use crate::materials::{Material, MaterialNote};
 use crate::sampling::Distribution1D;
 use crate::texture::Texture;
 use rib_parser::scene::{AttributesId, LightKind, Scene, Shape, ShapeEntity};
-use rib_parser::tessellate::{
-    RibbonFacing, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths, shape_kind,
-    tessellate_placed,
-};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
+use tessellate::{
+    RibbonFacing, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths, shape_kind,
+    tessellate_placed,
+};
 
 struct BlasBuilder {
     triangles: Vec<TrianglePrim>,
@@ -78,7 +78,7 @@ fn control_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
         Shape::NuPatch(m) => {
             Box::new(m.positions.iter().filter(|p| p.w != 0.0).map(|p| (p.truncate() / p.w).as_dvec3()))
         }
-        Shape::Blobby(_) => return rib_parser::tessellate::shape_bounds(shape),
+        Shape::Blobby(_) => return tessellate::shape_bounds(shape),
         Shape::Curves(c) => Box::new(c.positions.iter().map(|p| p.as_dvec3())),
         _ => return None,
     };

@@ -1,8 +1,8 @@
 use super::polygon::float_param;
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
-use crate::scene::{Basis, ParamList, ParamType, PatchKind, PatchMesh, Shape, StorageClass, Wrap};
-use crate::tessellate::{TessellateError, Tolerance, TriangleMesh, tessellate};
+use crate::{TessellateError, Tolerance, TriangleMesh, tessellate};
 use glam::{DVec3, Vec2, Vec4};
+use rib_parser::scene::{Basis, ParamList, ParamType, PatchKind, PatchMesh, Shape, StorageClass, Wrap};
 
 pub(crate) const BEZIER: Basis = Basis {
     matrix: [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],

@@ -1,9 +1,9 @@
 use super::assert_well_formed;
-use crate::scene::{
+use crate::{TessellateError, Tolerance, TriangleMesh, tessellate};
+use glam::{DVec3, Vec2, Vec3};
+use rib_parser::scene::{
     FileLoc, Param, ParamDecl, ParamList, ParamType, ParamValues, PolygonMesh, Shape, StorageClass,
 };
-use crate::tessellate::{TessellateError, Tolerance, TriangleMesh, tessellate};
-use glam::{DVec3, Vec2, Vec3};
 
 /// `GeneralPolygon`-style faces: every face a list of loops (outer first), every corner its own
 /// vertex.

@@ -10,8 +10,8 @@
 use super::grid::{Grid, GridSpec, choose_span_counts, span_of, span_values};
 use super::patch::{check_weights, rational, weld_distance};
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
-use crate::scene::NuPatch;
 use glam::{DVec3, DVec4, Vec2};
+use rib_parser::scene::NuPatch;
 use std::cell::Cell;
 
 /// The highest order (degree + 1) supported; real files stay far below.

@@ -7,8 +7,8 @@
 //! basis; uniform: one per curve), default 1. Points take `constantwidth` or a `width` per point.
 
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget};
-use crate::scene::{Curves, ParamList, ParamValues, Points, StorageClass, Wrap};
 use glam::{DMat3, DMat4, DVec3, Vec3};
+use rib_parser::scene::{Curves, ParamList, ParamValues, Points, StorageClass, Wrap};
 
 /// One curve as a polyline: points, the width at each, and whether it closes on itself.
 #[derive(Clone, Debug, PartialEq)]
@@ -334,8 +334,12 @@ pub(crate) fn tessellate_points(
         if !(radius > 0.0) {
             continue;
         }
-        let sphere =
-            crate::scene::Shape::Sphere { radius, z_min: -radius, z_max: radius, theta_max_degrees: 360.0 };
+        let sphere = rib_parser::scene::Shape::Sphere {
+            radius,
+            z_min: -radius,
+            z_max: radius,
+            theta_max_degrees: 360.0,
+        };
         let one = super::quadric::tessellate_quadric(&sphere, &budget, scale)?;
         budget.max_triangles = budget.max_triangles.saturating_sub(one.indices.len() as u64);
         let base = mesh.positions.len() as u32;

@@ -2,18 +2,18 @@
 //! triangles, open edges and time, then the totals (the figures in docs/tessellation.md).
 //!
 //! ```text
-//! cargo run --release -p rib-parser --example tessellate_corpus -- [RELATIVE_TOLERANCE]
+//! cargo run --release -p tessellate --example corpus -- [RELATIVE_TOLERANCE]
 //! ```
 //! The tolerance is relative to each shape's size (default 1e-3).
 
-#[path = "../tests/support/corpus_fs.rs"]
+#[path = "../../rib-parser/tests/support/corpus_fs.rs"]
 mod corpus_fs;
 
 use corpus_fs::{CorpusFs, corpus_files};
-use rib_parser::tessellate::{Tolerance, tessellate_scene};
 use rib_parser::{LoadOptions, ReadOptions};
 use std::sync::Arc;
 use std::time::Instant;
+use tessellate::{Tolerance, tessellate_scene};
 
 fn main() {
     let relative: f64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(1e-3);

@@ -9,8 +9,8 @@
 
 use super::primvar::{Var, st_var, vec3_var};
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget};
-use crate::scene::PolygonMesh;
 use glam::{DVec2, DVec3, Vec2, Vec3};
+use rib_parser::scene::PolygonMesh;
 
 const KIND: &str = "polygon mesh";
 

@@ -8,8 +8,8 @@
 //! - [`tessellate_placed`] does the same and places the result with a `world_from_object`
 //!   transform (applied in `f64`), orienting it as the RenderMan Interface says.
 //! - [`tessellate_scene`] yields a world-space mesh for every
-//!   [`ShapeEntity`](crate::scene::ShapeEntity) and every shape of every object instance of a
-//!   [`Scene`](crate::scene::Scene), with its [`AttributesId`](crate::scene::AttributesId).
+//!   [`ShapeEntity`](rib_parser::scene::ShapeEntity) and every shape of every object instance of a
+//!   [`Scene`](rib_parser::scene::Scene), with its [`AttributesId`](rib_parser::scene::AttributesId).
 //!
 //! # Tolerance
 //! [`Tolerance`] states the largest distance between the triangles and the true surface: a
@@ -27,7 +27,7 @@
 //!   `(P1 - P0) x (P2 - P0)` for a convex polygon) for polygons; the face winding for
 //!   subdivision meshes. A full `Sphere 1 -1 1 360` has outward normals.
 //! - In world space the normal is `world_from_object^-T * n_object`, flipped iff
-//!   [`Attributes::reverse_orientation`](crate::scene::Attributes::reverse_orientation) (see
+//!   [`Attributes::reverse_orientation`](rib_parser::scene::Attributes::reverse_orientation) (see
 //!   `scene.rs`). The triangle order is reversed whenever needed so the cross product still
 //!   follows that normal, so a mirror transform never turns a sphere inside out.
 //! - Vertex normals ([`TriangleMesh::normals`]), where present, are unit vectors on the same side
@@ -37,7 +37,7 @@
 //! # Example
 //! ```
 //! use rib_parser::scene::Shape;
-//! use rib_parser::tessellate::{tessellate, Tolerance};
+//! use tessellate::{tessellate, Tolerance};
 //!
 //! let sphere = Shape::Sphere { radius: 1.0, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 };
 //! let mesh = tessellate(&sphere, &Tolerance::absolute(1e-3)).unwrap();
@@ -73,8 +73,8 @@ pub use placed::{
     tessellate_scene, tessellate_scene_filtered,
 };
 
-use crate::scene::Shape;
 use glam::DVec3;
+use rib_parser::scene::Shape;
 
 /// How finely to tessellate.
 ///

@@ -1,15 +1,15 @@
 use super::polygon::{CUBE_FACES, CUBE_POSITIONS, points_polygons};
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
-use crate::scene::{
-    AttributeCall, Attributes, AttributesId, FileLoc, Handle, ObjectDefinition, ObjectId,
-    ObjectInstanceEntity, ParamList, Points, Scene, Shape, ShapeEntity,
-};
-use crate::tessellate::placed::spectral_norm;
-use crate::tessellate::{
+use crate::placed::spectral_norm;
+use crate::{
     MeshOrigin, TessellateError, Tolerance, is_quadric, tessellate, tessellate_placed, tessellate_scene,
     tessellate_scene_filtered,
 };
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
+use rib_parser::scene::{
+    AttributeCall, Attributes, AttributesId, FileLoc, Handle, ObjectDefinition, ObjectId,
+    ObjectInstanceEntity, ParamList, Points, Scene, Shape, ShapeEntity,
+};
 use std::sync::Arc;
 
 fn unit_sphere() -> Shape {
@@ -17,7 +17,7 @@ fn unit_sphere() -> Shape {
 }
 
 /// Every normal points away from `centre` and every triangle faces outward.
-fn assert_outward(mesh: &crate::tessellate::TriangleMesh, centre: DVec3) {
+fn assert_outward(mesh: &crate::TriangleMesh, centre: DVec3) {
     let normals = mesh.normals.as_ref().unwrap();
     for (p, n) in mesh.positions.iter().zip(normals) {
         assert!(n.as_dvec3().dot(p.as_dvec3() - centre) > 0.0, "normal {n} at {p}");
@@ -144,14 +144,14 @@ fn test_scene() -> Scene {
     let trim_outside = Attributes {
         user: vec![AttributeCall {
             namespace: "trimcurve".into(),
-            params: ParamList(vec![crate::scene::Param {
+            params: ParamList(vec![rib_parser::scene::Param {
                 name: "sense".into(),
-                decl: crate::scene::ParamDecl {
-                    class: crate::scene::StorageClass::Uniform,
-                    ty: crate::scene::ParamType::String,
+                decl: rib_parser::scene::ParamDecl {
+                    class: rib_parser::scene::StorageClass::Uniform,
+                    ty: rib_parser::scene::ParamType::String,
                     array_len: 1,
                 },
-                values: crate::scene::ParamValues::Strings(vec!["outside".into()]),
+                values: rib_parser::scene::ParamValues::Strings(vec!["outside".into()]),
                 loc: FileLoc::new("scene.rib", 3, 1),
             }]),
             loc: FileLoc::new("scene.rib", 3, 1),
@@ -172,7 +172,7 @@ fn test_scene() -> Scene {
             entity(unit_sphere(), DMat4::from_translation(DVec3::X * 5.0), 0),
             // A Blobby plane needs a depth map: skipped with the reason.
             entity(
-                Shape::Blobby(crate::scene::Blobby {
+                Shape::Blobby(rib_parser::scene::Blobby {
                     leaf_count: 1,
                     code: vec![1003, 0, 0],
                     floats: vec![0.0; 4],
@@ -277,7 +277,7 @@ fn the_scene_budget_skips_shapes_past_it() {
 #[test]
 fn scene_bounds_cover_shapes_and_instances() {
     let scene = test_scene();
-    let (lo, hi) = crate::tessellate::scene_bounds(&scene).unwrap();
+    let (lo, hi) = crate::scene_bounds(&scene).unwrap();
     assert!((lo - DVec3::new(-2.0, -1.0, -2.0)).length() < 1e-9, "{lo}");
     assert!((hi - DVec3::new(6.0, 4.0, 11.0)).length() < 1e-9, "{hi}");
     // Every tessellated vertex lies inside.
@@ -288,10 +288,7 @@ fn scene_bounds_cover_shapes_and_instances() {
         }
     }
     assert!(
-        crate::tessellate::shape_bounds(&Shape::Points(Points {
-            positions: vec![],
-            primvars: ParamList::default()
-        }))
-        .is_none()
+        crate::shape_bounds(&Shape::Points(Points { positions: vec![], primvars: ParamList::default() }))
+            .is_none()
     );
 }

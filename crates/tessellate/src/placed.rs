@@ -2,8 +2,8 @@
 //! scene-level walk over shapes and object instances.
 
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, blobby, tessellate_scaled};
-use crate::scene::{Attributes, AttributesId, FileLoc, ObjectId, Scene, Shape, ShapeEntity};
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
+use rib_parser::scene::{Attributes, AttributesId, FileLoc, ObjectId, Scene, Shape, ShapeEntity};
 
 /// Where a world-space mesh came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -23,7 +23,7 @@ pub struct WorldMesh {
     pub origin: MeshOrigin,
     /// The attribute state to shade and orient the shape with: the one it was made under, or
     /// for an instanced shape its state in that instance
-    /// ([`ObjectInstanceEntity::shape_attributes`](crate::scene::ObjectInstanceEntity::shape_attributes)).
+    /// ([`ObjectInstanceEntity::shape_attributes`](rib_parser::scene::ObjectInstanceEntity::shape_attributes)).
     pub attributes: AttributesId,
     /// For an instanced shape, the attribute state current at its `ObjectInstance`.
     pub instance_attributes: Option<AttributesId>,
@@ -179,7 +179,7 @@ pub fn tessellate_scene(scene: &Scene, tol: &Tolerance) -> SceneMeshes {
 }
 
 /// [`tessellate_scene`] for the shapes `keep` accepts; e.g. a ray tracer that intersects
-/// quadrics exactly passes `|s| !rib_parser::tessellate::is_quadric(s)`.
+/// quadrics exactly passes `|s| !tessellate::is_quadric(s)`.
 pub fn tessellate_scene_filtered(
     scene: &Scene,
     tol: &Tolerance,

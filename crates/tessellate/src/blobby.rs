@@ -26,9 +26,9 @@
 //! grid spacing. Vertex normals are the normalised `-grad f`.
 
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget};
-use crate::blobby::{BlobbyInstruction, BlobbyOp, decode_blobby};
-use crate::scene::Blobby;
 use glam::{DMat3, DMat4, DVec3, Vec3};
+use rib_parser::blobby::{BlobbyInstruction, BlobbyOp, decode_blobby};
+use rib_parser::scene::Blobby;
 use std::collections::HashMap;
 
 /// The field value on the surface (Aqsis and PRMan): `(1 - 0.5^2)^3`.

@@ -1,7 +1,7 @@
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
-use crate::scene::Shape;
-use crate::tessellate::{TessellateError, Tolerance, TriangleMesh, tessellate};
+use crate::{TessellateError, Tolerance, TriangleMesh, tessellate};
 use glam::{DVec3, Vec3};
+use rib_parser::scene::Shape;
 use std::f64::consts::PI;
 
 fn rho(p: DVec3) -> f64 {

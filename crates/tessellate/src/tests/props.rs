@@ -1,13 +1,13 @@
 //! Property tests: arbitrary shapes and tolerances never panic and never yield NaN.
 
 use super::assert_well_formed;
-use crate::scene::{
+use crate::{Tolerance, tessellate, tessellate_placed};
+use glam::{DMat4, DVec3, Vec3, Vec4};
+use proptest::prelude::*;
+use rib_parser::scene::{
     Basis, NuPatch, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh, SubdivisionTag,
     TrimCurves, Wrap,
 };
-use crate::tessellate::{Tolerance, tessellate, tessellate_placed};
-use glam::{DMat4, DVec3, Vec3, Vec4};
-use proptest::prelude::*;
 use std::sync::Arc;
 
 /// Mostly ordinary numbers, sometimes the awkward ones.

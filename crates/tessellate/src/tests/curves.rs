@@ -1,13 +1,13 @@
 //! `Curves` and `Points` against closed forms: tube radii, ribbon widths, chord bounds.
 
 use super::assert_well_formed;
-use crate::basis::named_basis;
-use crate::scene::FileLoc;
-use crate::scene::{
+use crate::{RibbonFacing, Tolerance, curve_polylines, curve_ribbons, tessellate};
+use glam::{DMat4, DVec3, Vec3};
+use rib_parser::basis::named_basis;
+use rib_parser::scene::FileLoc;
+use rib_parser::scene::{
     Curves, Param, ParamDecl, ParamList, ParamType, ParamValues, Points, Shape, StorageClass, Wrap,
 };
-use crate::tessellate::{RibbonFacing, Tolerance, curve_polylines, curve_ribbons, tessellate};
-use glam::{DMat4, DVec3, Vec3};
 
 fn float_param(name: &str, class: StorageClass, values: Vec<f32>) -> Param {
     Param {

@@ -1,7 +1,7 @@
 //! Reading the primitive variables tessellation carries through: `N` and `st` (or `s`, `t`).
 
-use crate::scene::{ParamType, ParamValues, PrimVars, StorageClass};
 use glam::{Vec2, Vec3};
+use rib_parser::scene::{ParamType, ParamValues, PrimVars, StorageClass};
 
 /// One primitive variable's values with its storage class.
 #[derive(Clone, Debug)]

@@ -1,8 +1,8 @@
 use super::polygon::{CUBE_FACES, CUBE_POSITIONS, float_param};
 use super::{assert_normals_follow_winding, assert_well_formed};
-use crate::scene::{ParamList, ParamType, Shape, StorageClass, SubdivisionMesh, SubdivisionTag};
-use crate::tessellate::{TessellateError, Tolerance, TriangleMesh, tessellate};
+use crate::{TessellateError, Tolerance, TriangleMesh, tessellate};
 use glam::{DVec3, Vec3};
+use rib_parser::scene::{ParamList, ParamType, Shape, StorageClass, SubdivisionMesh, SubdivisionTag};
 
 pub(crate) fn subdivision(
     positions: &[[f32; 3]],

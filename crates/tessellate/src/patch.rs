@@ -11,8 +11,8 @@
 use super::grid::{Grid, GridSpec, choose_span_counts, span_of, span_values};
 use super::primvar::st_var;
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
-use crate::scene::{Basis, PatchKind, PatchMesh, StorageClass, Wrap};
 use glam::{DVec3, DVec4, Vec2};
+use rib_parser::scene::{Basis, PatchKind, PatchMesh, StorageClass, Wrap};
 use std::cell::Cell;
 
 const KIND: &str = "PatchMesh";

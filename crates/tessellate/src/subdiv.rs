@@ -40,8 +40,8 @@
 
 use super::primvar::st_var;
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
-use crate::scene::SubdivisionMesh;
 use glam::{DVec2, DVec3, Vec2};
+use rib_parser::scene::SubdivisionMesh;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 

@@ -1,9 +1,9 @@
 //! `Blobby` against closed forms: a lone ellipsoid is the ellipsoid of half its matrix's size.
 
 use super::assert_well_formed;
-use crate::scene::{Blobby, ParamList, Shape};
-use crate::tessellate::{BLOBBY_THRESHOLD, BlobbyField, TessellateError, Tolerance, tessellate};
+use crate::{BLOBBY_THRESHOLD, BlobbyField, TessellateError, Tolerance, tessellate};
 use glam::DVec3;
+use rib_parser::scene::{Blobby, ParamList, Shape};
 
 /// A 1001 ellipsoid with the row-vector matrix `diag(sx, sy, sz)` translated by `t`.
 fn ellipsoid_floats(s: [f32; 3], t: [f32; 3]) -> Vec<f32> {

@@ -1,9 +1,7 @@
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
-use crate::scene::{NuPatch, ParamList, Shape, TrimCurves};
-use crate::tessellate::{
-    ShapeOptions, TessellateError, Tolerance, TriangleMesh, tessellate, tessellate_scaled,
-};
+use crate::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, tessellate, tessellate_scaled};
 use glam::{DVec3, Vec4};
+use rib_parser::scene::{NuPatch, ParamList, Shape, TrimCurves};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -274,14 +272,9 @@ fn an_outer_loop_with_a_hole_removes_the_hole() {
         np.trim = Some(Arc::new(trims(&[square_trim(0.1, 0.9), circle_trim(0.5, 0.5, 0.2)])));
         np
     };
-    let surface = crate::tessellate::nurbs::Surface::new(&np).unwrap();
-    let loops = crate::tessellate::trim::TrimLoops::new(
-        np.trim.as_ref().unwrap(),
-        1e-3,
-        &surface,
-        (0.0, 1.0, 0.0, 1.0),
-    )
-    .unwrap();
+    let surface = crate::nurbs::Surface::new(&np).unwrap();
+    let loops =
+        crate::trim::TrimLoops::new(np.trim.as_ref().unwrap(), 1e-3, &surface, (0.0, 1.0, 0.0, 1.0)).unwrap();
     assert!(loops.inside(glam::DVec2::new(0.15, 0.5)));
     assert!(!loops.inside(glam::DVec2::new(0.5, 0.5)));
     assert!(!loops.inside(glam::DVec2::new(0.05, 0.5)));

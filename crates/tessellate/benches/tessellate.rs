@@ -1,6 +1,6 @@
 //! Tessellation throughput: triangles per second for every shape family.
 //!
-//! `cargo bench -p rib-parser --bench tessellate` (figures in docs/tessellation.md). Each case
+//! `cargo bench -p tessellate --bench tessellate` (figures in docs/tessellation.md). Each case
 //! reports its triangle count as criterion's element throughput, so "elem/s" is triangles per
 //! second.
 
@@ -10,9 +10,9 @@ use rib_parser::scene::{
     Basis, NuPatch, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh, SubdivisionTag,
     TrimCurves, Wrap,
 };
-use rib_parser::tessellate::{Tolerance, tessellate, tessellate_placed};
 use std::hint::black_box;
 use std::sync::Arc;
+use tessellate::{Tolerance, tessellate, tessellate_placed};
 
 fn sphere() -> Shape {
     Shape::Sphere { radius: 1.0, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 }

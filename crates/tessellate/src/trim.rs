@@ -22,8 +22,8 @@
 use super::TessellateError;
 use super::grid::{Grid, GridSpec};
 use super::nurbs::{KnotVector, Surface};
-use crate::scene::TrimCurves;
 use glam::{DVec2, Vec2};
+use rib_parser::scene::TrimCurves;
 use std::collections::HashMap;
 
 const KIND: &str = "TrimCurve";

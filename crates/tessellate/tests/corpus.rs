@@ -2,16 +2,14 @@
 //! world-space triangles (only `Points` and `Curves` are refused, as not surfaces), and the
 //! corpus's NURBS, subdivision and patch models keep the properties their geometry implies.
 
-#[path = "support/corpus_fs.rs"]
+#[path = "../../rib-parser/tests/support/corpus_fs.rs"]
 mod corpus_fs;
 
 use corpus_fs::{CorpusFs, corpus_files};
 use rib_parser::scene::Shape;
-use rib_parser::tessellate::{
-    SceneMeshes, TessellateError, Tolerance, TriangleMesh, tessellate, tessellate_scene,
-};
 use rib_parser::{LoadOptions, Loaded, ReadOptions};
 use std::sync::Arc;
+use tessellate::{SceneMeshes, TessellateError, Tolerance, TriangleMesh, tessellate, tessellate_scene};
 
 fn options() -> LoadOptions {
     LoadOptions {
@@ -108,7 +106,7 @@ fn the_subdivision_bunny_tessellates_and_is_closed_where_its_control_mesh_is() {
     assert!(mesh.triangle_count() >= 2 * sm.vertex_indices.len(), "{}", mesh.triangle_count());
     // Its face-varying st split vertices along seams; welded by position, the surface is
     // closed exactly where the control mesh is (no boundary edges in one means none in the other).
-    let control = rib_parser::tessellate::tessellate(
+    let control = tessellate::tessellate(
         &Shape::Polygons(rib_parser::scene::PolygonMesh {
             loops_per_face: vec![1; sm.vertices_per_face.len()],
             vertices_per_loop: sm.vertices_per_face.clone(),
@@ -178,7 +176,7 @@ fn the_quadrics_test_scene_is_closed_where_the_quadrics_are() {
     assert_eq!(out.meshes.len(), loaded.scene.shapes.len());
     for m in &out.meshes {
         let shape = &*loaded.scene.shapes[match m.origin {
-            rib_parser::tessellate::MeshOrigin::Shape { index } => index,
+            tessellate::MeshOrigin::Shape { index } => index,
             _ => unreachable!(),
         }]
         .shape;
