@@ -1,11 +1,12 @@
-//! Attribute requests and lights.
+//! Attribute requests (`Color`, `Opacity`, shaders, `ShadingRate`, `Matte`, `Orientation`,
+//! `ReverseOrientation`, `Sides`, `Attribute`, `Basis`, `TrimCurve`) and the attribute state.
 
-use super::{SceneBuilder, WorldState};
+use super::SceneBuilder;
 use crate::basis::bezier_basis;
 use crate::diagnostics::DiagnosticKind;
 use crate::scene::*;
 use crate::target::{Cx, ShaderSlot};
-use glam::{DMat4, DVec3, Vec3};
+use glam::Vec3;
 use std::sync::Arc;
 
 /// The attribute part of the graphics state: the scene-facing [`Attributes`] plus what only
@@ -154,47 +155,6 @@ pub(crate) fn intern(state: &mut AttrState, table: &mut Vec<Attributes>) -> Attr
     id
 }
 
-/// Places a light with `world_from_light`, resolving its standard parameters to world space.
-pub(crate) fn place_light(light: &mut Light, world_from_light: DMat4) {
-    light.world_from_light = world_from_light;
-    light.kind = resolve_kind(&light.shader, world_from_light, matches!(light.kind, LightKind::Area { .. }));
-}
-
-fn param_point(params: &ParamList, name: &str, default: DVec3) -> DVec3 {
-    params.vec3(name).map_or(default, |v| v.as_dvec3())
-}
-
-/// The standard light shaders with RenderMan's defaults.
-fn resolve_kind(call: &ShaderCall, world_from_light: DMat4, area: bool) -> LightKind {
-    let p = &call.params;
-    let intensity = p.float("intensity").unwrap_or(1.0);
-    let color = p.vec3("lightcolor").unwrap_or(Vec3::ONE);
-    let from = world_from_light.project_point3(param_point(p, "from", DVec3::ZERO));
-    let to = world_from_light.project_point3(param_point(p, "to", DVec3::Z));
-    let direction = (to - from).normalize_or_zero();
-    if area {
-        return match call.name.as_str() {
-            "arealight" => LightKind::Area { intensity, color },
-            _ => LightKind::Other,
-        };
-    }
-    match call.name.as_str() {
-        "ambientlight" => LightKind::Ambient { intensity, color },
-        "distantlight" => LightKind::Distant { direction, intensity, color },
-        "pointlight" => LightKind::Point { position: from, intensity, color },
-        "spotlight" => LightKind::Spot {
-            position: from,
-            direction,
-            intensity,
-            color,
-            cone_angle: p.float("coneangle").unwrap_or(30f32.to_radians()),
-            cone_delta_angle: p.float("conedeltaangle").unwrap_or(5f32.to_radians()),
-            beam_distribution: p.float("beamdistribution").unwrap_or(2.0),
-        },
-        _ => LightKind::Other,
-    }
-}
-
 impl SceneBuilder {
     /// Applies an attribute request to the current state (and records it in the object being
     /// defined).
@@ -234,106 +194,102 @@ impl SceneBuilder {
             }
         }
     }
+}
 
-    pub(super) fn add_light(&mut self, call: ShaderCall, handle: Handle, area: bool, cx: &mut Cx<'_>) {
-        let request = if area { "AreaLightSource" } else { "LightSource" };
-        if self.skip_motion_sample() {
-            return;
+impl SceneBuilder {
+    pub(super) fn color(&mut self, color: &[f32], cx: &mut Cx<'_>) {
+        if let Some(c) = self.rgb_of(color, "Color", cx) {
+            self.set_attr(AttrOp::Color(c), cx);
         }
-        if self.recording.is_some() {
-            cx.error(
-                DiagnosticKind::Nesting,
-                format!("{request} inside ObjectBegin/ObjectEnd is not allowed; ignored"),
-            );
-            return;
+    }
+
+    pub(super) fn opacity(&mut self, opacity: &[f32], cx: &mut Cx<'_>) {
+        if let Some(c) = self.rgb_of(opacity, "Opacity", cx) {
+            self.set_attr(AttrOp::Opacity(c), cx);
         }
-        if let Some(bad) = ["intensity", "coneangle", "conedeltaangle", "beamdistribution"]
-            .into_iter()
-            .find(|n| call.params.float(n).is_some_and(|v| !v.is_finite()))
-        {
-            cx.error(
-                DiagnosticKind::BadValue,
-                format!("{request} \"{}\": \"{bad}\" is not finite", call.name),
-            );
-            return;
-        }
-        if !area && matches!(call.name.as_str(), "distantlight" | "spotlight") {
-            let from = call.params.vec3("from").unwrap_or(Vec3::ZERO);
-            let to = call.params.vec3("to").unwrap_or(Vec3::Z);
-            if from == to {
-                cx.error(
-                    DiagnosticKind::BadValue,
-                    format!("{request} \"{}\": \"from\" and \"to\" are the same point", call.name),
+    }
+
+    pub(super) fn shader(&mut self, slot: ShaderSlot, call: ShaderCall, cx: &mut Cx<'_>) {
+        match slot {
+            ShaderSlot::Displacement => self.warn_once(
+                "displacement",
+                cx,
+                DiagnosticKind::Unsupported,
+                format!("Displacement \"{}\" is kept but ignored: surfaces are not displaced", call.name),
+            ),
+            ShaderSlot::Deformation => {
+                cx.warn(
+                    DiagnosticKind::Unsupported,
+                    format!("Deformation \"{}\" is not supported; ignored", call.name),
                 );
                 return;
             }
+            _ => {}
         }
-        if !area
-            && !matches!(call.name.as_str(), "ambientlight" | "distantlight" | "pointlight" | "spotlight")
-        {
-            cx.warn(
-                DiagnosticKind::Unsupported,
-                format!(
-                    "light shader \"{}\" is not a standard light; kept, but consumers may skip it",
-                    call.name
-                ),
-            );
-        }
-        let ctm = self.gs.ctm;
-        let placeholder =
-            if area { LightKind::Area { intensity: 0.0, color: Vec3::ZERO } } else { LightKind::Other };
-        let mut light =
-            Light { handle: handle.clone(), shader: call, kind: placeholder, world_from_light: ctm };
-        let id = if let Some(world) = self.world.as_mut() {
-            place_light(&mut light, ctm);
-            push_light(world, light)
-        } else {
-            // Before WorldBegin the current transformation is camera-relative: placed at
-            // WorldBegin once the camera is known.
-            let id = LightId(self.pre_world_lights.len() as u32);
-            self.pre_world_lights.push(light);
-            self.pre_world_handles.insert(handle.clone(), id);
-            self.pending_lights.push(super::PendingLight { light: id, camera_from_light: ctm });
-            id
-        };
-        let attrs = &mut self.gs.attrs;
-        if let Err(pos) = attrs.attrs.illuminated_by.binary_search(&id) {
-            attrs.attrs.illuminated_by.insert(pos, id);
-        }
-        if area {
-            attrs.attrs.area_light = Some(id);
-        }
-        attrs.id = None;
+        self.set_attr(AttrOp::Shader(slot, call), cx);
     }
 
-    pub(super) fn illuminate_light(&mut self, handle: Handle, on: bool, cx: &mut Cx<'_>) {
-        let id = match &self.world {
-            Some(w) => w.light_handles.get(&handle).copied(),
-            None => self.pre_world_handles.get(&handle).copied(),
-        };
-        let Some(id) = id else {
-            let h = match &handle {
-                Handle::Int(i) => i.to_string(),
-                Handle::Name(n) => format!("\"{n}\""),
-            };
-            cx.warn(DiagnosticKind::UnknownHandle, format!("Illuminate: no light with handle {h}; ignored"));
+    pub(super) fn shading_rate(&mut self, rate: f32, cx: &mut Cx<'_>) {
+        if !(rate.is_finite() && rate > 0.0) {
+            cx.error(DiagnosticKind::BadValue, format!("ShadingRate must be positive, got {rate}"));
             return;
-        };
-        let list = &mut self.gs.attrs.attrs.illuminated_by;
-        match (list.binary_search(&id), on) {
-            (Err(pos), true) => list.insert(pos, id),
-            (Ok(pos), false) => {
-                list.remove(pos);
-            }
-            _ => return,
         }
-        self.gs.attrs.id = None;
+        self.set_attr(AttrOp::ShadingRate(rate), cx);
     }
-}
 
-fn push_light(world: &mut WorldState, light: Light) -> LightId {
-    let id = LightId(world.lights.len() as u32);
-    world.light_handles.insert(light.handle.clone(), id);
-    world.lights.push(light);
-    id
+    pub(super) fn matte(&mut self, on: bool, cx: &mut Cx<'_>) {
+        self.set_attr(AttrOp::Matte(on), cx);
+    }
+
+    pub(super) fn orientation(&mut self, orientation: &str, cx: &mut Cx<'_>) {
+        let op = match orientation {
+            "outside" => Orient::Outside,
+            "inside" => Orient::Inside,
+            "lh" => Orient::LeftHanded,
+            "rh" => Orient::RightHanded,
+            other => {
+                cx.error(
+                    DiagnosticKind::BadValue,
+                    format!("Orientation \"{other}\": expected outside, inside, lh or rh"),
+                );
+                return;
+            }
+        };
+        self.set_attr(AttrOp::Orientation(op), cx);
+    }
+
+    pub(super) fn reverse_orientation(&mut self, cx: &mut Cx<'_>) {
+        self.set_attr(AttrOp::ReverseOrientation, cx);
+    }
+
+    pub(super) fn sides(&mut self, sides: i32, cx: &mut Cx<'_>) {
+        if sides != 1 && sides != 2 {
+            cx.error(DiagnosticKind::BadValue, format!("Sides must be 1 or 2, got {sides}"));
+            return;
+        }
+        self.set_attr(AttrOp::Sides(sides as u8), cx);
+    }
+
+    pub(super) fn attribute(&mut self, namespace: &str, params: ParamList, cx: &mut Cx<'_>) {
+        if namespace == "haptic" {
+            check_haptic(&params, cx);
+        }
+        self.set_attr(
+            AttrOp::Attribute(AttributeCall {
+                namespace: namespace.to_string(),
+                params,
+                loc: cx.loc.clone(),
+            }),
+            cx,
+        );
+    }
+
+    pub(super) fn basis(&mut self, u: Basis, v: Basis, _cx: &mut Cx<'_>) {
+        self.gs.attrs.u_basis = u;
+        self.gs.attrs.v_basis = v;
+    }
+
+    pub(super) fn trim_curve(&mut self, trim: TrimCurves, _cx: &mut Cx<'_>) {
+        self.gs.attrs.trim = Some(Arc::new(trim));
+    }
 }

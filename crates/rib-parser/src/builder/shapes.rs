@@ -1,10 +1,12 @@
-//! Geometry requests to [`Shape`]s. The parser has checked every count and index, so these
-//! only move data into place.
+//! Geometry requests to [`Shape`]s, added to the world or the object being defined. The parser
+//! has checked every count and index, so these only move data into place.
 
-use super::AttrState;
+use super::transforms::snap_affine;
+use super::{AttrState, SceneBuilder};
+use crate::diagnostics::DiagnosticKind;
 use crate::scene::*;
-use crate::target::{NuPatchArgs, Quadric};
-use glam::{Vec3, Vec4};
+use crate::target::{Cx, NuPatchArgs, Quadric};
+use glam::{DVec4, Vec3, Vec4};
 use std::sync::Arc;
 
 /// Removes the parameter `name` from `params` and returns its floats.
@@ -62,7 +64,7 @@ fn positions4(params: &mut ParamList, nu: u32, nv: u32) -> Vec<Vec4> {
     Vec::new()
 }
 
-pub(super) fn polygons(
+fn polygons_shape(
     loops_per_face: Vec<u32>,
     vertices_per_loop: Vec<u32>,
     vertex_indices: Vec<u32>,
@@ -78,7 +80,7 @@ pub(super) fn polygons(
     })
 }
 
-pub(super) fn patch_mesh(
+fn patch_mesh_shape(
     kind: PatchKind,
     nu: u32,
     u_wrap: Wrap,
@@ -101,7 +103,7 @@ pub(super) fn patch_mesh(
     })
 }
 
-pub(super) fn nu_patch(a: NuPatchArgs, trim: Option<Arc<TrimCurves>>, mut params: ParamList) -> Shape {
+fn nu_patch_shape(a: NuPatchArgs, trim: Option<Arc<TrimCurves>>, mut params: ParamList) -> Shape {
     let positions = positions4(&mut params, a.nu, a.nv);
     Shape::NuPatch(NuPatch {
         nu: a.nu,
@@ -120,7 +122,7 @@ pub(super) fn nu_patch(a: NuPatchArgs, trim: Option<Arc<TrimCurves>>, mut params
     })
 }
 
-pub(super) fn subdivision_mesh(
+fn subdivision_mesh_shape(
     scheme: &str,
     vertices_per_face: Vec<u32>,
     vertex_indices: Vec<u32>,
@@ -138,7 +140,7 @@ pub(super) fn subdivision_mesh(
     })
 }
 
-pub(super) fn quadric(q: Quadric) -> Shape {
+fn quadric_shape(q: Quadric) -> Shape {
     match q {
         Quadric::Sphere { radius, z_min, z_max, theta_max } => {
             Shape::Sphere { radius, z_min, z_max, theta_max_degrees: theta_max }
@@ -168,12 +170,12 @@ pub(super) fn quadric(q: Quadric) -> Shape {
     }
 }
 
-pub(super) fn points(mut params: ParamList) -> Shape {
+fn points_shape(mut params: ParamList) -> Shape {
     let positions = positions3(&mut params);
     Shape::Points(Points { positions, primvars: params })
 }
 
-pub(super) fn curves(
+fn curves_shape(
     cubic: bool,
     vertices_per_curve: Vec<u32>,
     wrap: Wrap,
@@ -182,4 +184,159 @@ pub(super) fn curves(
 ) -> Shape {
     let positions = positions3(&mut params);
     Shape::Curves(Curves { cubic, vertices_per_curve, wrap, v_basis, positions, primvars: params })
+}
+
+impl SceneBuilder {
+    /// Adds a shape made now to the world (or the object being defined).
+    pub(super) fn add_shape(&mut self, shape: Shape, cx: &mut Cx<'_>) {
+        if self.skip_motion_sample() {
+            return;
+        }
+        let in_solid = self.solid_depth > 0;
+        if let Some(def) = &mut self.recording {
+            def.add_shape(
+                Arc::new(shape),
+                self.gs.ctm,
+                self.gs.attrs.attrs.clone(),
+                in_solid,
+                cx.loc.clone(),
+            );
+            return;
+        }
+        if !self.in_world() {
+            cx.error(DiagnosticKind::Nesting, "geometry outside WorldBegin/WorldEnd is ignored");
+            return;
+        }
+        let attributes = self.intern_attributes();
+        let world_from_object = snap_affine(self.gs.ctm);
+        if world_from_object.row(3) != DVec4::W {
+            self.warn_once(
+                "projective-shape",
+                cx,
+                DiagnosticKind::Unsupported,
+                "this shape's transformation is projective (Perspective); consumers that need affine transformations may reject it",
+            );
+        }
+        if let Some(world) = self.world_mut() {
+            world.shapes.push(ShapeEntity {
+                shape: Arc::new(shape),
+                world_from_object,
+                attributes,
+                in_solid,
+                loc: cx.loc.clone(),
+            });
+        }
+    }
+
+    pub(super) fn polygon(&mut self, vertex_count: u32, params: ParamList, cx: &mut Cx<'_>) {
+        let shape = polygons_shape(vec![1], vec![vertex_count], (0..vertex_count).collect(), params);
+        self.add_shape(shape, cx);
+    }
+
+    pub(super) fn general_polygon(
+        &mut self,
+        vertices_per_loop: Vec<u32>,
+        params: ParamList,
+        cx: &mut Cx<'_>,
+    ) {
+        let total: u32 = vertices_per_loop.iter().sum();
+        let loops = vertices_per_loop.len() as u32;
+        let shape = polygons_shape(vec![loops], vertices_per_loop, (0..total).collect(), params);
+        self.add_shape(shape, cx);
+    }
+
+    pub(super) fn points_polygons(
+        &mut self,
+        vertices_per_face: Vec<u32>,
+        vertex_indices: Vec<u32>,
+        params: ParamList,
+        cx: &mut Cx<'_>,
+    ) {
+        let loops = vec![1; vertices_per_face.len()];
+        self.add_shape(polygons_shape(loops, vertices_per_face, vertex_indices, params), cx);
+    }
+
+    pub(super) fn points_general_polygons(
+        &mut self,
+        loops_per_face: Vec<u32>,
+        vertices_per_loop: Vec<u32>,
+        vertex_indices: Vec<u32>,
+        params: ParamList,
+        cx: &mut Cx<'_>,
+    ) {
+        self.add_shape(polygons_shape(loops_per_face, vertices_per_loop, vertex_indices, params), cx);
+    }
+
+    pub(super) fn patch(&mut self, kind: PatchKind, params: ParamList, cx: &mut Cx<'_>) {
+        let (nu, nv) = if kind == PatchKind::Bilinear { (2, 2) } else { (4, 4) };
+        let shape =
+            patch_mesh_shape(kind, nu, Wrap::NonPeriodic, nv, Wrap::NonPeriodic, &self.gs.attrs, params);
+        self.add_shape(shape, cx);
+    }
+
+    // The request's own arguments, as `RibTarget::patch_mesh` takes them.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn patch_mesh(
+        &mut self,
+        kind: PatchKind,
+        nu: u32,
+        u_wrap: Wrap,
+        nv: u32,
+        v_wrap: Wrap,
+        params: ParamList,
+        cx: &mut Cx<'_>,
+    ) {
+        let shape = patch_mesh_shape(kind, nu, u_wrap, nv, v_wrap, &self.gs.attrs, params);
+        self.add_shape(shape, cx);
+    }
+
+    pub(super) fn nu_patch(&mut self, patch: NuPatchArgs, params: ParamList, cx: &mut Cx<'_>) {
+        let shape = nu_patch_shape(patch, self.gs.attrs.trim.clone(), params);
+        self.add_shape(shape, cx);
+    }
+
+    pub(super) fn subdivision_mesh(
+        &mut self,
+        scheme: &str,
+        vertices_per_face: Vec<u32>,
+        vertex_indices: Vec<u32>,
+        tags: Vec<SubdivisionTag>,
+        params: ParamList,
+        cx: &mut Cx<'_>,
+    ) {
+        if scheme != "catmull-clark" {
+            cx.warn(
+                DiagnosticKind::Unsupported,
+                format!(
+                    "SubdivisionMesh scheme \"{scheme}\" is kept, but only \"catmull-clark\" is tessellated"
+                ),
+            );
+        }
+        let shape = subdivision_mesh_shape(scheme, vertices_per_face, vertex_indices, tags, params);
+        self.add_shape(shape, cx);
+    }
+
+    pub(super) fn quadric(&mut self, q: Quadric, _params: ParamList, cx: &mut Cx<'_>) {
+        self.add_shape(quadric_shape(q), cx);
+    }
+
+    pub(super) fn points(&mut self, params: ParamList, cx: &mut Cx<'_>) {
+        self.add_shape(points_shape(params), cx);
+    }
+
+    pub(super) fn curves(
+        &mut self,
+        cubic: bool,
+        vertices_per_curve: Vec<u32>,
+        wrap: Wrap,
+        params: ParamList,
+        cx: &mut Cx<'_>,
+    ) {
+        let shape = curves_shape(cubic, vertices_per_curve, wrap, self.gs.attrs.v_basis, params);
+        self.add_shape(shape, cx);
+    }
+
+    pub(super) fn blobby(&mut self, blobby: crate::scene::Blobby, cx: &mut Cx<'_>) {
+        self.add_shape(Shape::Blobby(blobby), cx);
+    }
 }

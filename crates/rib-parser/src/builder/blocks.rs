@@ -1,0 +1,226 @@
+//! The block requests: `FrameBegin`/`FrameEnd` (saving the options), `WorldBegin`/`WorldEnd`
+//! (fixing the camera and keeping one world as the scene), `AttributeBegin`/`AttributeEnd`,
+//! `TransformBegin`/`TransformEnd`, `SolidBegin`/`SolidEnd` and `MotionBegin`/`MotionEnd`.
+
+use super::transforms::snap_affine;
+use super::{Block, BlockKind, FrameInfo, Motion, SceneBuilder, WorldState, lights};
+use crate::diagnostics::DiagnosticKind;
+use crate::scene::*;
+use crate::target::Cx;
+use glam::{DMat4, DVec4};
+
+impl SceneBuilder {
+    pub(super) fn push_block(&mut self, kind: BlockKind, cx: &mut Cx<'_>) {
+        let saved_options = (kind == BlockKind::Frame).then(|| Box::new(self.opts.clone()));
+        self.blocks.push(Block { kind, saved: self.gs.clone(), saved_options, loc: cx.loc.clone() });
+    }
+
+    /// Ends the innermost block of `kind`. Returns the block, or `None` (with an error) when no
+    /// such block is open.
+    pub(super) fn pop_block(&mut self, kind: BlockKind, end: &str, cx: &mut Cx<'_>) -> Option<Block> {
+        let Some(pos) = self.blocks.iter().rposition(|b| b.kind == kind) else {
+            cx.error(DiagnosticKind::Nesting, format!("{end} without {}", kind.begin()));
+            return None;
+        };
+        while self.blocks.len() > pos + 1 {
+            if let Some(inner) = self.blocks.pop() {
+                cx.error(
+                    DiagnosticKind::Nesting,
+                    format!("{end} closes {} at {} before its own end", inner.kind.begin(), inner.loc),
+                );
+                self.restore(inner);
+            }
+        }
+        let block = self.blocks.pop()?;
+        Some(block)
+    }
+
+    pub(super) fn restore(&mut self, block: Block) {
+        match block.kind {
+            BlockKind::Transform => self.gs.ctm = block.saved.ctm,
+            _ => self.gs = block.saved,
+        }
+        if let Some(opts) = block.saved_options {
+            self.opts = *opts;
+        }
+    }
+
+    pub(super) fn begin_world(&mut self, cx: &mut Cx<'_>) {
+        if self.in_world() {
+            cx.error(DiagnosticKind::Nesting, "WorldBegin inside WorldBegin/WorldEnd");
+            return;
+        }
+        self.push_block(BlockKind::World, cx);
+        self.camera_from_world = snap_affine(self.gs.ctm);
+        let mut settings = self.opts.camera.clone();
+        settings.camera_from_world = self.camera_from_world;
+        if self.camera_from_world.row(3) != DVec4::W {
+            cx.error(
+                DiagnosticKind::Camera,
+                "the camera transformation is projective (a Perspective request or a matrix with a projective row before WorldBegin); use Projection \"perspective\" instead",
+            );
+        } else if let Err(e) = depth_remap::Camera::new(settings) {
+            cx.error(DiagnosticKind::Camera, format!("the camera is invalid: {e}"));
+        }
+        self.gs.ctm = DMat4::IDENTITY;
+        let world_from_camera = self.camera_from_world.inverse();
+        // Lights declared before WorldBegin were given in camera space.
+        let mut world = WorldState {
+            lights: self.pre_world_lights.clone(),
+            light_handles: self.pre_world_handles.clone(),
+            ..Default::default()
+        };
+        for p in &self.pending_lights {
+            if let Some(l) = world.lights.get_mut(p.light.0 as usize) {
+                let world_from_light = world_from_camera * p.camera_from_light;
+                lights::place_light(l, world_from_light);
+            }
+        }
+        for (name, camera_from_space) in &self.named_spaces {
+            world.coordinate_systems.push((name.clone(), world_from_camera * *camera_from_space));
+        }
+        self.named_spaces = world.coordinate_systems.clone();
+        self.world = Some(world);
+        self.world_loc = Some(cx.loc.clone());
+        self.worlds_seen += 1;
+        if let Some(f) = self.frames.last_mut()
+            && self.current_frame.is_some()
+        {
+            f.has_world = true;
+        }
+    }
+
+    pub(super) fn end_world(&mut self, cx: &mut Cx<'_>) {
+        let Some(block) = self.pop_block(BlockKind::World, "WorldEnd", cx) else { return };
+        self.restore(block);
+        let Some(world) = self.world.take() else { return };
+        // The camera-space names become camera-space again for what follows the world.
+        self.named_spaces =
+            world.coordinate_systems.iter().map(|(n, m)| (n.clone(), self.camera_from_world * *m)).collect();
+        let keep = self.kept.is_none()
+            && match self.options.frame {
+                Some(n) => self.current_frame == Some(n),
+                None => true,
+            };
+        if !keep {
+            return;
+        }
+        let mut camera = self.opts.camera.clone();
+        camera.camera_from_world = self.camera_from_world;
+        self.kept = Some(Scene {
+            source: self.source.clone(),
+            frame: self.current_frame,
+            camera,
+            render: self.opts.render.clone(),
+            displays: self.opts.displays.clone(),
+            depth_request: self.opts.depth_request.clone(),
+            options: self.opts.options.clone(),
+            lights: world.lights,
+            attributes: world.attributes,
+            shapes: world.shapes,
+            objects: world.objects,
+            instances: world.instances,
+            coordinate_systems: world.coordinate_systems,
+        });
+    }
+
+    pub(super) fn frame_begin(&mut self, frame: i32, cx: &mut Cx<'_>) {
+        if self.in_world() || self.current_frame.is_some() {
+            cx.error(DiagnosticKind::Nesting, "FrameBegin inside a frame or world block");
+            return;
+        }
+        self.push_block(BlockKind::Frame, cx);
+        self.current_frame = Some(frame);
+        self.frames.push(FrameInfo { number: frame, loc: cx.loc.clone(), has_world: false });
+    }
+
+    pub(super) fn frame_end(&mut self, cx: &mut Cx<'_>) {
+        if let Some(block) = self.pop_block(BlockKind::Frame, "FrameEnd", cx) {
+            if self.in_world() {
+                // `pop_block` already reported the unclosed world; drop it.
+                self.world = None;
+            }
+            self.restore(block);
+            self.current_frame = None;
+        }
+    }
+
+    pub(super) fn attribute_begin(&mut self, cx: &mut Cx<'_>) {
+        if self.motion.is_some() {
+            cx.error(DiagnosticKind::Nesting, "AttributeBegin inside a motion block");
+            return;
+        }
+        self.push_block(BlockKind::Attribute, cx);
+        if let Some(def) = &mut self.recording {
+            def.push();
+        }
+    }
+
+    pub(super) fn attribute_end(&mut self, cx: &mut Cx<'_>) {
+        if let Some(block) = self.pop_block(BlockKind::Attribute, "AttributeEnd", cx) {
+            self.restore(block);
+            if let Some(def) = &mut self.recording {
+                def.pop();
+            }
+        }
+    }
+
+    pub(super) fn transform_begin(&mut self, cx: &mut Cx<'_>) {
+        self.push_block(BlockKind::Transform, cx);
+    }
+
+    pub(super) fn transform_end(&mut self, cx: &mut Cx<'_>) {
+        if let Some(block) = self.pop_block(BlockKind::Transform, "TransformEnd", cx) {
+            self.restore(block);
+        }
+    }
+
+    pub(super) fn solid_begin(&mut self, operation: &str, cx: &mut Cx<'_>) {
+        if !matches!(operation, "primitive" | "union" | "intersection" | "difference") {
+            cx.error(
+                DiagnosticKind::BadValue,
+                format!("SolidBegin: unknown operation \"{operation}\" (primitive, union, intersection or difference)"),
+            );
+        }
+        if operation != "primitive" && operation != "union" {
+            self.warn_once(
+                "csg",
+                cx,
+                DiagnosticKind::Unsupported,
+                format!("SolidBegin \"{operation}\": solid operations are not supported; the solids' surfaces are kept as a union"),
+            );
+        }
+        self.solid_depth += 1;
+    }
+
+    pub(super) fn solid_end(&mut self, cx: &mut Cx<'_>) {
+        if self.solid_depth == 0 {
+            cx.error(DiagnosticKind::Nesting, "SolidEnd without SolidBegin");
+        } else {
+            self.solid_depth -= 1;
+        }
+    }
+
+    pub(super) fn motion_begin(&mut self, times: &[f32], cx: &mut Cx<'_>) {
+        if self.motion.is_some() {
+            cx.error(DiagnosticKind::Nesting, "MotionBegin inside a motion block");
+            return;
+        }
+        if times.is_empty() {
+            cx.error(DiagnosticKind::BadArguments, "MotionBegin needs at least one time");
+        }
+        self.warn_once(
+            "motion",
+            cx,
+            DiagnosticKind::Unsupported,
+            "motion blur is not supported: the first sample of each motion block is used",
+        );
+        self.motion = Some(Motion { seen: 0 });
+    }
+
+    pub(super) fn motion_end(&mut self, cx: &mut Cx<'_>) {
+        if self.motion.take().is_none() {
+            cx.error(DiagnosticKind::Nesting, "MotionEnd without MotionBegin");
+        }
+    }
+}
