@@ -42,6 +42,7 @@
 pub mod basis;
 pub mod blobby;
 pub mod builder;
+pub mod conditional;
 pub mod diagnostics;
 mod lexer;
 pub mod limits;

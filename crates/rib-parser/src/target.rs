@@ -262,4 +262,20 @@ pub trait RibTarget {
             format!("{request} is not supported (no texture files are made); skipped"),
         );
     }
+    /// The value of a variable a conditional expression (`IfBegin`, `ElseIf`) refers to:
+    /// `Frame`, `Option:ns:name`, `Attribute:ns:name`, `ns:name` or a bare `name` (see
+    /// [`crate::conditional`]); `None` when it is not defined.
+    fn variable(&self, name: &str) -> Option<crate::conditional::Value> {
+        None
+    }
+    /// `Resource handle type params`: saves or restores part of the graphics state.
+    fn resource(&mut self, handle: &str, kind: &str, params: ParamList, cx: &mut Cx<'_>) {
+        cx.warn(
+            DiagnosticKind::Unsupported,
+            format!("Resource \"{handle}\" \"{kind}\" is not supported; ignored"),
+        );
+    }
+    /// `ResourceBegin`: resources made until the matching `ResourceEnd` are forgotten there.
+    fn resource_begin(&mut self, cx: &mut Cx<'_>) {}
+    fn resource_end(&mut self, cx: &mut Cx<'_>) {}
 }

@@ -50,6 +50,7 @@ mod blocks;
 mod lights;
 mod objects;
 mod options;
+mod resources;
 mod shapes;
 mod transforms;
 
@@ -192,6 +193,8 @@ pub struct SceneBuilder {
     kept: Option<Scene>,
     worlds_seen: usize,
     warned: std::collections::HashSet<&'static str>,
+    /// Saved graphics states by name, one map per `ResourceBegin` scope (outermost first).
+    resources: Vec<HashMap<String, resources::SavedState>>,
 }
 
 impl std::fmt::Debug for SceneBuilder {
@@ -229,6 +232,7 @@ impl SceneBuilder {
             kept: None,
             worlds_seen: 0,
             warned: Default::default(),
+            resources: vec![HashMap::new()],
         }
     }
 
@@ -308,7 +312,8 @@ impl SceneBuilder {
 
 /// Routes each request to its body, kept in the file of its kind: `blocks.rs` (frame, world,
 /// attribute, transform, solid and motion blocks), `options.rs`, `attributes.rs`, `lights.rs`,
-/// `transforms.rs`, `shapes.rs` (geometry) and `objects.rs` (object definitions and instances).
+/// `transforms.rs`, `shapes.rs` (geometry), `objects.rs` (object definitions and instances) and
+/// `resources.rs` (conditional expressions' variables, `Resource`).
 impl RibTarget for SceneBuilder {
     fn version(&mut self, _version: f64, _cx: &mut Cx<'_>) {}
 
@@ -622,5 +627,21 @@ impl RibTarget for SceneBuilder {
 
     fn blobby(&mut self, blobby: crate::scene::Blobby, cx: &mut Cx<'_>) {
         SceneBuilder::blobby(self, blobby, cx)
+    }
+
+    fn variable(&self, name: &str) -> Option<crate::conditional::Value> {
+        SceneBuilder::variable(self, name)
+    }
+
+    fn resource(&mut self, handle: &str, kind: &str, params: ParamList, cx: &mut Cx<'_>) {
+        SceneBuilder::resource(self, handle, kind, params, cx)
+    }
+
+    fn resource_begin(&mut self, cx: &mut Cx<'_>) {
+        SceneBuilder::resource_begin(self, cx)
+    }
+
+    fn resource_end(&mut self, cx: &mut Cx<'_>) {
+        SceneBuilder::resource_end(self, cx)
     }
 }

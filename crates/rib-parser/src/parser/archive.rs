@@ -126,6 +126,7 @@ impl Reader {
                 source,
                 key: None,
                 inline_name: Some(name.to_string()),
+                conditional_depth: self.conditionals.len(),
             });
             return Ok(());
         }

@@ -11,6 +11,7 @@
 //! [`crate::diagnostics::MAX_ERRORS`]).
 
 mod archive;
+mod conditional;
 mod geometry;
 mod requests;
 
@@ -72,6 +73,8 @@ struct Input {
     key: Option<PathBuf>,
     /// The inline archive's name when this input is one (for cycle detection).
     inline_name: Option<String>,
+    /// How many `IfBegin` blocks were open when this input started (it must close its own).
+    conditional_depth: usize,
 }
 
 /// Parse-time state that decides how following requests are read: the basis steps (which
@@ -114,6 +117,8 @@ pub struct Reader {
     total_bytes: u64,
     scopes: Vec<ScopeState>,
     requests: u64,
+    /// The open `IfBegin` blocks, innermost last.
+    conditionals: Vec<conditional::OpenIf>,
     unnamed_handles: u32,
     warned: std::collections::HashSet<&'static str>,
     /// Single-valued float parameters of the last parameter list, at `f64` precision (for
@@ -145,6 +150,7 @@ impl Reader {
             total_bytes: 0,
             scopes: vec![ScopeState::default()],
             requests: 0,
+            conditionals: Vec::new(),
             unnamed_handles: 0,
             warned: Default::default(),
             precise_floats: Vec::new(),
@@ -280,6 +286,7 @@ impl Reader {
             cursor: LocCursor { offset: 0, line: 1, line_start: 0 },
             key,
             inline_name,
+            conditional_depth: self.conditionals.len(),
         });
     }
 
@@ -294,7 +301,9 @@ impl Reader {
             let Some(input) = self.inputs.last_mut() else { return };
             match input.lexer.next() {
                 Ok(Token { kind: TokenKind::Eof, .. }) => {
+                    let depth = input.conditional_depth;
                     self.inputs.pop();
+                    self.close_conditionals_of_input(depth);
                 }
                 Ok(Token { kind: TokenKind::Request(name), start }) => {
                     let name = String::from_utf8_lossy(name.bytes(input.lexer.bytes())).into_owned();

@@ -11,13 +11,6 @@ use glam::{DMat4, DVec3};
 /// Requests of RISpec 3.3 and later renderers that are recognised but have no meaning here;
 /// they are skipped with their arguments and one warning each.
 const LATER_REQUESTS: &[&str] = &[
-    "IfBegin",
-    "ElseIf",
-    "Else",
-    "IfEnd",
-    "Resource",
-    "ResourceBegin",
-    "ResourceEnd",
     "ShaderLayer",
     "ConnectShaderLayers",
     "DisplayChannel",
@@ -59,7 +52,23 @@ impl Reader {
     ) -> PResult<()> {
         let loc = self.loc(start);
         let r = name;
+        if matches!(name, "IfBegin" | "ElseIf" | "Else" | "IfEnd") {
+            return self.conditional(name, loc, t);
+        }
+        if !self.branch_active() {
+            // Inside a branch that is not taken: read past the request, build nothing.
+            self.skip_arguments();
+            return Ok(());
+        }
         match name {
+            "Resource" => {
+                let handle = self.arg_string(r, "the resource handle")?;
+                let kind = self.arg_string(r, "the resource type")?;
+                let params = self.call_params(r, ("Resource", &kind), &loc)?;
+                t.resource(&handle, &kind, params, &mut self.cx(loc));
+            }
+            "ResourceBegin" => t.resource_begin(&mut self.cx(loc)),
+            "ResourceEnd" => t.resource_end(&mut self.cx(loc)),
             // Structure.
             "version" => {
                 let v = self.arg_f64(r, "the version number")?;
@@ -468,16 +477,10 @@ impl Reader {
                 );
             }
             _ if LATER_REQUESTS.contains(&name) => {
-                let note = match name {
-                    "IfBegin" | "ElseIf" | "Else" | "IfEnd" => {
-                        " (conditions are not evaluated: the requests of every branch are read)"
-                    }
-                    _ => "",
-                };
                 self.diagnostics.warn(
                     DiagnosticKind::UnknownRequest,
                     &loc,
-                    format!("'{name}' (a request of later RenderMan versions) is not supported; skipped with its arguments{note}"),
+                    format!("'{name}' (a request of later RenderMan versions) is not supported; skipped with its arguments"),
                 );
                 self.skip_arguments();
             }
