@@ -141,11 +141,104 @@ impl<T: Positioned> KdTree<T> {
         }
     }
 
-    /// The nearest item to `p` within distance `sqrt(max_d2)` that passes `accept`.
-    pub fn nearest(&self, p: Vec3, max_d2: f32, accept: impl FnMut(&T) -> bool) -> Option<&T> {
-        let mut heap = KnnHeap::new(1);
-        self.knn(p, max_d2, &mut heap, accept);
-        heap.entries().first().map(|&(_, i)| &self.items[i as usize])
+    /// The nearest item to `p` within distance `sqrt(max_d2)` that passes `accept` (of equally
+    /// near items, the first the search meets, as [`KdTree::knn`] with one entry keeps).
+    pub fn nearest(&self, p: Vec3, max_d2: f32, mut accept: impl FnMut(&T) -> bool) -> Option<&T> {
+        if !(max_d2 > 0.0) {
+            return None;
+        }
+        // A bounded search without a heap: it runs once per final-gather ray.
+        let mut best = (max_d2, u32::MAX);
+        self.search_nearest(0, self.items.len(), p, &mut best, &mut accept);
+        self.items.get(best.1 as usize)
+    }
+
+    fn search_nearest(
+        &self,
+        lo: usize,
+        hi: usize,
+        p: Vec3,
+        best: &mut (f32, u32),
+        accept: &mut impl FnMut(&T) -> bool,
+    ) {
+        if hi - lo <= 4 {
+            for i in lo..hi {
+                self.consider_nearest(i, p, best, accept);
+            }
+            return;
+        }
+        let m = lo + (hi - lo) / 2;
+        let axis = self.axes[m] as usize;
+        let d = p[axis] - self.items[m].position()[axis];
+        let (near, far) = if d < 0.0 { ((lo, m), (m + 1, hi)) } else { ((m + 1, hi), (lo, m)) };
+        self.search_nearest(near.0, near.1, p, best, accept);
+        self.consider_nearest(m, p, best, accept);
+        if d * d < best.0 {
+            self.search_nearest(far.0, far.1, p, best, accept);
+        }
+    }
+
+    #[inline]
+    fn consider_nearest(
+        &self,
+        i: usize,
+        p: Vec3,
+        best: &mut (f32, u32),
+        accept: &mut impl FnMut(&T) -> bool,
+    ) {
+        let d2 = (self.items[i].position() - p).length_squared();
+        if d2 < best.0 && accept(&self.items[i]) {
+            *best = (d2, i as u32);
+        }
+    }
+
+    /// Calls `visit(d2, item)` for every item closer to `p` than `sqrt(max_d2)` that passes
+    /// `accept`: a fixed-radius search that keeps nothing, for estimates that sum as they go.
+    pub fn for_each_within(
+        &self,
+        p: Vec3,
+        max_d2: f32,
+        mut accept: impl FnMut(&T) -> bool,
+        mut visit: impl FnMut(f32, &T),
+    ) {
+        if !(max_d2 > 0.0) || self.items.is_empty() {
+            return;
+        }
+        // An explicit stack of ranges: the tree is balanced, so 64 levels hold any `usize` range.
+        let mut stack = [(0usize, 0usize); 64];
+        stack[0] = (0, self.items.len());
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (lo, hi) = stack[top];
+            // A subtree is a contiguous range: scanning a short one beats descending into it
+            // (measured: 16 instead of 4 cut a progressive render's time by a fifth).
+            if hi - lo <= 16 {
+                for item in &self.items[lo..hi] {
+                    let d2 = (item.position() - p).length_squared();
+                    if d2 < max_d2 && accept(item) {
+                        visit(d2, item);
+                    }
+                }
+                continue;
+            }
+            let m = lo + (hi - lo) / 2;
+            let item = &self.items[m];
+            let axis = self.axes[m] as usize;
+            let d = p[axis] - item.position()[axis];
+            let d2 = (item.position() - p).length_squared();
+            if d2 < max_d2 && accept(item) {
+                visit(d2, item);
+            }
+            // The side `p` is on always, the other side only where the sphere crosses the plane.
+            let (near, far) = if d < 0.0 { ((lo, m), (m + 1, hi)) } else { ((m + 1, hi), (lo, m)) };
+            if d * d < max_d2 {
+                stack[top] = far;
+                top += 1;
+            }
+            stack[top] = near;
+            top += 1;
+        }
     }
 
     /// The item at a tree index returned in a [`KnnHeap`].
@@ -286,6 +379,46 @@ mod tests {
             for &(d2, i) in heap.entries() {
                 assert_eq!((*tree.get(i) - p).length_squared(), d2);
             }
+        }
+    }
+
+    #[test]
+    fn for_each_within_finds_exactly_the_points_in_the_radius() {
+        let pts = points(20_000, 2);
+        let tree = KdTree::build(pts.clone());
+        let mut rng = Rng::new(6, 6);
+        for q in 0..200 {
+            let p = Vec3::new(rng.uniform() * 1.2 - 0.1, rng.uniform() * 1.2 - 0.1, rng.uniform() * 0.2);
+            let max_d2 = [0.0004, 0.01, 0.1][q % 3];
+            let accept = |v: &Vec3| v.x + v.y > 0.7;
+            let mut got = Vec::new();
+            tree.for_each_within(p, max_d2, accept, |d2, v| {
+                assert_eq!((*v - p).length_squared(), d2);
+                got.push(d2);
+            });
+            got.sort_by(f32::total_cmp);
+            assert_eq!(got, brute(&pts, p, usize::MAX, max_d2, accept), "query {q} at {p}");
+        }
+        let mut count = 0;
+        tree.for_each_within(Vec3::ZERO, 0.0, |_| true, |_, _| count += 1);
+        tree.for_each_within(Vec3::ZERO, f32::NAN, |_| true, |_, _| count += 1);
+        assert_eq!(count, 0);
+    }
+
+    /// `nearest` is the one-entry `knn`, ties included.
+    #[test]
+    fn nearest_is_the_first_of_knn() {
+        let mut pts = points(5_000, 4);
+        pts.extend(pts.clone());
+        let tree = KdTree::build(pts);
+        let mut heap = KnnHeap::new(1);
+        let mut rng = Rng::new(8, 8);
+        for _ in 0..200 {
+            let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform() * 0.1);
+            let accept = |v: &Vec3| v.x > 0.3;
+            tree.knn(p, 0.05, &mut heap, accept);
+            let via_heap = heap.entries().first().map(|&(_, i)| tree.get(i) as *const Vec3);
+            assert_eq!(tree.nearest(p, 0.05, accept).map(|v| v as *const Vec3), via_heap);
         }
     }
 

@@ -38,9 +38,6 @@ pub const DEFAULT_ALPHA: f32 = 0.7;
 pub const DEFAULT_PASSES: u32 = 16;
 /// The most passes one render may ask for.
 pub const MAX_PASSES: u32 = 1 << 16;
-/// Photons one fixed-radius estimate can hold; beyond that it reads the nearest ones (a
-/// k-nearest estimate), so a dense caustic cannot allocate without bound.
-pub const RANGE_CAPACITY: usize = 1024;
 /// Photons of the first pass that carry a radius ([`RadiusField`]).
 const RADIUS_SITES: usize = 4096;
 

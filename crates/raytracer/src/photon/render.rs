@@ -2,7 +2,6 @@
 
 use super::estimate::{self, NORMAL_COSINE, Query};
 use super::kdtree::KnnHeap;
-use super::progressive::RANGE_CAPACITY;
 use super::{GatherSampling, PhotonMapper, unpack_unit};
 use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
 use crate::integrators::{
@@ -86,10 +85,8 @@ impl PhotonMapper {
         sampler: &mut Sampler,
         counters: &mut RayCounters,
     ) -> Radiance {
-        // Fixed-radius estimates (progressive mode) keep every photon in the radius.
-        let capacity = if self.fixed.is_some() { RANGE_CAPACITY } else { self.settings.n_used as usize };
         let mut scratch = Scratch {
-            heap: KnnHeap::new(capacity),
+            heap: KnnHeap::new(self.settings.n_used as usize),
             guide_heap: KnnHeap::new(GUIDE_PHOTONS),
             guide_dirs: Vec::new(),
             gather_rays: 0,
@@ -148,17 +145,31 @@ impl PhotonMapper {
                 let n = facing_normal(&si);
                 if let Some(map) = &self.caustic {
                     scratch.lookups += 1;
-                    let max_d2 = self.fixed.as_ref().map_or(self.max_d2, |r| r.caustic_d2(si.p));
-                    let q = Query { p: si.p, n, max_d2 };
-                    l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+                    l += match &self.fixed {
+                        Some(r) => {
+                            let q = Query { p: si.p, n, max_d2: r.caustic_d2(si.p) };
+                            estimate::radiance_within(map, &q, &bsdf, si.wo, self.settings.filter)
+                        }
+                        None => {
+                            let q = Query { p: si.p, n, max_d2: self.max_d2 };
+                            estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap)
+                        }
+                    };
                 }
                 if self.gather {
                     l += self.gather(world, &si, &bsdf, sampler, counters, scratch);
                 } else if let Some(map) = &self.indirect {
                     scratch.lookups += 1;
-                    let max_d2 = self.fixed.as_ref().map_or(self.max_d2, |r| r.global_d2(si.p));
-                    let q = Query { p: si.p, n, max_d2 };
-                    l += estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+                    l += match &self.fixed {
+                        Some(r) => {
+                            let q = Query { p: si.p, n, max_d2: r.global_d2(si.p) };
+                            estimate::radiance_within(map, &q, &bsdf, si.wo, self.settings.filter)
+                        }
+                        None => {
+                            let q = Query { p: si.p, n, max_d2: self.max_d2 };
+                            estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap)
+                        }
+                    };
                 }
             }
             if depth < self.settings.max_depth {
@@ -387,7 +398,7 @@ impl PhotonMapper {
         scratch.lookups += 1;
         if let (Some(map), Some(r)) = (&self.global, &self.fixed) {
             let q = Query { p: si.p, n, max_d2: r.global_d2(si.p) };
-            return estimate::radiance(map, &q, bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+            return estimate::radiance_within(map, &q, bsdf, si.wo, self.settings.filter);
         }
         if let Some(rp) = &self.radiance {
             return match rp.nearest(si.p, self.max_d2, |r| unpack_unit(r.n).dot(n) > NORMAL_COSINE) {
