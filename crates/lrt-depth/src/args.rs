@@ -61,7 +61,7 @@ pub struct Cli {
     #[arg(long, value_name = "XMIN,XMAX,YMIN,YMAX", allow_hyphen_values = true)]
     pub crop: Option<String>,
 
-    /// Use the world of `FrameBegin N` (default: the first world of the file).
+    /// Use the world of `FrameBegin N` (default: the first world of the file that is not a shadow-map pass).
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub frame: Option<i32>,
 }

@@ -120,4 +120,20 @@ fn print_stats(loaded: &rib_parser::Loaded) {
         Some(d) => println!("stats: depth table requested: {} ({:?})", d.path.display(), d.source),
         None => println!("stats: no depth table requested: no depth work will be done"),
     }
+    print_superseded(loaded);
+}
+
+/// What ray-traced shadows make unnecessary: `MakeShadow` requests and the shadow-map frames
+/// that render their depth images (skipped when no frame is asked for).
+pub fn print_superseded(loaded: &rib_parser::Loaded) {
+    let passes: Vec<String> =
+        loaded.frames.iter().filter(|f| f.shadow_pass).map(|f| f.number.to_string()).collect();
+    let made = loaded.superseded_shadow_maps.len();
+    if made == 0 && passes.is_empty() {
+        return;
+    }
+    println!(
+        "stats: superseded by ray-traced shadows: {made} MakeShadow request(s), no maps made; shadow-map frames: {}",
+        if passes.is_empty() { "none".to_string() } else { passes.join(" ") }
+    );
 }

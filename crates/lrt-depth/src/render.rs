@@ -171,6 +171,7 @@ pub fn run(settings: &Settings) -> ExitCode {
     let code = write_outputs(scene, &out, &outputs, settings, &loaded.sources);
     if settings.stats {
         print_stats(&out.stats, time_parse, write_start.elapsed(), scene);
+        check::print_superseded(&loaded);
     }
     code
 }

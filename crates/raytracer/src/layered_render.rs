@@ -145,9 +145,18 @@ fn layered_tile(
                     Some((ray, _)) => integrator.li(frame.world, ray, &mut sampler, &mut counters),
                     None => Default::default(),
                 };
+                let composited = if traced { frame.world.over_background(r) } else { r };
                 positions.push([x as f32, y as f32]);
-                values.extend_from_slice(&[r.rgb.x, r.rgb.y, r.rgb.z, r.alpha]);
+                values.extend_from_slice(&[composited.rgb.x, composited.rgb.y, composited.rgb.z, r.alpha]);
+                let layers = values.len();
                 plan.push_sample(&mut values, traced);
+                if traced {
+                    // The background is emission seen by the camera: it keeps the layers'
+                    // sum equal to the image.
+                    for c in 0..3 {
+                        values[layers + c] += composited.rgb[c] - r.rgb[c];
+                    }
+                }
             }
         }
     }

@@ -548,7 +548,9 @@ fn render_tile(
                 let x = px as f64 + f64::from(jitter.x);
                 let y = py as f64 + f64::from(jitter.y);
                 let r = match rays.ray(DVec2::new(x, y)) {
-                    Some((ray, _)) => integrator.li(world, ray, &mut sampler, &mut counters),
+                    Some((ray, _)) => {
+                        world.over_background(integrator.li(world, ray, &mut sampler, &mut counters))
+                    }
                     None => Default::default(),
                 };
                 samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });

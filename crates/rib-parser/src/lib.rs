@@ -77,6 +77,8 @@ pub struct Loaded {
     pub scene: scene::Scene,
     /// Every `FrameBegin` of the file.
     pub frames: Vec<FrameInfo>,
+    /// Where `MakeShadow` was requested: superseded by ray-traced shadows (no map is made).
+    pub superseded_shadow_maps: Vec<scene::FileLoc>,
     /// The warnings (a loaded scene has no errors).
     pub diagnostics: Diagnostics,
     pub sources: SourceMap,
@@ -131,6 +133,7 @@ fn load_with(
         Some(built) if !diagnostics.has_errors() => Ok(Loaded {
             scene: built.scene,
             frames: built.frames,
+            superseded_shadow_maps: built.superseded_shadow_maps,
             diagnostics,
             sources,
             requests,

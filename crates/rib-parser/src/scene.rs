@@ -254,6 +254,8 @@ pub struct RenderSettings {
     pub surface_integrator: Option<ShaderCall>,
     /// `Shutter open close`.
     pub shutter: Option<(f32, f32)>,
+    /// `Imager "name" params` (`"background"` sets the colour where rays miss).
+    pub imager: Option<ShaderCall>,
 }
 
 impl Default for RenderSettings {
@@ -267,6 +269,7 @@ impl Default for RenderSettings {
             hider: None,
             surface_integrator: None,
             shutter: None,
+            imager: None,
         }
     }
 }

@@ -262,6 +262,10 @@ pub trait RibTarget {
             format!("{request} is not supported (no texture files are made); skipped"),
         );
     }
+    /// `MakeShadow`: a shadow map from a depth image.
+    fn make_shadow(&mut self, cx: &mut Cx<'_>) {
+        self.make_texture("MakeShadow", cx);
+    }
     /// The value of a variable a conditional expression (`IfBegin`, `ElseIf`) refers to:
     /// `Frame`, `Option:ns:name`, `Attribute:ns:name`, `ns:name` or a bare `name` (see
     /// [`crate::conditional`]); `None` when it is not defined.

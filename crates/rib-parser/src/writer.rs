@@ -269,6 +269,9 @@ impl Writer {
         if let Some(i) = &r.surface_integrator {
             self.line(format!("SurfaceIntegrator {}{}", s(&i.name), param_list(&i.params)));
         }
+        if let Some(i) = &r.imager {
+            self.line(format!("Imager {}{}", s(&i.name), param_list(&i.params)));
+        }
         if let Some((open, close)) = r.shutter {
             self.line(format!("Shutter {} {}", f(open), f(close)));
         }

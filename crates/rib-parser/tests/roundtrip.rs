@@ -87,7 +87,7 @@ struct Canonical {
 
 fn canonical(scene: &Scene) -> Canonical {
     let mut render = scene.render.clone();
-    for c in [&mut render.hider, &mut render.surface_integrator].into_iter().flatten() {
+    for c in [&mut render.hider, &mut render.surface_integrator, &mut render.imager].into_iter().flatten() {
         strip_call(c);
     }
     let mut lights: Vec<_> = scene
@@ -190,6 +190,7 @@ Quantize "z" 0 0 0 0
 Hider "hidden" "jitter" [1]
 SurfaceIntegrator "photonmap" "integer causticphotons" [20000] "float maxdist" [0.25]
 Shutter 0 0.5
+Imager "background" "color background" [0.2 0.4 0.6]
 Display "out.tif" "tiff" "rgba" "string compression" ["lzw"]
 Display "+out.depth" "depthtable" "z"
 Option "limits" "bucketsize" [16 16]

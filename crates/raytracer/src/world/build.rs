@@ -705,8 +705,21 @@ impl World {
             attributes_light_set,
             bounds,
             stats,
+            background: background(scene),
         })
     }
+}
+
+/// The colour of `Imager "background"` (black without one, or for other imagers, which are
+/// shader programs). Non-finite or negative components are taken as 0.
+fn background(scene: &Scene) -> Vec3 {
+    scene
+        .render
+        .imager
+        .as_ref()
+        .filter(|i| i.name == "background")
+        .and_then(|i| rib_parser::builder::background_color(&i.params))
+        .map_or(Vec3::ZERO, |c| c.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }))
 }
 
 /// The render-space emitter shape of a placed shape: meshes are in BLAS space (placed in

@@ -197,9 +197,20 @@ pub struct World {
     /// Render-space bounds of all geometry.
     pub bounds: (Vec3, Vec3),
     pub stats: WorldStats,
+    /// `Imager "background"`: composited under each camera sample by its alpha, as RenderMan's
+    /// `Ci += (1 - alpha) * background` (reflections and lighting do not see it).
+    pub background: Vec3,
 }
 
 impl World {
+    /// A camera sample over the background colour (alpha, the coverage, is kept).
+    pub fn over_background(&self, r: crate::integrators::Radiance) -> crate::integrators::Radiance {
+        if self.background == Vec3::ZERO {
+            return r;
+        }
+        crate::integrators::Radiance { rgb: r.rgb + (1.0 - r.alpha) * self.background, alpha: r.alpha }
+    }
+
     /// The render-space bounding sphere of the geometry (centre, radius).
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         let (lo, hi) = self.bounds;

@@ -97,14 +97,25 @@ impl SceneBuilder {
         // The camera-space names become camera-space again for what follows the world.
         self.named_spaces =
             world.coordinate_systems.iter().map(|(n, m)| (n.clone(), self.camera_from_world * *m)).collect();
-        let keep = self.kept.is_none()
-            && match self.options.frame {
-                Some(n) => self.current_frame == Some(n),
-                None => true,
-            };
+        let shadow_pass = self.opts.displays.iter().any(|d| !d.secondary)
+            && self.opts.displays.iter().all(|d| {
+                matches!(d.driver.as_str(), "zfile" | "shadow" | "deepshad")
+                    || (d.mode == "z" && d.driver != "depthtable")
+            });
+        if let Some(f) = self.frames.last_mut()
+            && self.current_frame.is_some()
+        {
+            f.shadow_pass = shadow_pass;
+        }
+        let keep = match self.options.frame {
+            Some(n) => self.kept.is_none() && self.current_frame == Some(n),
+            // A shadow-map pass is kept only until a world that is not one comes.
+            None => self.kept.is_none() || (self.kept_shadow_pass && !shadow_pass),
+        };
         if !keep {
             return;
         }
+        self.kept_shadow_pass = shadow_pass;
         let mut camera = self.opts.camera.clone();
         camera.camera_from_world = self.camera_from_world;
         self.kept = Some(Scene {
@@ -131,7 +142,12 @@ impl SceneBuilder {
         }
         self.push_block(BlockKind::Frame, cx);
         self.current_frame = Some(frame);
-        self.frames.push(FrameInfo { number: frame, loc: cx.loc.clone(), has_world: false });
+        self.frames.push(FrameInfo {
+            number: frame,
+            loc: cx.loc.clone(),
+            has_world: false,
+            shadow_pass: false,
+        });
     }
 
     pub(super) fn frame_end(&mut self, cx: &mut Cx<'_>) {

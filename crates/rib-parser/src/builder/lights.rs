@@ -17,6 +17,20 @@ fn param_point(params: &ParamList, name: &str, default: DVec3) -> DVec3 {
     params.vec3(name).map_or(default, |v| v.as_dvec3())
 }
 
+/// The light shaders of the Pixar and Aqsis standard libraries that are a standard light plus
+/// shadow maps, with the standard light they are when shadows are ray traced exactly.
+pub(crate) const SHADOW_MAP_LIGHTS: &[(&str, &str)] =
+    &[("shadowspot", "spotlight"), ("shadowpoint", "pointlight"), ("shadowdistant", "distantlight")];
+
+/// Their parameters that only steer the shadow map lookup.
+const SHADOW_MAP_PARAMS: &[&str] =
+    &["shadowname", "blur", "bias", "samples", "width", "sfpx", "sfnx", "sfpy", "sfny", "sfpz", "sfnz"];
+
+/// The standard light a shader name stands for (itself, or the one a shadow-map light extends).
+pub(crate) fn standard_light(name: &str) -> &str {
+    SHADOW_MAP_LIGHTS.iter().find(|(shadowed, _)| *shadowed == name).map_or(name, |(_, standard)| standard)
+}
+
 /// The standard light shaders with RenderMan's defaults.
 fn resolve_kind(call: &ShaderCall, world_from_light: DMat4, area: bool) -> LightKind {
     let p = &call.params;
@@ -31,7 +45,7 @@ fn resolve_kind(call: &ShaderCall, world_from_light: DMat4, area: bool) -> Light
             _ => LightKind::Other,
         };
     }
-    match call.name.as_str() {
+    match standard_light(&call.name) {
         "ambientlight" => LightKind::Ambient { intensity, color },
         "distantlight" => LightKind::Distant { direction, intensity, color },
         "pointlight" => LightKind::Point { position: from, intensity, color },
@@ -71,7 +85,7 @@ impl SceneBuilder {
             );
             return;
         }
-        if !area && matches!(call.name.as_str(), "distantlight" | "spotlight") {
+        if !area && matches!(standard_light(&call.name), "distantlight" | "spotlight") {
             let from = call.params.vec3("from").unwrap_or(Vec3::ZERO);
             let to = call.params.vec3("to").unwrap_or(Vec3::Z);
             if from == to {
@@ -82,7 +96,19 @@ impl SceneBuilder {
                 return;
             }
         }
-        if !area
+        if !area && standard_light(&call.name) != call.name {
+            if let Some(ignored) = SHADOW_MAP_PARAMS.iter().find(|n| call.params.get(n).is_some()) {
+                self.warn_once(
+                    "shadow-map-params",
+                    cx,
+                    DiagnosticKind::Unsupported,
+                    format!(
+                        "light \"{}\": shadows are ray traced exactly, so its shadow-map parameters (\"{ignored}\" and the like: shadowname, blur, bias, samples, width) are ignored",
+                        call.name
+                    ),
+                );
+            }
+        } else if !area
             && !matches!(call.name.as_str(), "ambientlight" | "distantlight" | "pointlight" | "spotlight")
         {
             cx.warn(

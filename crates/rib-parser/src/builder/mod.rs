@@ -43,7 +43,10 @@
 //!
 //! # Frames
 //! Every `FrameBegin` is listed in [`Built::frames`]. One world is kept as the scene: the one in
-//! the frame [`BuildOptions::frame`] names, or by default the first world of the file.
+//! the frame [`BuildOptions::frame`] names, or by default the first world of the file that is
+//! not a shadow-map pass (a frame whose displays all write depth only, as scenes render their
+//! shadow maps before the image; ray-traced shadows supersede them), or the first world when
+//! every one is.
 
 mod attributes;
 mod blocks;
@@ -65,6 +68,7 @@ use std::sync::Arc;
 
 pub(crate) use attributes::AttrState;
 use objects::ObjectDef;
+pub use options::background_color;
 
 /// What to build.
 #[derive(Clone, Debug, Default)]
@@ -81,6 +85,9 @@ pub struct FrameInfo {
     pub number: i32,
     pub loc: FileLoc,
     pub has_world: bool,
+    /// Every display of the frame writes depth only (`"zfile"`, `"shadow"`, `"deepshad"` or
+    /// mode `"z"`): a shadow-map pass, superseded by ray-traced shadows.
+    pub shadow_pass: bool,
 }
 
 /// What the builder produced.
@@ -89,6 +96,8 @@ pub struct Built {
     pub scene: Scene,
     /// Every frame of the file, in order (empty when the file has no `FrameBegin`).
     pub frames: Vec<FrameInfo>,
+    /// Where `MakeShadow` was requested: no map is made, shadows are ray traced exactly.
+    pub superseded_shadow_maps: Vec<FileLoc>,
 }
 
 /// The options part of the graphics state (saved by `FrameBegin`).
@@ -193,6 +202,10 @@ pub struct SceneBuilder {
     kept: Option<Scene>,
     worlds_seen: usize,
     warned: std::collections::HashSet<&'static str>,
+    /// The kept world is a shadow-map pass (replaced by the next world that is not one, unless
+    /// a frame was asked for).
+    kept_shadow_pass: bool,
+    superseded_shadow_maps: Vec<FileLoc>,
     /// Saved graphics states by name, one map per `ResourceBegin` scope (outermost first).
     resources: Vec<HashMap<String, resources::SavedState>>,
 }
@@ -232,6 +245,8 @@ impl SceneBuilder {
             kept: None,
             worlds_seen: 0,
             warned: Default::default(),
+            kept_shadow_pass: false,
+            superseded_shadow_maps: Vec::new(),
             resources: vec![HashMap::new()],
         }
     }
@@ -269,7 +284,11 @@ impl SceneBuilder {
             }
             return None;
         }
-        self.kept.map(|scene| Built { scene, frames: self.frames })
+        self.kept.map(|scene| Built {
+            scene,
+            frames: self.frames,
+            superseded_shadow_maps: self.superseded_shadow_maps,
+        })
     }
 
     fn warn_once(
@@ -627,6 +646,15 @@ impl RibTarget for SceneBuilder {
 
     fn blobby(&mut self, blobby: crate::scene::Blobby, cx: &mut Cx<'_>) {
         SceneBuilder::blobby(self, blobby, cx)
+    }
+
+    fn imager(&mut self, call: ShaderCall, cx: &mut Cx<'_>) {
+        SceneBuilder::imager(self, call, cx)
+    }
+
+    fn make_shadow(&mut self, cx: &mut Cx<'_>) {
+        // Shadows are ray traced exactly: no map is needed (reported by `lrt-depth --stats`).
+        self.superseded_shadow_maps.push(cx.loc.clone());
     }
 
     fn variable(&self, name: &str) -> Option<crate::conditional::Value> {

@@ -298,6 +298,28 @@ impl SceneBuilder {
         self.opts.options.push(OptionCall { namespace: namespace.to_string(), params, loc: cx.loc.clone() });
     }
 
+    /// `Imager`: kept in the render settings; `"background"` is the colour where rays miss
+    /// (RenderMan's `Ci += (1 - alpha) * background`), the others are shader programs.
+    pub(super) fn imager(&mut self, call: ShaderCall, cx: &mut Cx<'_>) {
+        if !self.option_allowed("Imager", cx) {
+            return;
+        }
+        if call.name == "background" {
+            if background_color(&call.params).is_none() {
+                cx.warn(
+                    DiagnosticKind::ParameterValues,
+                    "Imager \"background\" has no colour (\"background\", \"bgcolor\" or \"color\"); the background stays black",
+                );
+            }
+        } else {
+            cx.warn(
+                DiagnosticKind::Unsupported,
+                format!("Imager \"{}\" is a shader program, which is not run; ignored", call.name),
+            );
+        }
+        self.opts.render.imager = Some(call);
+    }
+
     pub(super) fn surface_integrator(&mut self, call: ShaderCall, cx: &mut Cx<'_>) {
         if !self.option_allowed("SurfaceIntegrator", cx) {
             return;
@@ -308,4 +330,10 @@ impl SceneBuilder {
 
 fn is_identity3(m: &[f32]) -> bool {
     m.iter().enumerate().all(|(i, &v)| v == if i % 4 == 0 { 1.0 } else { 0.0 })
+}
+
+/// The colour of `Imager "background"`: its `"background"` parameter, or the `"bgcolor"` and
+/// `"color"` spellings scenes also use.
+pub fn background_color(params: &ParamList) -> Option<glam::Vec3> {
+    ["background", "bgcolor", "color"].into_iter().find_map(|name| params.vec3(name))
 }

@@ -460,11 +460,15 @@ impl Reader {
             | "MakeBump"
             | "MakeLatLongEnvironment"
             | "MakeCubeFaceEnvironment"
-            | "MakeShadow"
             | "MakeBrickMap"
             | "MakeOcclusion" => {
                 self.skip_arguments();
                 t.make_texture(name, &mut self.cx(loc));
+            }
+
+            "MakeShadow" => {
+                self.skip_arguments();
+                t.make_shadow(&mut self.cx(loc));
             }
 
             // Never executed.
