@@ -217,6 +217,15 @@ fn a_malformed_expression_is_an_error_at_its_column() {
 }
 
 #[test]
+fn nesting_beyond_the_limit_is_fatal() {
+    let mut options = LoadOptions::default();
+    options.read.limits.max_nesting_depth = 50;
+    let rib = format!("WorldBegin\n{}WorldEnd\n", "IfBegin \"true\"\n".repeat(60));
+    let err = load_bytes("test.rib", rib.into_bytes(), &options).unwrap_err().render();
+    assert!(err.contains("IfBegin blocks nested deeper than the limit of 50"), "{err}");
+}
+
+#[test]
 fn unbalanced_blocks_are_errors() {
     assert!(load_err("WorldBegin\nIfEnd\nWorldEnd\n").contains("test.rib:2:1: error: IfEnd without IfBegin"));
     assert!(load_err("WorldBegin\nElse\nWorldEnd\n").contains("Else without IfBegin"));

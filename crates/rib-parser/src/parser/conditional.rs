@@ -45,6 +45,15 @@ impl Reader {
     ) -> PResult<()> {
         match name {
             "IfBegin" => {
+                let limit = self.options.limits.max_nesting_depth;
+                if self.conditionals.len() >= limit {
+                    self.diagnostics.fatal(
+                        DiagnosticKind::Limit,
+                        Some(&loc),
+                        format!("IfBegin blocks nested deeper than the limit of {limit}"),
+                    );
+                    return Err(super::Stop);
+                }
                 let value = if self.branch_active() { Some(self.condition(name, t)?) } else { None };
                 self.skip_to_request();
                 let taken = value.unwrap_or(false);
