@@ -122,6 +122,11 @@ fn imager_background_spellings() {
         assert_eq!(background_color(&imager.params), expected, "{params}");
         assert_eq!(loaded.render_warnings().contains("no colour"), expected.is_none(), "{params}");
     }
+    // Inside the world block too (Aqsis's hand.rib sets it there).
+    let inside = load("WorldBegin\nImager \"background\" \"color\" [1 1 1]\nWorldEnd\n");
+    let imager = inside.scene.render.imager.as_ref().expect("the imager is kept");
+    assert_eq!(background_color(&imager.params), Some(Vec3::ONE));
+    assert!(inside.render_warnings().is_empty(), "{}", inside.render_warnings());
     let other = load("Imager \"MOSAICbackground\"\nWorldBegin\nWorldEnd\n");
     assert!(other.render_warnings().contains("shader program"), "{}", other.render_warnings());
 }

@@ -300,10 +300,11 @@ impl SceneBuilder {
 
     /// `Imager`: kept in the render settings; `"background"` is the colour where rays miss
     /// (RenderMan's `Ci += (1 - alpha) * background`), the others are shader programs.
+    ///
+    /// Unlike other options it is taken inside the world block too, as Aqsis takes it (scenes
+    /// such as its `hand.rib` set it there): the imager runs on the finished image, so nothing
+    /// in the world depends on it.
     pub(super) fn imager(&mut self, call: ShaderCall, cx: &mut Cx<'_>) {
-        if !self.option_allowed("Imager", cx) {
-            return;
-        }
         if call.name == "background" {
             if background_color(&call.params).is_none() {
                 cx.warn(
