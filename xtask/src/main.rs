@@ -17,6 +17,7 @@ mod depth;
 mod mitsuba;
 mod raytracer;
 mod rib;
+mod scale_out;
 mod xvfb;
 
 use std::path::{Path, PathBuf};
@@ -24,7 +25,8 @@ use std::process::{Command, ExitCode};
 
 /// Debian packages the test suite needs: lavapipe (software Vulkan) and its loader, so wgpu finds
 /// a Vulkan adapter that can copy depth textures; Xvfb, so window tests have a display.
-const TEST_PACKAGES: &[&str] = &["mesa-vulkan-drivers", "libvulkan1", "xvfb"];
+/// Debian's Slurm and munge, so the job scripts of examples/slurm run on a real one-node cluster.
+const TEST_PACKAGES: &[&str] = &["mesa-vulkan-drivers", "libvulkan1", "xvfb", "slurm-wlm", "munge"];
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -40,9 +42,10 @@ fn main() -> ExitCode {
         Some("colocation") => colocation::colocation(),
         Some("bench-error") => bench_error::bench_error(&args[1..]),
         Some("image-error") => bench_error::image_error(&args[1..]),
+        Some("scale-out") => scale_out::scale_out(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512\n  bench-error              render time against error for every integrator (docs/performance.md)\n  image-error A.exr B.exr  RMSE and relative MSE of an image against a reference"
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512\n  bench-error              render time against error for every integrator (docs/performance.md)\n  image-error A.exr B.exr  RMSE and relative MSE of an image against a reference\n  scale-out                the Cornell box as 1, 4 and 16 tiles through a local Slurm (docs/scale-out.md)"
             );
             return ExitCode::from(2);
         }
@@ -89,7 +92,7 @@ fn package_installed(name: &str) -> bool {
 /// Installs [`TEST_PACKAGES`] with apt when any is missing. Fails loudly rather than letting GPU
 /// tests silently skip: a test must never pass because no adapter was found.
 fn install_test_packages() -> Result<(), String> {
-    install_packages(TEST_PACKAGES, "a Vulkan driver (lavapipe) and Xvfb")
+    install_packages(TEST_PACKAGES, "a Vulkan driver (lavapipe), Xvfb, Slurm and munge")
 }
 
 /// Installs the Debian `packages` that are missing with apt (as root, or through sudo);

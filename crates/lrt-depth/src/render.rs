@@ -8,13 +8,13 @@
 //! goes where `Option "lrt" "depthfile"`, a `depthtable` display or `--depth` says, as text or
 //! as OpenEXR for a `.exr` name. Everything is written relative to the current directory.
 
-use crate::args::Settings;
+use crate::args::{Settings, Tiling};
 use crate::check;
 use raytracer::render::{ProgressFn, RenderOptions, RenderOutput, RenderStats, render};
 use rib_parser::scene::Scene;
 use rib_parser::{Diagnostic, DiagnosticKind, Severity};
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -123,15 +123,136 @@ fn progress(settings: &Settings) -> Option<(indicatif::ProgressBar, ProgressFn)>
     Some((bar, f))
 }
 
+/// Renders the frames and tile the settings' work share names (`--frames`, `--tiles`, the
+/// Slurm array index), one after another; stops at the first that fails.
 pub fn run(settings: &Settings) -> ExitCode {
+    let Some(frames) = &settings.share.frames else { return run_one(settings) };
+    for &frame in frames {
+        let one = Settings { frame: Some(frame), ..settings.clone() };
+        let code = run_one(&one);
+        if code != ExitCode::SUCCESS {
+            return code;
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+/// Text attributes of a tile's OpenEXR file, so that `lrt-merge` joins only the tiles of one
+/// render: a fingerprint of everything read (every RIB source, with its name) and of the
+/// flags that change pixels, the frame, and the tiling with this tile's index.
+pub fn tile_stamp(
+    sources: &rib_parser::SourceMap,
+    settings: &Settings,
+    tiling: Tiling,
+    tile: u32,
+) -> Vec<(String, String)> {
+    // FNV-1a, 64 bits: the same on every machine and every build of this version.
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    let mut feed = |bytes: &[u8]| {
+        for &b in bytes {
+            hash = (hash ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        // A separator, so that ("ab", "c") and ("a", "bc") differ.
+        hash = (hash ^ 0xff).wrapping_mul(0x0000_0100_0000_01b3);
+    };
+    feed(env!("CARGO_PKG_VERSION").as_bytes());
+    for file in sources.files() {
+        feed(file.name.as_bytes());
+        feed(&file.bytes);
+    }
+    let flags = format!(
+        "spp {:?} time {:?} target {:?}",
+        settings.spp.map(|n| n.get()),
+        settings.time_budget,
+        settings.target_error
+    );
+    feed(flags.as_bytes());
+    vec![
+        (STAMP_RENDER.into(), format!("{hash:016x}")),
+        (STAMP_FRAME.into(), settings.frame.map_or_else(|| "-".into(), |f| f.to_string())),
+        (STAMP_TILES.into(), format!("{},{}", tiling.nx, tiling.ny)),
+        (STAMP_TILE.into(), tile.to_string()),
+    ]
+}
+
+/// Names of the tile stamp's attributes (docs/scale-out.md); `lrt-merge` reads them.
+pub const STAMP_RENDER: &str = "lrt.render";
+pub const STAMP_FRAME: &str = "lrt.frame";
+pub const STAMP_TILES: &str = "lrt.tiles";
+pub const STAMP_TILE: &str = "lrt.tile";
+
+/// An output name with the frame and tile of this run in it (docs/scale-out.md): `#f` becomes
+/// the frame number (at least 4 digits), `#t` the tile index (at least 3 digits); a name
+/// without the token gets `.NNNN` or `.tileKKK` before its extension. `exr` gives the name
+/// the `.exr` extension (tiles are OpenEXR, which records their place in the frame).
+pub fn name_for(path: &Path, frame: Option<i32>, tile: Option<u32>, exr: bool) -> PathBuf {
+    let text = path.to_string_lossy().into_owned();
+    let (dir, file) = match text.rfind('/') {
+        Some(i) => (&text[..=i], &text[i + 1..]),
+        None => ("", text.as_str()),
+    };
+    let (mut stem, mut ext) = match file.rfind('.') {
+        Some(i) if i > 0 => (file[..i].to_string(), file[i..].to_string()),
+        _ => (file.to_string(), String::new()),
+    };
+    if let Some(f) = frame {
+        let number = format!("{f:04}");
+        if stem.contains("#f") || ext.contains("#f") {
+            stem = stem.replace("#f", &number);
+            ext = ext.replace("#f", &number);
+        } else {
+            stem = format!("{stem}.{number}");
+        }
+    }
+    if let Some(t) = tile {
+        let number = format!("{t:03}");
+        if stem.contains("#t") || ext.contains("#t") {
+            stem = stem.replace("#t", &number);
+            ext = ext.replace("#t", &number);
+        } else {
+            stem = format!("{stem}.tile{number}");
+        }
+    }
+    if exr && !ext.eq_ignore_ascii_case(".exr") {
+        ext = ".exr".into();
+    }
+    PathBuf::from(format!("{dir}{stem}{ext}"))
+}
+
+fn run_one(settings: &Settings) -> ExitCode {
     let parse_start = Instant::now();
-    let loaded = match check::load(settings) {
+    let tiled = settings.share.tile;
+    let settings = &Settings { crop: tiled.map(|(t, k)| t.crop(k)).or(settings.crop), ..settings.clone() };
+    let mut loaded = match check::load(settings) {
         Ok(l) => l,
         Err(code) => return code,
     };
     let time_parse = parse_start.elapsed();
+    // This run's frame and tile go into every output name.
+    let frame = settings.share.frames.as_ref().and(settings.frame);
+    let tile = tiled.map(|(_, k)| k);
+    if let Some(request) = &mut loaded.scene.depth_request {
+        request.path = name_for(&request.path, frame, tile, false);
+    }
     let scene = &loaded.scene;
-    let (outputs, notes) = image_outputs(scene, settings);
+    let (mut outputs, notes) = image_outputs(scene, settings);
+    if tile.is_some() {
+        // Tiles are OpenEXR: the displays that are, or else the first display as OpenEXR.
+        let is_exr = |o: &ImageOutput| {
+            raytracer::output::Format::for_output(&o.path, &o.driver) == Some(raytracer::output::Format::Exr)
+        };
+        if outputs.iter().any(is_exr) {
+            outputs.retain(is_exr);
+        } else {
+            outputs.truncate(1);
+        }
+    }
+    if frame.is_some() || tile.is_some() {
+        for o in &mut outputs {
+            o.path = name_for(&o.path, frame, tile, tile.is_some());
+        }
+    }
+    let stamp = tiled.map(|(t, k)| tile_stamp(&loaded.sources, settings, t, k));
     if !settings.quiet {
         for (loc, message) in notes {
             warn(loc, message, &loaded.sources);
@@ -168,7 +289,7 @@ pub fn run(settings: &Settings) -> ExitCode {
         }
     }
     let write_start = Instant::now();
-    let code = write_outputs(scene, &out, &outputs, settings, &loaded.sources);
+    let code = write_outputs(scene, &out, &outputs, settings, &loaded.sources, stamp.as_deref());
     if settings.stats {
         print_stats(&out.stats, time_parse, write_start.elapsed(), scene);
         check::print_superseded(&loaded);
@@ -182,14 +303,25 @@ fn write_outputs(
     outputs: &[ImageOutput],
     settings: &Settings,
     sources: &rib_parser::SourceMap,
+    stamp: Option<&[(String, String)]>,
 ) -> ExitCode {
+    // The depth table first: a tile's image is what marks it done (a task killed in between
+    // leaves no image under its final name, and its rerun rewrites both).
+    if let Some(code) = write_depth(scene, out, settings, sources) {
+        return code;
+    }
     for o in outputs {
         let output_settings = raytracer::output::OutputSettings {
             exposure: scene.render.exposure,
             quantize: scene.render.quantize,
             alpha: o.alpha,
         };
-        match raytracer::output::write_image(&o.path, &o.driver, &out.image, &output_settings) {
+        let written = match stamp {
+            Some(stamp) => raytracer::output::write_stamped_exr(&o.path, &out.image, &output_settings, stamp)
+                .map(|()| raytracer::output::OutputNotes::default()),
+            None => raytracer::output::write_image(&o.path, &o.driver, &out.image, &output_settings),
+        };
+        match written {
             Ok(notes) => {
                 if !settings.quiet {
                     for n in notes.notes {
@@ -201,13 +333,24 @@ fn write_outputs(
             Err(e) => return fail(e),
         }
     }
+    ExitCode::SUCCESS
+}
+
+/// Writes the depth table and its sidecar; `Some(exit code)` on failure.
+fn write_depth(
+    scene: &Scene,
+    out: &RenderOutput,
+    settings: &Settings,
+    sources: &rib_parser::SourceMap,
+) -> Option<ExitCode> {
+    let fail = |e: &dyn std::fmt::Display| Some(fail(e));
     if let (Some(request), Some(depth)) = (&scene.depth_request, &out.depth) {
         let table = match depth.to_table() {
             Ok(t) => t,
-            Err(e) => return fail(e),
+            Err(e) => return fail(&e),
         };
         if let Err(e) = table.write(&request.path) {
-            return fail(e);
+            return fail(&e);
         }
         if !settings.quiet {
             println!("wrote {} ({}x{} depth table)", request.path.display(), depth.width, depth.height);
@@ -221,7 +364,7 @@ fn write_outputs(
                     ..layers.clone()
                 };
                 if let Err(e) = sidecar::write_layers(&layers, &layers_path) {
-                    return fail(e);
+                    return fail(&e);
                 }
                 if !settings.quiet {
                     println!(
@@ -236,7 +379,7 @@ fn write_outputs(
                     let probes =
                         sidecar::ProbeGrid { depth_fingerprint: layers.depth_fingerprint, ..probes.clone() };
                     if let Err(e) = sidecar::write_probes(&probes, &probes_path) {
-                        return fail(e);
+                        return fail(&e);
                     }
                     if !settings.quiet {
                         let [x, y, z] = probes.counts;
@@ -258,7 +401,7 @@ fn write_outputs(
             }
         }
     }
-    ExitCode::SUCCESS
+    None
 }
 
 fn seconds(d: Duration) -> String {

@@ -222,3 +222,109 @@ fn bad_crop_flags_are_command_line_errors() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("--crop"), "--crop {crop}");
     }
 }
+
+/// Three frames of one RIB, each its own world (the sphere moves).
+const ANIMATION: &str = include_str!("data/animation.rib");
+
+fn tile_args(image: &str, depth: &str, tiles: &[usize]) -> Vec<String> {
+    let mut args = vec!["-o".to_string(), "merged.exr".into(), "--depth".into(), "merged.depth".into()];
+    for k in tiles {
+        args.extend(["--tile-depth".into(), format!("{depth}.tile{k:03}.depth")]);
+    }
+    args.extend(tiles.iter().map(|k| format!("{image}.tile{k:03}.exr")));
+    args
+}
+
+/// `--tiles NX,NY` with `--tile K` or the Slurm array index renders tile K; the tiles merge into
+/// the one-machine render byte for byte; a missing tile, a tile of another frame and a tile of
+/// another scene are refused by name.
+#[test]
+fn tiles_from_the_array_index_merge_byte_for_byte_and_bad_sets_are_named() {
+    let scratch = temp_dir("tiles");
+    let dir = scratch.path();
+    lrt_depth(dir, &["scene.rib", "-q"]);
+    for k in 0..6 {
+        let out = Command::new(env!("CARGO_BIN_EXE_lrt-depth"))
+            .current_dir(dir)
+            .args(["scene.rib", "-q", "--tiles", "3,2"])
+            .env("SLURM_ARRAY_TASK_ID", k.to_string())
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    // The PNG display is not written per tile: tiles are OpenEXR.
+    assert!(dir.join("full.tile005.exr").is_file() && !dir.join("full.tile005.png").exists());
+    let args = tile_args("full", "full", &[0, 1, 2, 3, 4, 5]);
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let same = |a: &str, b: &str| std::fs::read(dir.join(a)).unwrap() == std::fs::read(dir.join(b)).unwrap();
+    assert!(same("merged.exr", "full.exr") && same("merged.depth", "full.depth"));
+
+    // A missing tile is named, with how to rerun it.
+    let args = tile_args("full", "full", &[0, 1, 3, 4, 5]);
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("tile 2 of the 3x2 tiles") && err.contains("rerun"), "{err}");
+
+    // A tile of another scene (one more light) of the same size is refused.
+    let other = SCENE.replace(
+        "Surface \"matte\"",
+        "LightSource \"ambientlight\" 3 \"intensity\" [0.1]\nSurface \"matte\"",
+    );
+    std::fs::write(dir.join("other.rib"), other).unwrap();
+    lrt_depth(
+        dir,
+        &["other.rib", "-q", "--tiles", "3,2", "--tile", "2", "-o", "other.exr", "--depth", "other.depth"],
+    );
+    let mut args = tile_args("full", "full", &[0, 1, 3, 4, 5]);
+    args.extend(["--tile-depth".into(), "other.tile002.depth".into(), "other.tile002.exr".into()]);
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("another render"), "{err}");
+
+    // An index past the tiles is a command-line error.
+    let out = Command::new(env!("CARGO_BIN_EXE_lrt-depth"))
+        .current_dir(dir)
+        .args(["scene.rib", "-q", "--tiles", "3,2"])
+        .env("SLURM_ARRAY_TASK_ID", "6")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("numbered 0 to 5"));
+}
+
+/// `--frames A-B` renders each frame under its own name; as an array task only frame A + index;
+/// tiles of two frames do not merge.
+#[test]
+fn frames_are_named_by_number_and_tiles_of_two_frames_do_not_merge() {
+    let scratch = temp_dir("frames");
+    let dir = scratch.path();
+    std::fs::write(dir.join("anim.rib"), ANIMATION).unwrap();
+    lrt_depth(dir, &["anim.rib", "-q", "--frames", "1-3"]);
+    let frame = |n: u32| std::fs::read(dir.join(format!("anim.{n:04}.exr"))).unwrap();
+    assert!(frame(1) != frame(2));
+    // The array task's frame equals the same frame of the sequential run.
+    let out = Command::new(env!("CARGO_BIN_EXE_lrt-depth"))
+        .current_dir(dir)
+        .args(["anim.rib", "-q", "--frames", "1-3", "-o", "task.#f.exr", "--depth", "task.#f.depth"])
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read(dir.join("task.0002.exr")).unwrap() == frame(2));
+    assert!(!dir.join("task.0001.exr").exists() && !dir.join("task.0003.exr").exists());
+    let depth = |name: &str| std::fs::read(dir.join(name)).unwrap();
+    assert!(depth("task.0002.depth") == depth("anim.0002.depth"));
+
+    // Frame 1's tile 0 with frame 2's tile 1 is refused.
+    for (f, k) in [(1, 0), (2, 1)] {
+        let frames = format!("{f}-{f}");
+        lrt_depth(dir, &["anim.rib", "-q", "--frames", &frames, "--tiles", "2,1", "--tile", &k.to_string()]);
+    }
+    let out = lrt_merge(dir, &["-o", "m.exr", "anim.0001.tile000.exr", "anim.0002.tile001.exr"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("frame 2") && err.contains("frame 1"), "{err}");
+}

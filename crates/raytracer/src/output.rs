@@ -147,6 +147,24 @@ pub fn write_image(
     Ok(notes)
 }
 
+/// Writes `image` as OpenEXR (as [`write_image`] does for an `.exr` name) with `stamp` as text
+/// attributes of its layer: a render farm's tiles say which render, frame and tile they are.
+pub fn write_stamped_exr(
+    path: &Path,
+    image: &Image,
+    settings: &OutputSettings,
+    stamp: &[(String, String)],
+) -> Result<(), OutputError> {
+    let encode_error = |message: String| OutputError::Encode { path: path.to_path_buf(), message };
+    if image.width == 0 || image.height == 0 {
+        return Err(encode_error("the image has no pixels".into()));
+    }
+    // As `encode` writes OpenEXR: linear, with the exposure's gain only.
+    let linear = |p: &[f32; 4], c: usize| if c == 3 { p[3] } else { p[c] * settings.exposure.gain };
+    let bytes = encode_exr(image, settings.alpha, linear, stamp).map_err(encode_error)?;
+    write_atomically(path, &bytes)
+}
+
 /// Encodes `image` in `format` into memory.
 pub fn encode(
     format: Format,
@@ -162,7 +180,7 @@ pub fn encode(
     }
     let linear = |p: &[f32; 4], c: usize| if c == 3 { p[3] } else { p[c] * settings.exposure.gain };
     let dynamic = match format {
-        Format::Exr => return Ok((encode_exr(image, settings.alpha, linear)?, notes)),
+        Format::Exr => return Ok((encode_exr(image, settings.alpha, linear, &[])?, notes)),
         Format::Tiff if float => float_image(image, settings.alpha, linear),
         _ => {
             let mut bits16 = float || q.max > 255;
@@ -248,6 +266,7 @@ fn encode_exr(
     image: &Image,
     alpha: bool,
     linear: impl Fn(&[f32; 4], usize) -> f32,
+    stamp: &[(String, String)],
 ) -> Result<Vec<u8>, String> {
     use exr::prelude::{
         AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, IntegerBounds, Layer,
@@ -262,9 +281,16 @@ fn encode_exr(
     }
     let position = |v: u32| i32::try_from(v).map_err(|_| format!("offset {v} does not fit OpenEXR"));
     let layer_position = Vec2(position(image.x_offset)?, position(image.y_offset)?);
+    let mut attributes = LayerAttributes { layer_position, ..LayerAttributes::default() };
+    for (key, value) in stamp {
+        attributes.other.insert(
+            exr::prelude::Text::from(key.as_str()),
+            exr::meta::attribute::AttributeValue::Text(exr::prelude::Text::from(value.as_str())),
+        );
+    }
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
-        LayerAttributes { layer_position, ..LayerAttributes::default() },
+        attributes,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );

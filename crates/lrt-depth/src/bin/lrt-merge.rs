@@ -106,6 +106,103 @@ struct Tile {
     width: usize,
     height: usize,
     channels: Vec<(Text, SampleType, Vec<u32>)>,
+    /// What `lrt-depth --tiles` recorded: render fingerprint, frame, tiling and tile index.
+    stamp: Option<Stamp>,
+}
+
+/// A tile's stamp (docs/scale-out.md): the `lrt.*` text attributes of its layer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Stamp {
+    render: String,
+    frame: String,
+    tiles: (u32, u32),
+    tile: u32,
+}
+
+fn read_stamp(path: &Path, attributes: &exr::meta::header::LayerAttributes) -> Result<Option<Stamp>, String> {
+    let text = |key: &str| match attributes.other.get(&Text::from(key)) {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => Some(t.to_string()),
+        _ => None,
+    };
+    let Some(render) = text("lrt.render") else { return Ok(None) };
+    let bad = |what: &str| format!("{}: its tile stamp has no valid {what}", path.display());
+    let tiles = text("lrt.tiles")
+        .and_then(|t| {
+            let (x, y) = t.split_once(',')?;
+            Some((x.parse::<u32>().ok()?, y.parse::<u32>().ok()?))
+        })
+        .filter(|&(x, y)| x >= 1 && y >= 1 && u64::from(x) * u64::from(y) <= 1 << 16)
+        .ok_or_else(|| bad("lrt.tiles"))?;
+    let tile = text("lrt.tile")
+        .and_then(|t| t.parse::<u32>().ok())
+        .filter(|&k| k < tiles.0 * tiles.1)
+        .ok_or_else(|| bad("lrt.tile"))?;
+    Ok(Some(Stamp { render, frame: text("lrt.frame").unwrap_or_else(|| "-".into()), tiles, tile }))
+}
+
+/// Tiles of `lrt-depth --tiles` must all be of one render, one frame and one tiling, each
+/// index once and none missing; a missing one is named so that its task is rerun.
+fn check_stamps(tiles: &[Tile]) -> Result<(), String> {
+    let Some(first) = tiles.iter().find_map(|t| t.stamp.as_ref().map(|s| (t, s))) else { return Ok(()) };
+    let (first_tile, stamp) = first;
+    let mut seen: Vec<Option<&Path>> = vec![None; (stamp.tiles.0 * stamp.tiles.1) as usize];
+    for t in tiles {
+        let Some(s) = &t.stamp else {
+            return Err(format!(
+                "{} has no tile stamp but {} has: mix no plain crops with tiles of lrt-depth --tiles",
+                t.path.display(),
+                first_tile.path.display()
+            ));
+        };
+        if s.render != stamp.render {
+            return Err(format!(
+                "{} is of another render than {} (render {} against {}): the scene, an archive or a setting differs",
+                t.path.display(),
+                first_tile.path.display(),
+                s.render,
+                stamp.render
+            ));
+        }
+        if s.frame != stamp.frame {
+            return Err(format!(
+                "{} is a tile of frame {}, {} of frame {}: merge one frame at a time",
+                t.path.display(),
+                s.frame,
+                first_tile.path.display(),
+                stamp.frame
+            ));
+        }
+        if s.tiles != stamp.tiles {
+            return Err(format!(
+                "{} is one of {}x{} tiles, {} one of {}x{}: one tiling per frame",
+                t.path.display(),
+                s.tiles.0,
+                s.tiles.1,
+                first_tile.path.display(),
+                stamp.tiles.0,
+                stamp.tiles.1
+            ));
+        }
+        if let Some(other) = seen[s.tile as usize].replace(&t.path) {
+            return Err(format!("{} and {} are both tile {}", other.display(), t.path.display(), s.tile));
+        }
+    }
+    let missing: Vec<String> =
+        seen.iter().enumerate().filter(|(_, p)| p.is_none()).map(|(k, _)| k.to_string()).collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "tile{} {} of the {}x{} tiles of frame {} {} missing: rerun {} (lrt-depth --tile K, or sbatch --array with {})",
+            if missing.len() > 1 { "s" } else { "" },
+            missing.join(", "),
+            stamp.tiles.0,
+            stamp.tiles.1,
+            stamp.frame,
+            if missing.len() > 1 { "are" } else { "is" },
+            if missing.len() > 1 { "them" } else { "it" },
+            if missing.len() > 1 { "their array indices" } else { "its array index" },
+        ));
+    }
+    Ok(())
 }
 
 fn read_tile(path: &Path) -> Result<Tile, String> {
@@ -170,6 +267,7 @@ fn read_tile(path: &Path) -> Result<Tile, String> {
         width: layer.size.width(),
         height: layer.size.height(),
         channels,
+        stamp: read_stamp(path, &layer.attributes)?,
     })
 }
 
@@ -215,6 +313,7 @@ fn place(
 
 fn merge(cli: &Cli) -> Result<String, String> {
     let tiles: Vec<Tile> = cli.tiles.iter().map(|p| read_tile(p)).collect::<Result<_, _>>()?;
+    check_stamps(&tiles)?;
     let first = &tiles[0];
     let frame = first.frame;
     let (width, height) = (frame.size.width(), frame.size.height());
