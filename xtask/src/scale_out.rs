@@ -139,10 +139,8 @@ pub fn scale_out(args: &[String]) -> Result<(), String> {
     ]))?;
     let one_seconds = start.elapsed().as_secs_f64();
 
-    let mut rows = vec![format!(
-        "| one machine, no Slurm | 1 | {one_seconds:.1} | {one_seconds:.1} | - | - | {} |",
-        load_average()
-    )];
+    let mut rows =
+        vec![format!("| one machine, no Slurm | 1 | {one_seconds:.1} | - | - | - | {} |", load_average())];
     for &n in &o.tilings {
         let dir = work.join(format!("tiles-{n}x{n}"));
         std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
@@ -154,16 +152,7 @@ pub fn scale_out(args: &[String]) -> Result<(), String> {
         let ids = output(
             Command::new("bash")
                 .arg(examples.join("submit-tiles.sh"))
-                .args([
-                    "cornell.rib",
-                    &tiling,
-                    "cornell.exr",
-                    "cornell.depth",
-                    "-q",
-                    "--stats",
-                    "--spp",
-                    &spp,
-                ])
+                .args(["cornell.rib", &tiling, "cornell.exr", "cornell.depth", "--stats", "--spp", &spp])
                 .current_dir(&dir)
                 .env("SLURM_CONF", &conf)
                 .env("LRT_DEPTH", bin.join("lrt-depth"))
@@ -174,11 +163,17 @@ pub fn scale_out(args: &[String]) -> Result<(), String> {
         loop {
             let queued = output(
                 Command::new("squeue")
-                    .args(["-h", "-j", &ids.join(","), "-o", "%i"])
+                    .args(["-h", "-j", &ids.join(","), "-o", "%i %r"])
                     .env("SLURM_CONF", &conf),
             )?;
             if queued.trim().is_empty() {
                 break;
+            }
+            if queued.contains("DependencyNeverSatisfied") {
+                return Err(format!(
+                    "{n}x{n} tiles: a tile task failed (see {}/lrt-tiles-*.out)",
+                    dir.display()
+                ));
             }
             if start.elapsed() > Duration::from_secs(3600) {
                 return Err(format!("{n}x{n} tiles: not done after an hour"));
@@ -220,7 +215,7 @@ pub fn scale_out(args: &[String]) -> Result<(), String> {
     }
     let table = format!(
         "Cornell box {size}x{size}, photon mapping, {spp} spp, {cpus} CPUs (`cargo xtask scale-out --size {size} --spp {spp}`):\n\n\
-         | run | tasks | submit to merged, s | tile renders, CPU-task s total | slowest tile, s | merge s / peak MiB | load |\n\
+         | run | tasks | submit to merged image, s | sum of tile render times, s | slowest tile render, s | merge s / peak MiB | load |\n\
          |---|---|---|---|---|---|---|\n{}\n",
         rows.join("\n"),
         size = o.size,

@@ -91,9 +91,14 @@ impl Cluster {
     fn wait(&self, jobs: &[String], limit: Duration) {
         let start = Instant::now();
         loop {
-            let out = self.command("squeue", &["-h", "-j", &jobs.join(","), "-o", "%i %T"]).output().unwrap();
+            let out =
+                self.command("squeue", &["-h", "-j", &jobs.join(","), "-o", "%i %T %r"]).output().unwrap();
             let text = String::from_utf8_lossy(&out.stdout).trim().to_string();
             if out.status.success() && text.is_empty() {
+                return;
+            }
+            // A job whose dependency failed would wait forever: its state tells the caller.
+            if text.contains("DependencyNeverSatisfied") {
                 return;
             }
             if start.elapsed() > limit {
