@@ -49,20 +49,38 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
     laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// The second dimension of the Sobol sequence, bit-reversed (direction numbers
-/// `v_k = v_{k-1} ^ v_{k-1} >> 1`, built here from the low end).
-#[inline]
-fn sobol_1_reversed(mut i: u32) -> u32 {
+/// The direction numbers of the second dimension of the Sobol sequence, bit-reversed
+/// (`v_0 = 1`, `v_k = v_{k-1} ^ v_{k-1} << 1`), XORed together per byte of the index: entry
+/// `[j][b]` is the sum of the numbers of the set bits of byte value `b` at byte `j`. Four
+/// lookups replace a loop over all 32 bits of the (scrambled, so full-width) index, whose
+/// branch per bit mispredicts half the time.
+const SOBOL_1_REVERSED_BYTES: [[u32; 256]; 4] = {
+    let mut table = [[0u32; 256]; 4];
     let mut v = 1u32;
-    let mut r = 0;
-    while i != 0 {
-        if i & 1 != 0 {
-            r ^= v;
+    let mut bit = 0;
+    while bit < 32 {
+        let (byte, shift) = (bit / 8, bit % 8);
+        let mut b = 0;
+        while b < 256 {
+            if b >> shift & 1 != 0 {
+                table[byte][b] ^= v;
+            }
+            b += 1;
         }
-        i >>= 1;
         v ^= v << 1;
+        bit += 1;
     }
-    r
+    table
+};
+
+/// The second dimension of the Sobol sequence, bit-reversed.
+#[inline]
+fn sobol_1_reversed(i: u32) -> u32 {
+    let t = &SOBOL_1_REVERSED_BYTES;
+    t[0][(i & 0xff) as usize]
+        ^ t[1][(i >> 8 & 0xff) as usize]
+        ^ t[2][(i >> 16 & 0xff) as usize]
+        ^ t[3][(i >> 24) as usize]
 }
 
 #[inline]
@@ -148,6 +166,26 @@ mod tests {
                 }
                 assert!(cells.iter().all(|&c| c == 1), "pixel {pixel:?} pair {pair}: {cells:?}");
             }
+        }
+    }
+
+    /// The byte tables give the same points as the definition, one bit at a time.
+    #[test]
+    fn sobol_tables_match_the_bit_loop() {
+        let by_bits = |mut i: u32| {
+            let (mut v, mut r) = (1u32, 0u32);
+            while i != 0 {
+                if i & 1 != 0 {
+                    r ^= v;
+                }
+                i >>= 1;
+                v ^= v << 1;
+            }
+            r
+        };
+        let mut rng = crate::sampling::Rng::new(11, 3);
+        for i in (0..4096).chain((0..4096).map(|_| rng.next_u32())).chain([u32::MAX, 1 << 31]) {
+            assert_eq!(sobol_1_reversed(i), by_bits(i), "index {i:#x}");
         }
     }
 

@@ -24,9 +24,10 @@ pub struct TriangleHit {
 pub struct RayShear {
     pub origin: Vec3,
     pub direction: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
+    /// The axis that becomes z (the largest direction component); x and y follow cyclically.
+    kz: u8,
+    /// The origin's coordinates in the permuted order.
+    origin_permuted: [f32; 3],
     sx: f32,
     sy: f32,
     sz: f32,
@@ -49,15 +50,30 @@ impl RayShear {
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
         let d = [direction[kx], direction[ky], direction[kz]];
-        Some(RayShear { origin, direction, kx, ky, kz, sx: -d[0] / d[2], sy: -d[1] / d[2], sz: 1.0 / d[2] })
+        let origin_permuted = [origin[kx], origin[ky], origin[kz]];
+        Some(RayShear {
+            origin,
+            direction,
+            kz: kz as u8,
+            origin_permuted,
+            sx: -d[0] / d[2],
+            sy: -d[1] / d[2],
+            sz: 1.0 / d[2],
+        })
     }
 
     /// Translated, permuted and sheared vertex (z not yet scaled).
     #[inline(always)]
     fn transform(&self, p: Vec3) -> [f32; 3] {
-        // Index an array (a plain load) rather than a Vec3 (a branch per component).
-        let q = (p - self.origin).to_array();
-        let (x, y, z) = (q[self.kx], q[self.ky], q[self.kz]);
+        // The permutation is one of three rotations, the same for every triangle of a ray, so
+        // this branch predicts well; the differences are the same f32 operations as
+        // `p - origin` followed by the permutation.
+        let o = &self.origin_permuted;
+        let (x, y, z) = match self.kz {
+            0 => (p.y - o[0], p.z - o[1], p.x - o[2]),
+            1 => (p.z - o[0], p.x - o[1], p.y - o[2]),
+            _ => (p.x - o[0], p.y - o[1], p.z - o[2]),
+        };
         [x + self.sx * z, y + self.sy * z, z]
     }
 }
