@@ -56,6 +56,34 @@ fn renders_every_display_and_the_depth_table() {
 }
 
 #[test]
+fn the_sidecar_goes_with_the_depth_table_and_belongs_to_it() {
+    let scratch_dir = temp_dir("sidecar");
+    let dir = scratch_dir.path();
+    std::fs::write(dir.join("small.rib"), SCENE).unwrap();
+    let out = run(dir, &["small.rib", "--threads", "2"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Found by the depth table's name alone, and tied to the table exactly as the viewer reads it.
+    let table = depth_remap::DepthTable::read(dir.join("small.depth")).unwrap();
+    let paths = sidecar::SidecarPaths::for_depth(&dir.join("small.depth"));
+    let expect = sidecar::LayerExpectation {
+        width: 24,
+        height: 16,
+        depth_fingerprint: Some(sidecar::depth_fingerprint(table.values())),
+    };
+    let layers = sidecar::read_layers(&paths.layers, &expect, Default::default()).unwrap();
+    assert_eq!(layers.light.len(), 2);
+    let probes = sidecar::read_probes(&paths.probes, expect.depth_fingerprint).unwrap();
+    assert!(probes.probe_count() > 0);
+    // The float image equals the sum of the layers.
+    let exr = image::open(dir.join("small.exr")).unwrap().into_rgb32f();
+    for (sum, pixel) in layers.beauty().iter().zip(exr.pixels()) {
+        for c in 0..3 {
+            assert!((sum[c] - pixel[c]).abs() <= 1e-5 * (1.0 + pixel[c].abs()), "{sum:?} vs {pixel:?}");
+        }
+    }
+}
+
+#[test]
 fn output_is_the_same_for_any_thread_count() {
     let scratch_dir = temp_dir("threads");
     let dir = scratch_dir.path();
