@@ -234,6 +234,17 @@ fn nesting_depth_is_limited() {
 }
 
 #[test]
+fn solid_nesting_depth_is_limited() {
+    // SolidBegin opens no attribute block, so it is counted on its own.
+    let text = "WorldBegin ".to_string() + &"SolidBegin \"union\" ".repeat(200);
+    let e = error_text(text.into_bytes(), &limited(Limits { max_nesting_depth: 100, ..Limits::default() }));
+    assert!(e.contains("SolidBegin blocks nested deeper than the limit of 100"), "{e}");
+    let balanced = "WorldBegin ".to_string() + &"SolidBegin \"union\" SolidEnd ".repeat(200) + "WorldEnd";
+    let options = limited(Limits { max_nesting_depth: 100, ..Limits::default() });
+    assert!(load_bytes("limits.rib", balanced.into_bytes(), &options).is_ok());
+}
+
+#[test]
 fn array_length_is_limited() {
     let text = format!("WorldBegin Polygon \"P\" [{}] WorldEnd", "0 ".repeat(1000));
     let e = error_text(text.into_bytes(), &limited(Limits { max_array_len: 999, ..Limits::default() }));

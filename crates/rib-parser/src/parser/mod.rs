@@ -119,6 +119,9 @@ pub struct Reader {
     requests: u64,
     /// The open `IfBegin` blocks, innermost last.
     conditionals: Vec<conditional::OpenIf>,
+    /// Open `SolidBegin` blocks, counted against [`Limits::max_nesting_depth`] so that a CSG
+    /// tree built from them stays bounded.
+    solid_depth: usize,
     unnamed_handles: u32,
     warned: std::collections::HashSet<&'static str>,
     /// Single-valued float parameters of the last parameter list, at `f64` precision (for
@@ -151,6 +154,7 @@ impl Reader {
             scopes: vec![ScopeState::default()],
             requests: 0,
             conditionals: Vec::new(),
+            solid_depth: 0,
             unnamed_handles: 0,
             warned: Default::default(),
             precise_floats: Vec::new(),

@@ -108,9 +108,22 @@ impl Reader {
             "TransformEnd" => t.transform_end(&mut self.cx(loc)),
             "SolidBegin" => {
                 let op = self.arg_string(r, "the solid operation")?;
+                let limit = self.options.limits.max_nesting_depth;
+                if self.solid_depth >= limit {
+                    self.diagnostics.fatal(
+                        DiagnosticKind::Limit,
+                        Some(&loc),
+                        format!("SolidBegin blocks nested deeper than the limit of {limit}"),
+                    );
+                    return Err(Stop);
+                }
+                self.solid_depth += 1;
                 t.solid_begin(&op, &mut self.cx(loc));
             }
-            "SolidEnd" => t.solid_end(&mut self.cx(loc)),
+            "SolidEnd" => {
+                self.solid_depth = self.solid_depth.saturating_sub(1);
+                t.solid_end(&mut self.cx(loc));
+            }
             "ObjectBegin" => {
                 let h = self.arg_handle(r)?;
                 t.object_begin(h, &mut self.cx(loc));
