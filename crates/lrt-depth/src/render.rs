@@ -10,10 +10,11 @@
 
 use crate::args::{Settings, Tiling};
 use crate::check;
+use depth_remap::DepthTable;
 use raytracer::render::{ProgressFn, RenderOptions, RenderOutput, RenderStats, render};
 use rib_parser::scene::Scene;
 use rib_parser::{Diagnostic, DiagnosticKind, Severity};
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -175,6 +176,41 @@ pub fn tile_stamp(
     ]
 }
 
+/// The comment line a tile's text depth table carries after its header (docs/scale-out.md),
+/// so that `lrt-merge` can tell a table of another render, frame or tile from its image's:
+/// `# lrt-tile render=H frame=F tiles=NX,NY tile=K`. Readers skip it as a comment.
+pub const DEPTH_STAMP_PREFIX: &str = "# lrt-tile";
+
+/// The tile stamp as the depth table's comment line (without the newline).
+pub fn depth_stamp_line(stamp: &[(String, String)]) -> String {
+    let mut line = DEPTH_STAMP_PREFIX.to_string();
+    for (key, value) in stamp {
+        line.push(' ');
+        line.push_str(key.strip_prefix("lrt.").unwrap_or(key));
+        line.push('=');
+        line.push_str(value);
+    }
+    line
+}
+
+fn is_exr_name(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// Writes a tile's text depth table with its stamp line after the header, atomically.
+fn write_stamped_table(table: &DepthTable, path: &Path, stamp: &[(String, String)]) -> Result<(), String> {
+    let text = table.to_text(0);
+    let header_end = text.iter().position(|&b| b == b'\n').map_or(0, |n| n + 1);
+    let line = depth_stamp_line(stamp);
+    depth_remap::table::write_atomically(path, |file| {
+        file.write_all(&text[..header_end])?;
+        file.write_all(line.as_bytes())?;
+        file.write_all(b"\n")?;
+        file.write_all(&text[header_end..])
+    })
+    .map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// Names of the tile stamp's attributes (docs/scale-out.md); `lrt-merge` reads them.
 pub const STAMP_RENDER: &str = "lrt.render";
 pub const STAMP_FRAME: &str = "lrt.frame";
@@ -307,7 +343,7 @@ fn write_outputs(
 ) -> ExitCode {
     // The depth table first: a tile's image is what marks it done (a task killed in between
     // leaves no image under its final name, and its rerun rewrites both).
-    if let Some(code) = write_depth(scene, out, settings, sources) {
+    if let Some(code) = write_depth(scene, out, settings, sources, stamp) {
         return code;
     }
     for o in outputs {
@@ -342,6 +378,7 @@ fn write_depth(
     out: &RenderOutput,
     settings: &Settings,
     sources: &rib_parser::SourceMap,
+    stamp: Option<&[(String, String)]>,
 ) -> Option<ExitCode> {
     let fail = |e: &dyn std::fmt::Display| Some(fail(e));
     if let (Some(request), Some(depth)) = (&scene.depth_request, &out.depth) {
@@ -349,7 +386,11 @@ fn write_depth(
             Ok(t) => t,
             Err(e) => return fail(&e),
         };
-        if let Err(e) = table.write(&request.path) {
+        let written = match stamp {
+            Some(stamp) if !is_exr_name(&request.path) => write_stamped_table(&table, &request.path, stamp),
+            _ => table.write(&request.path).map_err(|e| e.to_string()),
+        };
+        if let Err(e) = written {
             return fail(&e);
         }
         if !settings.quiet {

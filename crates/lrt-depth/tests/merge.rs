@@ -284,6 +284,16 @@ fn tiles_from_the_array_index_merge_byte_for_byte_and_bad_sets_are_named() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("another render"), "{err}");
 
+    // The right image with a depth table of another render (same tile, same size) is refused:
+    // the table carries its image's stamp.
+    let mut args = tile_args("full", "full", &[0, 1, 3, 4, 5]);
+    args.extend(["--tile-depth".into(), "other.tile002.depth".into(), "full.tile002.exr".into()]);
+    let out = lrt_merge(dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("other.tile002.depth") && err.contains("rerun tile 2"), "{err}");
+    assert!(!dir.join("merged.exr").exists() || same("merged.exr", "full.exr"));
+
     // An index past the tiles is a command-line error.
     let out = Command::new(env!("CARGO_BIN_EXE_lrt-depth"))
         .current_dir(dir)

@@ -120,24 +120,93 @@ struct Stamp {
 }
 
 fn read_stamp(path: &Path, attributes: &exr::meta::header::LayerAttributes) -> Result<Option<Stamp>, String> {
-    let text = |key: &str| match attributes.other.get(&Text::from(key)) {
+    parse_stamp(path, |key: &str| match attributes.other.get(&Text::from(format!("lrt.{key}").as_str())) {
         Some(exr::meta::attribute::AttributeValue::Text(t)) => Some(t.to_string()),
         _ => None,
-    };
-    let Some(render) = text("lrt.render") else { return Ok(None) };
+    })
+}
+
+/// A stamp from its values by key (`render`, `frame`, `tiles`, `tile`); `None` without `render`.
+fn parse_stamp(path: &Path, text: impl Fn(&str) -> Option<String>) -> Result<Option<Stamp>, String> {
+    let Some(render) = text("render") else { return Ok(None) };
     let bad = |what: &str| format!("{}: its tile stamp has no valid {what}", path.display());
-    let tiles = text("lrt.tiles")
+    let tiles = text("tiles")
         .and_then(|t| {
             let (x, y) = t.split_once(',')?;
             Some((x.parse::<u32>().ok()?, y.parse::<u32>().ok()?))
         })
         .filter(|&(x, y)| x >= 1 && y >= 1 && u64::from(x) * u64::from(y) <= 1 << 16)
-        .ok_or_else(|| bad("lrt.tiles"))?;
-    let tile = text("lrt.tile")
+        .ok_or_else(|| bad("tiles"))?;
+    let tile = text("tile")
         .and_then(|t| t.parse::<u32>().ok())
         .filter(|&k| k < tiles.0 * tiles.1)
-        .ok_or_else(|| bad("lrt.tile"))?;
-    Ok(Some(Stamp { render, frame: text("lrt.frame").unwrap_or_else(|| "-".into()), tiles, tile }))
+        .ok_or_else(|| bad("tile"))?;
+    Ok(Some(Stamp { render, frame: text("frame").unwrap_or_else(|| "-".into()), tiles, tile }))
+}
+
+/// The stamp line (`# lrt-tile render=H frame=F tiles=NX,NY tile=K`) among the leading
+/// comment lines of a tile's text depth table; only those few lines are read.
+fn read_depth_stamp(path: &Path) -> Result<Option<Stamp>, String> {
+    use std::io::{BufRead, Read};
+    let io_error = |e: std::io::Error| format!("{}: {e}", path.display());
+    let mut reader = std::io::BufReader::new(std::fs::File::open(path).map_err(io_error)?);
+    for _ in 0..8 {
+        let mut line = Vec::new();
+        let n = (&mut reader).take(4096).read_until(b'\n', &mut line).map_err(io_error)?;
+        if n == 0 || line.first() != Some(&b'#') {
+            break;
+        }
+        let line = String::from_utf8_lossy(&line);
+        let Some(fields) = line.trim_end().strip_prefix("# lrt-tile ") else { continue };
+        let pairs: Vec<(&str, &str)> = fields.split(' ').filter_map(|w| w.split_once('=')).collect();
+        return parse_stamp(path, |key: &str| {
+            pairs.iter().find(|(k, _)| *k == key).map(|(_, v)| (*v).to_string())
+        })?
+        .map(Some)
+        .ok_or_else(|| format!("{}: its tile stamp has no render", path.display()));
+    }
+    Ok(None)
+}
+
+/// A stamped tile's text depth table must carry the same stamp as its image, so that a table
+/// left from another render, frame or tile is never joined with the wrong image.
+fn check_depth_stamps(tiles: &[Tile], tables: &[PathBuf]) -> Result<(), String> {
+    for (t, path) in tiles.iter().zip(tables) {
+        let Some(stamp) = &t.stamp else { continue };
+        if has_exr_extension(path) {
+            continue; // OpenEXR depth tiles carry no stamp (docs/scale-out.md); checked by size.
+        }
+        match read_depth_stamp(path)? {
+            None => {
+                return Err(format!(
+                    "{} has no tile stamp but its image {} has: it is not the table lrt-depth --tiles wrote with that tile; rerun tile {}",
+                    path.display(),
+                    t.path.display(),
+                    stamp.tile
+                ));
+            }
+            Some(d) if d != *stamp => {
+                return Err(format!(
+                    "{} is tile {} of {}x{} of frame {} of render {}, but its image {} is tile {} of {}x{} of frame {} of render {}: rerun tile {}",
+                    path.display(),
+                    d.tile,
+                    d.tiles.0,
+                    d.tiles.1,
+                    d.frame,
+                    d.render,
+                    t.path.display(),
+                    stamp.tile,
+                    stamp.tiles.0,
+                    stamp.tiles.1,
+                    stamp.frame,
+                    stamp.render,
+                    stamp.tile
+                ));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
 }
 
 /// Tiles of `lrt-depth --tiles` must all be of one render, one frame and one tiling, each
@@ -314,6 +383,7 @@ fn place(
 fn merge(cli: &Cli) -> Result<String, String> {
     let tiles: Vec<Tile> = cli.tiles.iter().map(|p| read_tile(p)).collect::<Result<_, _>>()?;
     check_stamps(&tiles)?;
+    check_depth_stamps(&tiles, &cli.tile_depth)?;
     let first = &tiles[0];
     let frame = first.frame;
     let (width, height) = (frame.size.width(), frame.size.height());
