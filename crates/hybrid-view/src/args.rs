@@ -31,6 +31,10 @@ pub struct Args {
     /// Place the cursor sphere at this scene (world) position.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     pub sphere: Option<DVec3>,
+    /// Live objects in world space from a RIB fragment (spheres, polygons, standard surface
+    /// shaders): what `ReadArchive "LIVE.rib"` before `WorldEnd` means to the ray tracer.
+    #[arg(long, value_name = "LIVE.rib")]
+    pub live: Option<PathBuf>,
     /// The sphere's radius in scene units (default: 3% of its distance from the eye).
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f64>,
@@ -165,6 +169,7 @@ pub struct Settings {
     pub screenshot: Option<PathBuf>,
     pub mask: Option<PathBuf>,
     pub sphere: Option<DVec3>,
+    pub live: Option<PathBuf>,
     pub radius: Option<f64>,
     pub mode: CompositeMode,
     pub frames: Option<u64>,
@@ -220,6 +225,7 @@ impl Args {
             screenshot: self.screenshot,
             mask: self.mask,
             sphere: self.sphere,
+            live: self.live,
             radius: self.radius,
             mode: match self.mode {
                 Mode::Points => CompositeMode::Points,

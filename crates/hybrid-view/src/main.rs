@@ -11,6 +11,7 @@
 mod args;
 mod convert;
 mod haptic;
+mod live_rib;
 mod run;
 
 use clap::Parser;

@@ -75,7 +75,11 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         )));
     }
     let scene = ViewerScene::new(camera, image, depth, lights, tone)?;
-    let live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
+    let mut live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
+    if let Some(path) = &settings.live {
+        let objects = crate::live_rib::read_live_rib(path).map_err(Failure)?;
+        objects.add_to(&mut live, &std::sync::Arc::new(viewer::Mesh::unit_sphere(48, 96)));
+    }
     let compositor = CompositorSettings {
         mode: settings.mode,
         depth: settings.depth_settings,
