@@ -2,7 +2,7 @@
 //! objects read by the project's own parser, as `ReadArchive "LIVE.rib"` inside a world block,
 //! so the fragment means exactly what it means to the ray tracer.
 
-use glam::{DMat4, DVec3, Vec3};
+use glam::{DVec3, Vec3};
 use rib_parser::scene::{Attributes, FileLoc, ParamList, Scene, Shape, ShapeEntity};
 use std::path::Path;
 use std::sync::Arc;
