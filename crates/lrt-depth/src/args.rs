@@ -61,6 +61,11 @@ pub struct Cli {
     #[arg(long, value_name = "XMIN,XMAX,YMIN,YMAX", allow_hyphen_values = true)]
     pub crop: Option<String>,
 
+    /// Shrink the RIB's Format so its longest side is at most N pixels, keeping the frame's
+    /// aspect ratio (for previews and contact sheets; a smaller Format is left as it is).
+    #[arg(long = "max-size", value_name = "N")]
+    pub max_size: Option<u32>,
+
     /// Use the world of `FrameBegin N` (default: the first world of the file that is not a
     /// shadow-map pass).
     #[arg(long, value_name = "N", allow_negative_numbers = true, conflicts_with = "frames")]
@@ -249,6 +254,7 @@ pub struct Settings {
     pub stats: bool,
     pub frame: Option<i32>,
     pub crop: Option<CropWindow>,
+    pub max_size: Option<NonZeroU32>,
     pub time_budget: Option<std::time::Duration>,
     pub target_error: Option<f32>,
     /// Frames and tile of this run (`--frames`, `--tiles`, the Slurm array index).
@@ -296,6 +302,10 @@ impl Settings {
         let crop = cli.crop.as_deref().map(parse_crop).transpose()?;
         let array_task = std::env::var(ARRAY_TASK_ENV).ok();
         let share = work_share(cli.tiles.as_deref(), cli.tile, cli.frames.as_deref(), array_task.as_deref())?;
+        let max_size = match cli.max_size {
+            Some(n) => Some(NonZeroU32::new(n).ok_or("--max-size must be at least 1")?),
+            None => None,
+        };
         let time_budget = match cli.time {
             None => None,
             Some(t) if t.is_finite() && t > 0.0 && t <= MAX_TIME_SECONDS => {
@@ -314,6 +324,7 @@ impl Settings {
         };
         Ok(Settings {
             crop,
+            max_size,
             scene: cli.scene,
             mode: if cli.check { Mode::Check } else { Mode::Render },
             output: cli.output,

@@ -32,6 +32,9 @@ pub fn load(settings: &Settings) -> Result<rib_parser::Loaded, ExitCode> {
             if let Some(crop) = settings.crop {
                 loaded.scene.camera.crop_window = crop;
             }
+            if let Some(max_size) = settings.max_size {
+                shrink_format(&mut loaded.scene.camera, max_size.get());
+            }
             Ok(loaded)
         }
         Err(e) => {
@@ -39,6 +42,23 @@ pub fn load(settings: &Settings) -> Result<rib_parser::Loaded, ExitCode> {
             Err(ExitCode::from(1))
         }
     }
+}
+
+/// Scales the Format down so its longest side is at most `max_size`, pinning the frame aspect
+/// ratio first so that rounding the resolution does not change what the camera sees.
+fn shrink_format(camera: &mut depth_remap::CameraSettings, max_size: u32) {
+    let longest = camera.x_resolution.max(camera.y_resolution);
+    if longest <= max_size {
+        return;
+    }
+    if camera.frame_aspect_ratio.is_none() {
+        camera.frame_aspect_ratio =
+            Some(f64::from(camera.x_resolution) * camera.pixel_aspect_ratio / f64::from(camera.y_resolution));
+    }
+    let scale = f64::from(max_size) / f64::from(longest);
+    let shrink = |n: u32| ((f64::from(n) * scale).round() as u32).clamp(1, max_size);
+    camera.x_resolution = shrink(camera.x_resolution);
+    camera.y_resolution = shrink(camera.y_resolution);
 }
 
 /// The one-line summary: requests, shapes, lights, triangles after tessellation, warnings
