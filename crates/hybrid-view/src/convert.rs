@@ -17,6 +17,17 @@ pub fn tone_map(scene: &Scene) -> ToneMap {
     ToneMap { gain: scene.render.exposure.gain, gamma: scene.render.exposure.gamma }
 }
 
+/// Warns when the pre-rendered image has camera effects the live objects are drawn without:
+/// they are drawn with a pinhole, so they stay sharp where the image is defocused.
+pub fn camera_effects(scene: &Scene, skipped: &mut Skipped) {
+    if let Some(d) = scene.render.depth_of_field {
+        skipped.warnings.push(format!(
+            "DepthOfField {} {} {}: the image is defocused but live objects are drawn sharp (pinhole)",
+            d.fstop, d.focal_length, d.focal_distance
+        ));
+    }
+}
+
 /// The scene's lights as the viewer's live lights, in the scene's order (lights that cannot be
 /// used are left out with a warning).
 pub fn live_lights(scene: &Scene, skipped: &mut Skipped) -> Vec<LiveLight> {

@@ -54,6 +54,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let depth = depth_remap::DepthTable::read(&settings.depth).map_err(|e| Failure(e.to_string()))?;
     let mut skipped = Skipped::default();
     let lights = convert::live_lights(&rib, &mut skipped);
+    convert::camera_effects(&rib, &mut skipped);
     let bounds = convert::scene_bounds(&rib);
     // Sizes first, naming the files: the image against its depth table and the RIB's Format.
     let (iw, ih) = (image.width, image.height);

@@ -136,7 +136,8 @@ fn layered_tile(
                 let jitter = sampler.uniform2();
                 let x = px as f64 + f64::from(jitter.x);
                 let y = py as f64 + f64::from(jitter.y);
-                let ray = frame.rays.ray(DVec2::new(x, y));
+                let lens_u = if frame.rays.has_lens() { sampler.uniform2() } else { glam::Vec2::ZERO };
+                let ray = frame.rays.lens_ray(DVec2::new(x, y), lens_u);
                 let traced = ray.is_some();
                 if traced {
                     plan.arm();

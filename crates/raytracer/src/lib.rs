@@ -53,6 +53,7 @@ pub mod diagnostics;
 pub mod film;
 pub mod integrators;
 mod layered_render;
+pub mod lens;
 pub mod light_layers;
 pub mod lights;
 pub mod materials;

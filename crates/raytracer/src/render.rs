@@ -10,11 +10,12 @@ use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{Integrator, IntegratorKind, PrepareContext, RayCounters};
 use crate::layered_render::{LayerPlan, assemble, render_layered};
+use crate::lens::ThinLens;
 use crate::sampler::Sampler;
 use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
 use depth_remap::{Camera, CameraError};
-use glam::{DMat4, DVec2, DVec3, Vec3};
+use glam::{DMat4, DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use rib_parser::scene::{LightKind, Scene};
 use std::sync::Arc;
@@ -141,6 +142,8 @@ pub struct CameraRays {
     render_from_world: DMat4,
     near: f64,
     far: f64,
+    /// The `DepthOfField` lens; `None` is a pinhole.
+    lens: Option<ThinLens>,
 }
 
 impl CameraRays {
@@ -148,7 +151,36 @@ impl CameraRays {
         let c = camera.clipping();
         let near = if c.near.is_finite() && c.near > 0.0 { c.near } else { 0.0 };
         let far = if c.far.is_finite() && c.far > near { c.far } else { f64::INFINITY };
-        CameraRays { camera, render_from_world: *render_from_world, near, far }
+        CameraRays { camera, render_from_world: *render_from_world, near, far, lens: None }
+    }
+
+    /// The same rays through a thin lens (`DepthOfField`); a lens without aperture is a pinhole.
+    pub fn with_lens(mut self, lens: Option<ThinLens>) -> CameraRays {
+        self.lens = lens.filter(|l| l.radius > 0.0 && l.radius.is_finite() && l.focal_distance > 0.0);
+        self
+    }
+
+    /// Whether camera rays need a lens sample (a pair of sampler dimensions) each.
+    pub fn has_lens(&self) -> bool {
+        self.lens.is_some()
+    }
+
+    /// The ray through a raster position and the lens point `lens_u` picks (uniform in
+    /// `[0, 1)^2`), in render space; the pinhole ray of [`CameraRays::ray`] without a lens.
+    pub fn lens_ray(&self, raster: DVec2, lens_u: Vec2) -> Option<(Ray, DVec3)> {
+        let Some(lens) = self.lens else {
+            return self.ray(raster);
+        };
+        let bent = lens.refract(self.camera.ray_through_raster(raster), lens_u);
+        let world_from_camera = self.camera.world_from_camera();
+        let direction_world = world_from_camera.transform_vector3(bent.direction);
+        let world_length = direction_world.length();
+        let wr = WorldRay {
+            origin: world_from_camera.transform_point3(bent.origin),
+            direction: direction_world / world_length,
+        };
+        // Camera-space z grows by `direction.z` per camera-space unit, `world_length` world units.
+        self.clip(wr, bent.direction.z / world_length)
     }
 
     /// The ray through a raster position, in render space, with its `f64` origin.
@@ -164,13 +196,17 @@ impl CameraRays {
     }
 
     fn to_render(&self, wr: WorldRay, raster: DVec2) -> Option<(Ray, DVec3)> {
+        let s = self.camera.raster_to_screen(raster);
+        self.clip(wr, self.camera.eye_depth_per_radial_at_screen(s.x, s.y))
+    }
+
+    /// `wr` in render space with its clipping range; camera-space z (where the clipping planes
+    /// are) grows by `dz_dt` per unit of world distance along it.
+    fn clip(&self, wr: WorldRay, dz_dt: f64) -> Option<(Ray, DVec3)> {
         let o = self.render_from_world.transform_point3(wr.origin);
         if !o.is_finite() || !wr.direction.is_finite() {
             return None;
         }
-        // Clipping planes are camera-space z; z grows by `dz_dt` per unit of world distance.
-        let s = self.camera.raster_to_screen(raster);
-        let dz_dt = self.camera.eye_depth_per_radial_at_screen(s.x, s.y);
         if !(dz_dt > 0.0) || !dz_dt.is_finite() {
             return None;
         }
@@ -255,7 +291,8 @@ fn render_in_pool(
     let build_start = Instant::now();
     let world = World::build(scene, camera.eye_position(), pixel_footprint(&camera), &mut diagnostics)?;
     let time_build = build_start.elapsed();
-    let rays = CameraRays::new(camera, &world.render_from_world);
+    let lens = scene.render.depth_of_field.as_ref().map(ThinLens::from_depth_of_field);
+    let rays = CameraRays::new(camera, &world.render_from_world).with_lens(lens);
 
     let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
     let prepare_start = Instant::now();
@@ -547,7 +584,9 @@ fn render_tile(
                 let jitter = sampler.uniform2();
                 let x = px as f64 + f64::from(jitter.x);
                 let y = py as f64 + f64::from(jitter.y);
-                let r = match rays.ray(DVec2::new(x, y)) {
+                // A lens sample only where there is a lens, so pinhole images stay as they were.
+                let lens_u = if rays.has_lens() { sampler.uniform2() } else { Vec2::ZERO };
+                let r = match rays.lens_ray(DVec2::new(x, y), lens_u) {
                     Some((ray, _)) => {
                         world.over_background(integrator.li(world, ray, &mut sampler, &mut counters))
                     }

@@ -237,6 +237,23 @@ impl Default for Quantize {
     }
 }
 
+/// `DepthOfField fstop focallength focaldistance`: a thin lens whose aperture radius is
+/// `focal_length / (2 fstop)`, every length in camera-space units (RenderMan spec §4.1.2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthOfField {
+    pub fstop: f32,
+    pub focal_length: f32,
+    /// Camera-space z of the plane in sharp focus.
+    pub focal_distance: f32,
+}
+
+impl DepthOfField {
+    /// The radius of the lens aperture in camera-space units.
+    pub fn lens_radius(&self) -> f64 {
+        f64::from(self.focal_length) / (2.0 * f64::from(self.fstop))
+    }
+}
+
 /// Image-forming options other than the camera geometry.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -254,6 +271,8 @@ pub struct RenderSettings {
     pub surface_integrator: Option<ShaderCall>,
     /// `Shutter open close`.
     pub shutter: Option<(f32, f32)>,
+    /// `DepthOfField fstop focallength focaldistance`; `None` is a pinhole camera.
+    pub depth_of_field: Option<DepthOfField>,
     /// `Imager "name" params` (`"background"` sets the colour where rays miss).
     pub imager: Option<ShaderCall>,
 }
@@ -269,6 +288,7 @@ impl Default for RenderSettings {
             hider: None,
             surface_integrator: None,
             shutter: None,
+            depth_of_field: None,
             imager: None,
         }
     }

@@ -275,6 +275,9 @@ impl Writer {
         if let Some((open, close)) = r.shutter {
             self.line(format!("Shutter {} {}", f(open), f(close)));
         }
+        if let Some(d) = r.depth_of_field {
+            self.line(format!("DepthOfField {} {} {}", f(d.fstop), f(d.focal_length), f(d.focal_distance)));
+        }
         for disp in &scene.displays {
             let name = if disp.secondary { format!("+{}", disp.name) } else { disp.name.clone() };
             self.line(format!(

@@ -248,6 +248,21 @@ fn frames_are_listed_and_selectable() {
 }
 
 #[test]
+fn depth_of_field_is_kept_and_checked() {
+    let s = load("DepthOfField 2.8 0.05 3 WorldBegin WorldEnd").scene;
+    let d = s.render.depth_of_field.unwrap();
+    assert_eq!((d.fstop, d.focal_length, d.focal_distance), (2.8, 0.05, 3.0));
+    assert!((d.lens_radius() - 0.05 / 5.6).abs() < 1e-9);
+    // RI_INFINITY as the f-stop and the bare request are pinholes.
+    assert!(load("DepthOfField 1e38 0.05 3 WorldBegin WorldEnd").scene.render.depth_of_field.is_none());
+    assert!(
+        load("DepthOfField 2 1 3 DepthOfField WorldBegin WorldEnd").scene.render.depth_of_field.is_none()
+    );
+    let e = load_err("DepthOfField 0 0.05 3 WorldBegin WorldEnd");
+    assert!(e.contains("test.rib:1:1: error:") && e.contains("DepthOfField"), "{e}");
+}
+
+#[test]
 fn depth_requests() {
     let s = load("Option \"lrt\" \"depthfile\" [\"a.depth\"] WorldBegin WorldEnd").scene;
     assert_eq!(s.depth_request.unwrap().path, std::path::PathBuf::from("a.depth"));

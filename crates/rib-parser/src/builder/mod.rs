@@ -424,6 +424,10 @@ impl RibTarget for SceneBuilder {
         SceneBuilder::shutter(self, open, close, cx)
     }
 
+    fn depth_of_field(&mut self, settings: Option<[f32; 3]>, cx: &mut Cx<'_>) {
+        SceneBuilder::depth_of_field(self, settings, cx)
+    }
+
     fn pixel_samples(&mut self, x: f32, y: f32, cx: &mut Cx<'_>) {
         SceneBuilder::pixel_samples(self, x, y, cx)
     }

@@ -152,6 +152,33 @@ impl SceneBuilder {
         self.opts.render.shutter = Some((open, close));
     }
 
+    pub(super) fn depth_of_field(&mut self, settings: Option<[f32; 3]>, cx: &mut Cx<'_>) {
+        if !self.option_allowed("DepthOfField", cx) {
+            return;
+        }
+        let Some([fstop, focal_length, focal_distance]) = settings else {
+            self.opts.render.depth_of_field = None;
+            return;
+        };
+        // RI_INFINITY (1e38 in RIB files) as the f-stop is RenderMan's pinhole camera.
+        if fstop.is_infinite() || fstop >= 1e30 {
+            self.opts.render.depth_of_field = None;
+            return;
+        }
+        let positive = |v: f32| v.is_finite() && v > 0.0;
+        if !(positive(fstop) && positive(focal_length) && positive(focal_distance)) {
+            cx.error(
+                DiagnosticKind::BadValue,
+                format!(
+                    "DepthOfField {fstop} {focal_length} {focal_distance}: fstop, focallength and \
+                     focaldistance must be finite and positive"
+                ),
+            );
+            return;
+        }
+        self.opts.render.depth_of_field = Some(DepthOfField { fstop, focal_length, focal_distance });
+    }
+
     pub(super) fn pixel_samples(&mut self, x: f32, y: f32, cx: &mut Cx<'_>) {
         if !self.option_allowed("PixelSamples", cx) {
             return;
