@@ -71,7 +71,8 @@ mod tests {
                 assert!(at_z.truncate().length() < 1e-9, "z {z}: the ray misses the point by {at_z}");
                 largest = largest.max(focus.truncate().length());
             }
-            assert!((largest - expected).abs() < 1e-9 * expected.max(1.0), "z {z}: {largest} vs {expected}");
+            // The disk sample is f32, so its rim is a unit circle to about 1e-7.
+            assert!((largest - expected).abs() < 1e-6 * expected, "z {z}: {largest} vs {expected}");
         }
     }
 
