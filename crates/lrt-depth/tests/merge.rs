@@ -61,12 +61,17 @@ fn render_tile(dir: &Path, k: usize, extra: &[&str]) {
 }
 
 fn merge_args(tiles: &[usize]) -> Vec<String> {
+    merge_args_named(tiles, |k| (format!("tile-{k}.exr"), format!("tile-{k}.depth")))
+}
+
+/// `lrt-merge` arguments for `tiles`, each named `(image, depth table)` by `name`.
+fn merge_args_named(tiles: &[usize], name: impl Fn(usize) -> (String, String)) -> Vec<String> {
     let mut args: Vec<String> =
         vec!["-o".into(), "merged.exr".into(), "--depth".into(), "merged.depth".into()];
-    for k in tiles {
-        args.extend(["--tile-depth".into(), format!("tile-{k}.depth")]);
+    for &k in tiles {
+        args.extend(["--tile-depth".into(), name(k).1]);
     }
-    args.extend(tiles.iter().map(|k| format!("tile-{k}.exr")));
+    args.extend(tiles.iter().map(|&k| name(k).0));
     args
 }
 
@@ -227,12 +232,7 @@ fn bad_crop_flags_are_command_line_errors() {
 const ANIMATION: &str = include_str!("data/animation.rib");
 
 fn tile_args(image: &str, depth: &str, tiles: &[usize]) -> Vec<String> {
-    let mut args = vec!["-o".to_string(), "merged.exr".into(), "--depth".into(), "merged.depth".into()];
-    for k in tiles {
-        args.extend(["--tile-depth".into(), format!("{depth}.tile{k:03}.depth")]);
-    }
-    args.extend(tiles.iter().map(|k| format!("{image}.tile{k:03}.exr")));
-    args
+    merge_args_named(tiles, |k| (format!("{image}.tile{k:03}.exr"), format!("{depth}.tile{k:03}.depth")))
 }
 
 /// `--tiles NX,NY` with `--tile K` or the Slurm array index renders tile K; the tiles merge into
