@@ -33,8 +33,7 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::Instant;
+use std::process::Command;
 
 /// A linear RGB float image.
 pub struct Rgb {
@@ -270,51 +269,18 @@ fn render_child(
     threads: usize,
 ) -> Result<Measured, String> {
     let mut cmd = Command::new(lrt);
-    cmd.arg(rib_path)
-        .arg("-o")
-        .arg(out)
-        .args(["--spp", &spp.to_string(), "--threads", &threads.to_string(), "--stats"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    let start = Instant::now();
-    let child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", lrt.display()))?;
-    let pid = child.id() as libc::pid_t;
-    // Read the pipes on threads so the child never blocks on a full pipe.
-    let mut child = child;
-    let mut stdout = child.stdout.take();
-    let mut stderr = child.stderr.take();
-    let out_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        if let Some(o) = stdout.as_mut() {
-            let _ = std::io::Read::read_to_string(o, &mut s);
-        }
-        s
-    });
-    let err_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        if let Some(e) = stderr.as_mut() {
-            let _ = std::io::Read::read_to_string(e, &mut s);
-        }
-        s
-    });
-    let mut status = 0;
-    // SAFETY: `rusage` is plain data; wait4 fills it for the child we started and reaped here.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-    let wall_s = start.elapsed().as_secs_f64();
-    let stdout = out_thread.join().unwrap_or_default();
-    let stderr = err_thread.join().unwrap_or_default();
-    if r != pid {
-        return Err(format!("waiting for lrt-depth failed: {}", std::io::Error::last_os_error()));
+    cmd.arg(rib_path).arg("-o").arg(out).args([
+        "--spp",
+        &spp.to_string(),
+        "--threads",
+        &threads.to_string(),
+        "--stats",
+    ]);
+    let run = crate::measure::run_measured(&mut cmd)?;
+    if !run.success {
+        return Err(format!("lrt-depth failed on {}:\n{}", rib_path.display(), run.stderr));
     }
-    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
-        return Err(format!("lrt-depth failed on {}:\n{stderr}", rib_path.display()));
-    }
-    // ru_maxrss is in KiB on Linux.
-    let peak_rss_mib = usage.ru_maxrss as f64 / 1024.0;
-    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    let cpu_s = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+    let (wall_s, cpu_s, peak_rss_mib, stdout) = (run.wall_s, run.cpu_s, run.peak_rss_mib, run.stdout);
     // "stats: time: parse 0.001 s, build 0.002 s, prepare 1.234 s, render ..."
     let prepare_s = stdout
         .lines()

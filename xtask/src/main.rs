@@ -5,17 +5,19 @@
 //!   system packages the GPU and window tests need are installed (a software Vulkan driver and a
 //!   virtual X server), so the viewer's GPU code really runs on a machine without a GPU.
 //! - `cargo xtask depth-exhaustive` / `depth-study`: see `depth.rs`.
-//! - `cargo xtask update-fixtures`, `cargo xtask bench-parse`: see `rib.rs`.
+//! - `cargo xtask update-fixtures`, `cargo xtask bench-parse`: see `rib.rs`; `cargo xtask bench-check`: see `check.rs`.
 //! - `cargo xtask cornell-check`: see `cornell.rs`; `cargo xtask bench-raytracer`: see `raytracer.rs`.
 //! - `cargo xtask colocation`: the viewer against `lrt-depth`'s renders; see `colocation.rs`.
 //! - `cargo xtask bench-error`, `cargo xtask image-error`: see `bench_error.rs`.
 //! - `cargo xtask corpus`: the RIB corpus rendered small, a contact sheet and warning table; see `corpus.rs`.
 
 mod bench_error;
+mod check;
 mod colocation;
 mod cornell;
 mod corpus;
 mod depth;
+mod measure;
 mod mitsuba;
 mod raytracer;
 mod rib;
@@ -39,6 +41,7 @@ fn main() -> ExitCode {
         Some("depth-study") => depth::study(),
         Some("update-fixtures") => rib::update_fixtures(),
         Some("bench-parse") => rib::bench_parse(&args[1..]),
+        Some("bench-check") => check::bench_check(&args[1..]),
         Some("cornell-check") => cornell::cornell_check(cargo(), &args[1..]),
         Some("bench-raytracer") => raytracer::bench(cargo(), &args[1..]),
         Some("colocation") => colocation::colocation(),
@@ -48,7 +51,7 @@ fn main() -> ExitCode {
         Some("corpus") => corpus::corpus(&workspace_root(), &args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512\n  bench-error              render time against error for every integrator (docs/performance.md)\n  image-error A.exr B.exr  RMSE and relative MSE of an image against a reference\n  scale-out                the Cornell box as 1, 4 and 16 tiles through a local Slurm (docs/scale-out.md)\n  corpus                   render ../shared/rib-corpus small: docs/corpus.md and its contact sheet (minutes)"
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  bench-check              lrt-depth --check against wc -w on a generated 50 MB mesh\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512\n  bench-error              render time against error for every integrator (docs/performance.md)\n  image-error A.exr B.exr  RMSE and relative MSE of an image against a reference\n  scale-out                the Cornell box as 1, 4 and 16 tiles through a local Slurm (docs/scale-out.md)\n  corpus                   render ../shared/rib-corpus small: docs/corpus.md and its contact sheet (minutes)"
             );
             return ExitCode::from(2);
         }

@@ -44,6 +44,7 @@ pub mod blobby;
 pub mod builder;
 pub mod conditional;
 pub mod diagnostics;
+pub mod generated;
 mod lexer;
 pub mod limits;
 pub mod params;

@@ -101,12 +101,8 @@ pub(crate) fn transform_mesh(mesh: &mut TriangleMesh, m: &DMat4, reverse_orienta
     let linear = DMat3::from_mat4(*m);
     let row3 = m.row(3);
     let affine = row3 == DVec4::new(0.0, 0.0, 0.0, 1.0);
-    let object_positions: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
-    // The Jacobian of the transform at an object-space point.
+    // The Jacobian of the (projective) transform at an object-space point.
     let jacobian = |p: DVec3| -> DMat3 {
-        if affine {
-            return linear;
-        }
         let h = row3.truncate().dot(p) + row3.w;
         let projected = m.project_point3(p);
         let w = row3.truncate();
@@ -115,9 +111,16 @@ pub(crate) fn transform_mesh(mesh: &mut TriangleMesh, m: &DMat4, reverse_orienta
         (linear - outer) * (1.0 / h)
     };
     let singular = |j: &DMat3| !(j.determinant().abs() > 1e-300);
+    if affine {
+        // One Jacobian for the whole mesh: its cofactor, sign and winding decision are computed
+        // once instead of per vertex and per triangle (the same operations, so the same bits).
+        transform_mesh_affine(mesh, m, &linear, reverse_orientation, singular(&linear));
+        return;
+    }
 
+    let object_positions: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     for (out, &p) in mesh.positions.iter_mut().zip(&object_positions) {
-        *out = if affine { m.transform_point3(p) } else { m.project_point3(p) }.as_vec3();
+        *out = m.project_point3(p).as_vec3();
     }
     let mut any_singular = false;
     if let Some(normals) = mesh.normals.as_mut() {
@@ -136,12 +139,49 @@ pub(crate) fn transform_mesh(mesh: &mut TriangleMesh, m: &DMat4, reverse_orienta
             }
         }
     }
-    if any_singular || (affine && singular(&linear)) {
+    if any_singular {
         mesh.normals = None;
     }
     for tri in &mut mesh.indices {
         let det = jacobian(object_positions[tri[0] as usize]).determinant();
         if (det < 0.0) != reverse_orientation {
+            tri.swap(1, 2);
+        }
+    }
+}
+
+/// [`transform_mesh`] for an affine `m` whose linear part is `linear`.
+fn transform_mesh_affine(
+    mesh: &mut TriangleMesh,
+    m: &DMat4,
+    linear: &DMat3,
+    reverse_orientation: bool,
+    linear_singular: bool,
+) {
+    for p in mesh.positions.iter_mut() {
+        *p = m.transform_point3(p.as_dvec3()).as_vec3();
+    }
+    let det = linear.determinant();
+    let mut any_singular = linear_singular;
+    if let Some(normals) = mesh.normals.as_mut()
+        && !linear_singular
+    {
+        let (cof, sign) = (cofactor(linear), det.signum());
+        for n in normals.iter_mut() {
+            let world = cof * n.as_dvec3() * sign;
+            let world = if reverse_orientation { -world } else { world };
+            *n = world.normalize_or_zero().as_vec3();
+            if *n == Vec3::ZERO {
+                any_singular = true;
+                break;
+            }
+        }
+    }
+    if any_singular {
+        mesh.normals = None;
+    }
+    if (det < 0.0) != reverse_orientation {
+        for tri in &mut mesh.indices {
             tri.swap(1, 2);
         }
     }

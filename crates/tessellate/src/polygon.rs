@@ -73,28 +73,36 @@ pub(crate) fn tessellate_polygons(
     let mut st: Option<Vec<Vec2>> = stvar.as_ref().map(|_| vec![Vec2::ZERO; vertex_count]);
 
     let mut triangulator = Triangulator::default();
+    // Scratch space reused by every face: a mesh has hundreds of thousands of small faces, and
+    // per-face vectors made the allocator a tenth of `lrt-depth --check`'s time.
+    let mut points: Vec<DVec3> = Vec::new();
+    let mut loop_lens: Vec<usize> = Vec::new();
+    let mut tris: Vec<[usize; 3]> = Vec::new();
+    mesh.indices.reserve(estimate.min(tol.max_triangles as f64) as usize);
+    mesh.face_index.reserve(estimate.min(tol.max_triangles as f64) as usize);
     let mut loop_start = 0usize; // index into vertices_per_loop
     let mut corner_start = 0usize; // index into vertex_indices
     for face in 0..faces {
         let nloops = pm.loops_per_face[face] as usize;
         let loops = &pm.vertices_per_loop[loop_start..loop_start + nloops];
         let face_corners: usize = loops.iter().map(|&n| n as usize).sum();
-        let corner_ids: Vec<usize> = (corner_start..corner_start + face_corners).collect();
+        let corner_ids = corner_start..corner_start + face_corners;
         let out_vertex = |c: usize| if split { c } else { pm.vertex_indices[c] as usize };
 
-        let points: Vec<DVec3> =
-            corner_ids.iter().map(|&c| pm.positions[pm.vertex_indices[c] as usize].as_dvec3()).collect();
-        let loop_lens: Vec<usize> = loops.iter().map(|&n| n as usize).collect();
-        let (tris, normal) = triangulator.triangulate(&points, &loop_lens);
+        points.clear();
+        points.extend(corner_ids.clone().map(|c| pm.positions[pm.vertex_indices[c] as usize].as_dvec3()));
+        loop_lens.clear();
+        loop_lens.extend(loops.iter().map(|&n| n as usize));
+        let normal = triangulator.triangulate(&points, &loop_lens, &mut tris);
         if tris.is_empty() {
             mesh.degenerate_faces += 1;
         }
         for t in &tris {
-            mesh.indices.push(t.map(|k| out_vertex(corner_ids[k]) as u32));
+            mesh.indices.push(t.map(|k| out_vertex(corner_start + k) as u32));
             mesh.face_index.push(face as u32);
         }
         // Carry N and st to the vertices this face uses.
-        for &c in &corner_ids {
+        for c in corner_ids {
             let vertex = pm.vertex_indices[c] as usize;
             let o = out_vertex(c);
             if let (Some(n), Some(var)) = (normals.as_mut(), nvar.as_ref()) {
@@ -142,19 +150,26 @@ impl std::fmt::Debug for Triangulator {
 
 impl Triangulator {
     /// Triangulates one face given as consecutive loops of `points` (the first loop outer, the
-    /// rest holes). Returns triangles as indices into `points`, counter-clockwise around the
-    /// outer loop's Newell normal, and that unit normal (zero for a face with no area).
-    pub fn triangulate(&mut self, points: &[DVec3], loop_lens: &[usize]) -> (Vec<[usize; 3]>, DVec3) {
-        let Some(&outer_len) = loop_lens.first() else { return (Vec::new(), DVec3::ZERO) };
+    /// rest holes). Replaces `tris` with triangles as indices into `points`, counter-clockwise
+    /// around the outer loop's Newell normal, and returns that unit normal (zero for a face
+    /// with no area).
+    pub fn triangulate(
+        &mut self,
+        points: &[DVec3],
+        loop_lens: &[usize],
+        tris: &mut Vec<[usize; 3]>,
+    ) -> DVec3 {
+        tris.clear();
+        let Some(&outer_len) = loop_lens.first() else { return DVec3::ZERO };
         let outer = &points[..outer_len.min(points.len())];
         if outer.len() < 3 {
-            return (Vec::new(), DVec3::ZERO);
+            return DVec3::ZERO;
         }
         let newell = newell_normal(outer);
         let extent = bbox_diagonal(outer);
         // Twice the area against the square of the size: a sliver this thin has no area.
         if !(newell.length() > 1e-12 * extent * extent) {
-            return (Vec::new(), DVec3::ZERO);
+            return DVec3::ZERO;
         }
         let normal = newell.normalize();
         let (t_axis, b_axis) = plane_axes(normal);
@@ -164,16 +179,18 @@ impl Triangulator {
 
         // Fast paths: a triangle, and a convex quad split along its shorter diagonal.
         if !has_holes && outer_len == 3 {
-            return (vec![[0, 1, 2]], normal);
+            tris.push([0, 1, 2]);
+            return normal;
         }
         if !has_holes && outer_len == 4 {
-            let q: Vec<DVec2> = outer.iter().map(|&p| flat(p)).collect();
-            let turns: Vec<f64> = (0..4).map(|i| area2(q[i], q[(i + 1) % 4], q[(i + 2) % 4])).collect();
+            let q: [DVec2; 4] = std::array::from_fn(|i| flat(outer[i]));
+            let turns: [f64; 4] = std::array::from_fn(|i| area2(q[i], q[(i + 1) % 4], q[(i + 2) % 4]));
             if turns.iter().all(|&t| t > 0.0) {
                 let d02 = outer[0].distance_squared(outer[2]);
                 let d13 = outer[1].distance_squared(outer[3]);
-                let tris = if d02 <= d13 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 1, 3], [1, 2, 3]] };
-                return (tris, normal);
+                let pair = if d02 <= d13 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 1, 3], [1, 2, 3]] };
+                tris.extend_from_slice(&pair);
+                return normal;
             }
         }
 
@@ -197,7 +214,6 @@ impl Triangulator {
             start = end;
         }
         self.earcut.earcut(self.flat.iter().copied(), &self.holes, &mut self.out);
-        let mut tris = Vec::with_capacity(self.out.len() / 3);
         for t in self.out.chunks_exact(3) {
             let [a, b, c] = [t[0], t[1], t[2]].map(|i| i as usize);
             let (pa, pb, pc) = (self.flat[a], self.flat[b], self.flat[c]);
@@ -209,7 +225,7 @@ impl Triangulator {
                 tris.push([a, c, b]);
             }
         }
-        (tris, normal)
+        normal
     }
 }
 
