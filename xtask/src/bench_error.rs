@@ -37,9 +37,9 @@ use std::process::Command;
 
 /// A linear RGB float image.
 pub struct Rgb {
-    width: usize,
-    height: usize,
-    pixels: Vec<[f32; 3]>,
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 3]>,
 }
 
 pub fn read_exr(path: &Path) -> Result<Rgb, String> {
