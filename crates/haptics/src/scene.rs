@@ -177,6 +177,7 @@ mod tests {
             objects: Vec::new(),
             instances: Vec::new(),
             coordinate_systems: Vec::new(),
+            solids: Vec::new(),
         }
     }
 

@@ -73,6 +73,7 @@ impl SceneBuilder {
                 objects: Vec::new(),
                 instances: Vec::new(),
                 coordinate_systems: Vec::new(),
+                solids: Vec::new(),
             },
         }
     }

@@ -685,8 +685,41 @@ pub struct ShapeEntity {
     pub shape: Arc<Shape>,
     pub world_from_object: DMat4,
     pub attributes: AttributesId,
-    /// True when the shape was given inside `SolidBegin`/`SolidEnd` (treated as a union).
+    /// True when the shape was given inside `SolidBegin`/`SolidEnd`; for world shapes the
+    /// operations are in [`Scene::solids`].
     pub in_solid: bool,
+    pub loc: FileLoc,
+}
+
+/// A `SolidBegin` operation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolidOp {
+    /// One closed solid bounded by all the surfaces inside the block.
+    Primitive,
+    Union,
+    Intersection,
+    /// The first operand minus all the others.
+    Difference,
+}
+
+/// What a solid block contains, in the order of the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolidPart {
+    /// A nested block: an index into [`Scene::solids`].
+    Solid(u32),
+    /// A shape: an index into [`Scene::shapes`].
+    Shape(u32),
+}
+
+/// A `SolidBegin` ... `SolidEnd` block of the world (constructive solid geometry). Outside a
+/// `"primitive"` block each shape is a primitive solid of its own, as the RenderMan
+/// specification has it; solids nest up to `Limits::max_nesting` deep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Solid {
+    pub op: SolidOp,
+    /// The enclosing block, `None` for an outermost one.
+    pub parent: Option<u32>,
+    pub parts: Vec<SolidPart>,
     pub loc: FileLoc,
 }
 
@@ -743,6 +776,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     pub attributes: Vec<Attributes>,
     pub shapes: Vec<ShapeEntity>,
+    /// The world's `SolidBegin` blocks, outer blocks before the blocks they contain.
+    pub solids: Vec<Solid>,
     pub objects: Vec<ObjectDefinition>,
     pub instances: Vec<ObjectInstanceEntity>,
     /// `CoordinateSystem "name"`: world-from-named-space, in the order declared.

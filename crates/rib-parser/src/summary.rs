@@ -402,6 +402,24 @@ pub fn dump(scene: &Scene) -> String {
             s.loc
         );
     }
+    for (i, solid) in scene.solids.iter().enumerate() {
+        let parts: Vec<String> = solid
+            .parts
+            .iter()
+            .map(|p| match p {
+                SolidPart::Solid(k) => format!("solid {k}"),
+                SolidPart::Shape(k) => format!("shape {k}"),
+            })
+            .collect();
+        let _ = writeln!(
+            o,
+            "solid {i}: {:?} parent={} parts=[{}] at {}",
+            solid.op,
+            solid.parent.map_or("-".into(), |p| p.to_string()),
+            parts.join(", "),
+            solid.loc
+        );
+    }
     for (i, obj) in scene.objects.iter().enumerate() {
         let _ = writeln!(
             o,

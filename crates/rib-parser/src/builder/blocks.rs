@@ -129,6 +129,7 @@ impl SceneBuilder {
             lights: world.lights,
             attributes: world.attributes,
             shapes: world.shapes,
+            solids: world.solids,
             objects: world.objects,
             instances: world.instances,
             coordinate_systems: world.coordinate_systems,
@@ -192,28 +193,56 @@ impl SceneBuilder {
     }
 
     pub(super) fn solid_begin(&mut self, operation: &str, cx: &mut Cx<'_>) {
-        if !matches!(operation, "primitive" | "union" | "intersection" | "difference") {
-            cx.error(
-                DiagnosticKind::BadValue,
-                format!("SolidBegin: unknown operation \"{operation}\" (primitive, union, intersection or difference)"),
-            );
-        }
-        if operation != "primitive" && operation != "union" {
-            self.warn_once(
-                "csg",
-                cx,
-                DiagnosticKind::Unsupported,
-                format!("SolidBegin \"{operation}\": solid operations are not supported; the solids' surfaces are kept as a union"),
-            );
-        }
+        let op = match operation {
+            "primitive" => Some(SolidOp::Primitive),
+            "union" => Some(SolidOp::Union),
+            "intersection" => Some(SolidOp::Intersection),
+            "difference" => Some(SolidOp::Difference),
+            _ => {
+                cx.error(
+                    DiagnosticKind::BadValue,
+                    format!(
+                        "SolidBegin: unknown operation \"{operation}\" (primitive, union, intersection or difference); read as a union"
+                    ),
+                );
+                None
+            }
+        };
         self.solid_depth += 1;
+        if self.recording.is_some() {
+            // Solids inside ObjectBegin are kept as their surfaces (instances share one BLAS).
+            if matches!(op, Some(SolidOp::Intersection | SolidOp::Difference)) {
+                self.warn_once(
+                    "csg-object",
+                    cx,
+                    DiagnosticKind::Unsupported,
+                    format!("SolidBegin \"{operation}\" inside ObjectBegin: the solids' surfaces are kept as a union"),
+                );
+            }
+            return;
+        }
+        let loc = cx.loc.clone();
+        if let Some(world) = self.world_mut() {
+            let id = world.solids.len() as u32;
+            let parent = world.open_solids.last().copied();
+            if let Some(p) = parent {
+                world.solids[p as usize].parts.push(SolidPart::Solid(id));
+            }
+            world.solids.push(Solid { op: op.unwrap_or(SolidOp::Union), parent, parts: Vec::new(), loc });
+            world.open_solids.push(id);
+        }
     }
 
     pub(super) fn solid_end(&mut self, cx: &mut Cx<'_>) {
         if self.solid_depth == 0 {
             cx.error(DiagnosticKind::Nesting, "SolidEnd without SolidBegin");
-        } else {
-            self.solid_depth -= 1;
+            return;
+        }
+        self.solid_depth -= 1;
+        if self.recording.is_none()
+            && let Some(world) = self.world_mut()
+        {
+            world.open_solids.pop();
         }
     }
 

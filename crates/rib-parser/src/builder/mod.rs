@@ -161,6 +161,9 @@ struct WorldState {
     lights: Vec<Light>,
     attributes: Vec<Attributes>,
     shapes: Vec<ShapeEntity>,
+    solids: Vec<Solid>,
+    /// Indices into `solids` of the open world solid blocks, innermost last.
+    open_solids: Vec<u32>,
     objects: Vec<ObjectDefinition>,
     /// Builder definition index -> this world's object id.
     object_ids: HashMap<usize, ObjectId>,

@@ -218,6 +218,10 @@ impl SceneBuilder {
             );
         }
         if let Some(world) = self.world_mut() {
+            if let Some(&solid) = world.open_solids.last() {
+                let index = world.shapes.len() as u32;
+                world.solids[solid as usize].parts.push(SolidPart::Shape(index));
+            }
             world.shapes.push(ShapeEntity {
                 shape: Arc::new(shape),
                 world_from_object,

@@ -214,6 +214,7 @@ fn test_scene() -> Scene {
             },
         ],
         coordinate_systems: Vec::new(),
+        solids: Vec::new(),
     }
 }
 
