@@ -1,4 +1,4 @@
-//! Blobby, Points and Curves in the ray tracer against closed forms, through the depth table
+//! Blobby, Points, Curves and CSG solids in the ray tracer against closed forms, through the depth table
 //! of an orthographic camera (one ray per pixel centre, parallel): covered area, and depth.
 
 use depth_remap::Camera;
@@ -84,4 +84,69 @@ fn curves_are_ribbons_of_their_projected_width() {
         })
         .sum();
     assert_area(hits, length * 0.1, "cubic curve");
+}
+
+/// The depth at the pixel whose centre is nearest `(x, y)`, and that centre.
+fn depth_at(depth: &[f32], x: f64, y: f64) -> (f64, f64, f64) {
+    let (i, j) = (((x + 2.0) / PIXEL) as usize, ((2.0 - y) / PIXEL) as usize);
+    let (cx, cy) = (-2.0 + (i as f64 + 0.5) * PIXEL, 2.0 - (j as f64 + 0.5) * PIXEL);
+    (f64::from(depth[j * 200 + i]), cx, cy)
+}
+
+/// Two unit spheres whose centres are 1 apart: their silhouettes overlap in a lens of area
+/// 2 acos(1/2) - sqrt(3)/2.
+const LENS_AREA: f64 = 2.0 * std::f64::consts::FRAC_PI_3 - 0.866_025_403_784_438_6;
+
+#[test]
+fn csg_intersection_and_union_cover_the_lens_and_both_discs() {
+    let spheres = "SolidBegin \"primitive\" TransformBegin Translate -0.5 0 0 Sphere 1 -1 1 360 TransformEnd SolidEnd\n\
+                   SolidBegin \"primitive\" TransformBegin Translate 0.5 0 0 Sphere 1 -1 1 360 TransformEnd SolidEnd";
+    let (depth, hits) = depths(&format!("SolidBegin \"intersection\"\n{spheres}\nSolidEnd"));
+    assert_area(hits, LENS_AREA, "intersection");
+    // At the centre both spheres' front surfaces are at z = sqrt(1 - 0.25 - y^2): the nearer
+    // of the two, where the ray is inside both, is the lens's surface.
+    let (d, x, y) = depth_at(&depth, 0.0, 0.0);
+    let exact = 10.0 - (1.0 - (x.abs() + 0.5).powi(2) - y * y).sqrt();
+    assert!((d - exact).abs() < 1e-4, "intersection depth {d}, exact {exact}");
+    let (_, hits) = depths(&format!("SolidBegin \"union\"\n{spheres}\nSolidEnd"));
+    assert_area(hits, 2.0 * std::f64::consts::PI - LENS_AREA, "union");
+}
+
+#[test]
+fn csg_difference_carves_the_subtracted_solid_out() {
+    // A closed can (a cylinder and two caps as one primitive solid) minus a sphere of radius
+    // 0.5 centred on its cap at z = -1, which faces the eye (at z = -10, looking along +z):
+    // the centre sees the bottom of the spherical dimple (z = -0.5), outside it the cap.
+    let world = "SolidBegin \"difference\"\n\
+                 SolidBegin \"primitive\" Cylinder 1 -1 1 360\n\
+                   TransformBegin Translate 0 0 1 Disk 0 1 360 TransformEnd\n\
+                   TransformBegin Translate 0 0 -1 Disk 0 1 360 TransformEnd SolidEnd\n\
+                 SolidBegin \"primitive\" TransformBegin Translate 0 0 -1 Sphere 0.5 -0.5 0.5 360 TransformEnd SolidEnd\n\
+                 SolidEnd";
+    let (depth, hits) = depths(world);
+    assert_area(hits, std::f64::consts::PI, "difference silhouette");
+    let (d, x, y) = depth_at(&depth, 0.0, 0.0);
+    let exact = 10.0 - (1.0 - (0.25 - x * x - y * y).sqrt());
+    assert!((d - exact).abs() < 1e-4, "dimple depth {d}, exact {exact}");
+    let (d, ..) = depth_at(&depth, 0.7, 0.0);
+    assert!((d - 9.0).abs() < 1e-4, "cap depth {d}, exact 9");
+    // The same with a triangle mesh: a cube [-1, 1]^3 minus the sphere.
+    let cube = "SolidBegin \"difference\"\n\
+                SolidBegin \"primitive\" PointsPolygons [4 4 4 4 4 4]\n\
+                  [0 1 3 2  4 6 7 5  0 4 5 1  2 3 7 6  0 2 6 4  1 5 7 3]\n\
+                  \"P\" [-1 -1 -1  1 -1 -1  -1 1 -1  1 1 -1  -1 -1 1  1 -1 1  -1 1 1  1 1 1] SolidEnd\n\
+                SolidBegin \"primitive\" TransformBegin Translate 0 0 -1 Sphere 0.5 -0.5 0.5 360 TransformEnd SolidEnd\n\
+                SolidEnd";
+    let (depth, hits) = depths(cube);
+    assert_area(hits, 4.0, "cube silhouette");
+    let (d, x, y) = depth_at(&depth, 0.0, 0.0);
+    let exact = 10.0 - (1.0 - (0.25 - x * x - y * y).sqrt());
+    assert!((d - exact).abs() < 1e-4, "cube dimple depth {d}, exact {exact}");
+    assert!((depth_at(&depth, 0.8, 0.3).0 - 9.0).abs() < 1e-4);
+
+    // As a union the sphere bulges out of the cap instead.
+    let (depth, _) = depths(&world.replace("\"difference\"", "\"union\""));
+    let (d, x, y) = depth_at(&depth, 0.0, 0.0);
+    let exact = 9.0 - (0.25 - x * x - y * y).sqrt();
+    assert!((d - exact).abs() < 1e-4, "union depth {d}, exact {exact}");
 }

@@ -1,6 +1,7 @@
 //! Building the world from a scene: tessellation at the camera's resolution, bottom-level BVHs
 //! per definition, instances, materials, lights and light sets.
 
+use super::csg::Csg;
 use super::*;
 use crate::accel::BvhStats;
 use crate::diagnostics::Diagnostics;
@@ -307,6 +308,7 @@ impl BlasBuilder {
             shapes: self.shapes,
             meshes: self.meshes,
             bounds,
+            csg: None,
         }
     }
 }
@@ -497,21 +499,35 @@ impl World {
         // Emitters collected while placing shapes: (scene light id, render-space emitter shape).
         let mut emitters: Vec<(u32, EmitterShape)> = Vec::new();
 
-        // The world BLAS (render space).
-        let mut world_blas = BlasBuilder::new();
-        let mut world_emitters: Vec<u32> = Vec::new();
-        for entity in &scene.shapes {
+        // Shapes of outermost solid blocks go into BLASes of their own (`csg.rs`).
+        let solid_plans = Csg::plans(scene);
+        let mut in_solid_blas = vec![false; scene.shapes.len()];
+        for plan in &solid_plans {
+            for &(s, _) in &plan.shapes {
+                if let Some(flag) = in_solid_blas.get_mut(s as usize) {
+                    *flag = true;
+                }
+            }
+        }
+
+        // Places a world shape (render space) into `builder`; its emitter index (or `u32::MAX`)
+        // goes to `shape_emitters` at its BLAS shape index.
+        let mut place_world_shape = |entity: &ShapeEntity,
+                                     builder: &mut BlasBuilder,
+                                     shape_emitters: &mut Vec<u32>,
+                                     diagnostics: &mut Diagnostics|
+         -> Option<u32> {
             let render_from_object = render_from_world * entity.world_from_object;
             if !render_from_object.is_finite() || render_from_object.determinant() == 0.0 {
                 diagnostics
                     .warn_once(Some(&entity.loc), "shape with a singular transform skipped".to_string());
                 diagnostics.skip("shapes (singular transform)");
-                continue;
+                return None;
             }
-            let Some(g) = geometry(entity, &render_from_object, true, diagnostics) else { continue };
-            let Some(shape_index) = world_blas.add(&g, &render_from_object, entity.attributes, scene) else {
+            let g = geometry(entity, &render_from_object, true, diagnostics)?;
+            let Some(shape_index) = builder.add(&g, &render_from_object, entity.attributes, scene) else {
                 diagnostics.skip("shapes (degenerate geometry)");
-                continue;
+                return None;
             };
             let attrs = scene.attributes_of(entity.attributes);
             let emitter = attrs.area_light.and_then(|id| {
@@ -520,26 +536,63 @@ impl World {
                 emitters.push((id.0, shape));
                 Some(emitters.len() as u32 - 1)
             });
-            world_emitters.resize(shape_index as usize, u32::MAX);
-            world_emitters.push(emitter.unwrap_or(u32::MAX));
+            shape_emitters.resize(shape_index as usize, u32::MAX);
+            shape_emitters.push(emitter.unwrap_or(u32::MAX));
+            Some(shape_index)
+        };
+
+        // The world BLAS (render space).
+        let mut world_blas = BlasBuilder::new();
+        let mut world_emitters: Vec<u32> = Vec::new();
+        for (i, entity) in scene.shapes.iter().enumerate() {
+            if !in_solid_blas[i] {
+                place_world_shape(entity, &mut world_blas, &mut world_emitters, diagnostics);
+            }
+        }
+        let mut solid_blases = Vec::with_capacity(solid_plans.len());
+        for mut plan in solid_plans {
+            let mut builder = BlasBuilder::new();
+            let mut shape_emitters = Vec::new();
+            for &(s, leaf) in &plan.shapes {
+                let Some(entity) = scene.shapes.get(s as usize) else { continue };
+                if let Some(shape_index) =
+                    place_world_shape(entity, &mut builder, &mut shape_emitters, diagnostics)
+                {
+                    plan.csg.leaf_of_shape.resize(shape_index as usize, u32::MAX);
+                    plan.csg.leaf_of_shape.push(leaf);
+                }
+            }
+            solid_blases.push((builder, shape_emitters, plan.csg));
         }
 
         let mut blases = Vec::new();
         let mut instances = Vec::new();
         let world_blas = world_blas.finish();
-        if !world_blas.prims.is_empty() {
-            let has_emitters = world_emitters.iter().any(|&e| e != u32::MAX);
-            blases.push(world_blas);
-            instances.push(Instance {
-                blas: 0,
+        let identity_instance = |blas: u32, emitters: Vec<u32>| {
+            let has_emitters = emitters.iter().any(|&e| e != u32::MAX);
+            Instance {
+                blas,
                 identity: true,
                 render_from_blas: DMat4::IDENTITY,
                 blas_from_render: DMat4::IDENTITY,
                 attributes: None,
                 one_sided: None,
                 reverse_xor: false,
-                emitters: if has_emitters { world_emitters } else { Vec::new() },
-            });
+                emitters: if has_emitters { emitters } else { Vec::new() },
+            }
+        };
+        if !world_blas.prims.is_empty() {
+            blases.push(world_blas);
+            instances.push(identity_instance(0, world_emitters));
+        }
+        for (builder, shape_emitters, csg) in solid_blases {
+            let mut blas = builder.finish();
+            if blas.prims.is_empty() {
+                continue;
+            }
+            blas.csg = Some(csg);
+            blases.push(blas);
+            instances.push(identity_instance(blases.len() as u32 - 1, shape_emitters));
         }
 
         // Object definitions, each its own BLAS, built only when instanced.

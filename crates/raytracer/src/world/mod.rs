@@ -11,6 +11,7 @@
 //! keep their object space and are intersected in `f64`.
 
 mod build;
+mod csg;
 
 pub use build::{
     MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
@@ -89,6 +90,8 @@ struct Blas {
     shapes: Vec<BlasShape>,
     meshes: Vec<MeshShading>,
     bounds: (Vec3, Vec3),
+    /// The solid tree when this BLAS holds one outermost `SolidBegin` block.
+    csg: Option<csg::Csg>,
 }
 
 #[derive(Clone, Debug)]
@@ -111,6 +114,8 @@ pub struct Hit {
     pub t: f32,
     instance: u32,
     detail: HitDetail,
+    /// On a solid (CSG) boundary: whether the ray enters the solid there.
+    csg_entering: Option<bool>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -345,6 +350,13 @@ impl World {
     ) {
         let blas = &self.blases[inst.blas as usize];
         let (o, d) = Self::to_blas(inst, o, d);
+        if let Some(csg) = &blas.csg {
+            if let Some((t, detail, entering)) = csg::intersect(blas, csg, o, d, t_min, *t_max) {
+                *best = Some(Hit { t, instance, detail, csg_entering: Some(entering) });
+                *t_max = t;
+            }
+            return;
+        }
         let Some(shear) = RayShear::new(o, d) else { return };
         let Some(mut tray) = TraversalRay::new(o, d, t_min, *t_max) else { return };
         let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
@@ -359,7 +371,8 @@ impl World {
                 if one_sided && (h.front == reverse) {
                     return None;
                 }
-                *best = Some(Hit { t: h.t, instance, detail: HitDetail::Triangle(i, h.b) });
+                *best =
+                    Some(Hit { t: h.t, instance, detail: HitDetail::Triangle(i, h.b), csg_entering: None });
                 Some(h.t)
             }
             Prim::Quadric(i) => {
@@ -382,7 +395,7 @@ impl World {
                     true
                 })?;
                 let t = h.t as f32;
-                *best = Some(Hit { t, instance, detail: HitDetail::Quadric(i, h) });
+                *best = Some(Hit { t, instance, detail: HitDetail::Quadric(i, h), csg_entering: None });
                 Some(t)
             }
         });
@@ -444,6 +457,22 @@ impl World {
     fn transmittance_instance(&self, inst: &Instance, ray: &Ray, tr: &mut Vec3) {
         let blas = &self.blases[inst.blas as usize];
         let (o, d) = Self::to_blas(inst, ray.origin, ray.direction);
+        if let Some(csg) = &blas.csg {
+            // The first boundary crossing of the solid decides (a semi-transparent solid
+            // attenuates once).
+            if let Some((_, detail, _)) = csg::intersect(blas, csg, o, d, ray.t_min, ray.t_max) {
+                let shape = match detail {
+                    HitDetail::Triangle(i, _) => blas.triangles[i as usize].shape,
+                    HitDetail::Quadric(i, _) => blas.quadrics[i as usize].shape,
+                };
+                let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
+                match self.attenuation(attributes) {
+                    None => *tr = Vec3::ZERO,
+                    Some(a) => *tr *= a,
+                }
+            }
+            return;
+        }
         let Some(shear) = RayShear::new(o, d) else { return };
         let Some(tray) = TraversalRay::new(o, d, ray.t_min, ray.t_max) else { return };
         let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
@@ -581,7 +610,13 @@ impl World {
         };
         let mut ng = map_n(ng_blas).normalize_or_zero().as_vec3();
         let mut ns = map_n(ns_blas).normalize_or_zero().as_vec3();
-        let n_outward = map_n(n_outward_blas).normalize_or_zero().as_vec3();
+        let mut n_outward = map_n(n_outward_blas).normalize_or_zero().as_vec3();
+        // On a solid's boundary the outward side is where the ray is not inside the solid.
+        if let Some(entering) = hit.csg_entering
+            && (n_outward.dot(ray.direction) < 0.0) != entering
+        {
+            n_outward = -n_outward;
+        }
         let dpdu = match to_render_n {
             Some(_) => inst.render_from_blas.transform_vector3(dpdu_blas).as_vec3(),
             None => dpdu_blas.as_vec3(),
