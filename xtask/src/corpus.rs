@@ -2,9 +2,16 @@
 //! the release `lrt-depth`, then writes a contact sheet (`docs/corpus-contact-sheet.png`) and a
 //! table of warning classes with outcome counts (`docs/corpus.md`).
 //!
-//! A "full scene" is a corpus file with a world block (`WorldBegin`, found in the text after
-//! gunzip; binary RIB keeps request names as strings too). Archive fragments are rendered as
-//! part of the scenes that read them.
+//! The corpus stores `<repo>/a/b/c.rib` as `<repo>/a__b__c.rib` (see its SOURCES.md), which
+//! breaks relative `ReadArchive` names. The scenes are therefore rendered from a scratch tree
+//! that restores the original directories (symbolic links to the corpus files), so archives
+//! resolve as they did in their repositories, through the same search rules a user gets.
+//!
+//! A scene is a corpus file with a world block (`WorldBegin`, found in the text after gunzip;
+//! binary RIB keeps request names as strings too), or a top-level file that builds its world
+//! from archives (it reads archives and no corpus file reads it, e.g. lucille's
+//! `Scene_DEFAULT_Set0.rib`, which sets the archive search path). Other archive fragments are
+//! rendered as part of the scenes that read them.
 
 use image::{Rgb, RgbImage};
 use std::collections::BTreeMap;
@@ -94,12 +101,29 @@ pub fn corpus(root: &Path, args: &[String]) -> Result<(), String> {
     let mut files = Vec::new();
     collect_files(&corpus, &mut files)?;
     files.sort();
-    let scenes: Vec<PathBuf> = files.into_iter().filter(|f| is_full_scene(f)).collect();
+    let tree = scratch.join("tree");
+    let texts: Vec<Vec<u8>> = files.iter().map(|f| rib_text(f)).collect();
+    let read_by_others: std::collections::HashSet<String> =
+        texts.iter().flat_map(|t| archive_names(t)).filter_map(|n| base_name(&n)).collect();
+    let mut scenes = Vec::new();
+    for (file, text) in files.iter().zip(&texts) {
+        let restored = restore_layout(&corpus, file, &tree)?;
+        let has_world = contains(text, b"WorldBegin");
+        let top_level_chain = !archive_names(text).is_empty()
+            && !file
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(original_base)
+                .is_some_and(|b| read_by_others.contains(&b));
+        if has_world || top_level_chain {
+            scenes.push((file.clone(), restored));
+        }
+    }
     let start = Instant::now();
     let mut results = Vec::new();
-    for (i, scene) in scenes.iter().enumerate() {
+    for (i, (scene, restored)) in scenes.iter().enumerate() {
         let name = scene.strip_prefix(&corpus).unwrap_or(scene).to_string_lossy().into_owned();
-        let r = render_one(&lrt, scene, name, &scratch.join(format!("{i}.png")), &scratch)?;
+        let r = render_one(&lrt, restored, name, &scratch.join(format!("{i}.png")), &scratch)?;
         eprintln!("[{}/{}] {:5.1} s  {:24} {}", i + 1, scenes.len(), r.seconds, r.outcome.name(), r.name);
         results.push(r);
     }
@@ -130,19 +154,78 @@ fn collect_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
     Ok(())
 }
 
-/// Whether the file has a world block, looking through gzip compression.
-fn is_full_scene(path: &Path) -> bool {
-    let Ok(bytes) = std::fs::read(path) else { return false };
-    let text = if bytes.starts_with(&[0x1f, 0x8b]) {
+/// A corpus file's bytes, looking through gzip compression (empty when unreadable).
+fn rib_text(path: &Path) -> Vec<u8> {
+    let Ok(bytes) = std::fs::read(path) else { return Vec::new() };
+    if bytes.starts_with(&[0x1f, 0x8b]) {
         let mut out = Vec::new();
         match flate2::read::MultiGzDecoder::new(&bytes[..]).read_to_end(&mut out) {
             Ok(_) => out,
-            Err(_) => return false,
+            Err(_) => Vec::new(),
         }
     } else {
         bytes
-    };
-    text.windows(b"WorldBegin".len()).any(|w| w == b"WorldBegin")
+    }
+}
+
+fn contains(text: &[u8], word: &[u8]) -> bool {
+    text.windows(word.len()).any(|w| w == word)
+}
+
+/// The names a file reads as archives: the first string after each `ReadArchive` and
+/// `"DelayedReadArchive"` (a textual scan, enough to tell top-level files from fragments).
+fn archive_names(text: &[u8]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < text.len() {
+        let rest = &text[i..];
+        let key = if rest.starts_with(b"DelayedReadArchive\"") {
+            b"DelayedReadArchive\"".len()
+        } else if rest.starts_with(b"ReadArchive") {
+            b"ReadArchive".len()
+        } else {
+            i += 1;
+            continue;
+        };
+        i += key;
+        let Some(open) = text[i..].iter().position(|&b| b == b'"') else { break };
+        let start = i + open + 1;
+        let Some(len) = text[start..].iter().position(|&b| b == b'"') else { break };
+        out.push(String::from_utf8_lossy(&text[start..start + len]).into_owned());
+        i = start + len + 1;
+    }
+    out
+}
+
+/// The last path component of an archive name (`/` or `\\` separated).
+fn base_name(name: &str) -> Option<String> {
+    name.rsplit(['/', '\\']).next().filter(|b| !b.is_empty()).map(str::to_string)
+}
+
+/// The original file name of a flattened corpus name (`a__b__c.rib` -> `c.rib`).
+fn original_base(flat: &str) -> Option<String> {
+    flat.rsplit("__").next().map(str::to_string)
+}
+
+/// Links `corpus/<repo>/a__b__c.rib` at `tree/<repo>/a/b/c.rib` and returns that path.
+fn restore_layout(corpus: &Path, file: &Path, tree: &Path) -> Result<PathBuf, String> {
+    let relative =
+        file.strip_prefix(corpus).map_err(|_| format!("{} is outside the corpus", file.display()))?;
+    let mut components = relative.components();
+    // The repository directory (`owner__repo`) keeps its name; the file name is unflattened.
+    let mut restored = tree.join(components.next().ok_or("empty corpus path")?);
+    for component in components {
+        for part in component.as_os_str().to_string_lossy().split("__") {
+            restored.push(part);
+        }
+    }
+    if let Some(dir) = restored.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    if !restored.exists() {
+        std::os::unix::fs::symlink(file, &restored).map_err(|e| format!("{}: {e}", restored.display()))?;
+    }
+    Ok(restored)
 }
 
 fn render_one(
@@ -494,9 +577,11 @@ fn report(results: &[FileResult], total: f64) -> String {
     let _ = writeln!(
         s,
         "Made by `cargo xtask corpus` ({date}, load average {} at the end, 2-core machine shared by \
-         several engineers, {total:.0} s in all): every full scene (a file with a world block; \
-         archive fragments render inside the scenes that read them) of `../shared/rib-corpus` \
-         rendered by the release `lrt-depth --spp 4 --threads 2 --max-size {MAX_SIZE}` under \
+         several engineers, {total:.0} s in all): every scene (a file with a world block, or a \
+         top-level file that reads its world from archives; other archive fragments render \
+         inside the scenes that read them) of `../shared/rib-corpus`, from a scratch tree that \
+         restores the corpus's original directories so that archives resolve as in their \
+         repositories, rendered by the release `lrt-depth --spp 4 --threads 2 --max-size {MAX_SIZE}` under \
          `nice`, killed after {} s.\n",
         load.join(" "),
         TIME_LIMIT.as_secs()
@@ -558,6 +643,26 @@ fn report(results: &[FileResult], total: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn archive_names_and_original_names() {
+        let text = b"ReadArchive \"a/b.rib\" Procedural \"DelayedReadArchive\" [ \"c.rib\" ] [0 1 0 1 0 1]";
+        assert_eq!(archive_names(text), vec!["a/b.rib".to_string(), "c.rib".to_string()]);
+        assert_eq!(base_name("/home/x/Lights/L.rib").as_deref(), Some("L.rib"));
+        assert_eq!(original_base("examples__scenes__fisheye__lights.rib").as_deref(), Some("lights.rib"));
+    }
+
+    #[test]
+    fn restored_layout_links_the_original_path() {
+        let dir = tempfile::TempDir::new().unwrap();
+        let corpus = dir.path().join("corpus");
+        std::fs::create_dir_all(corpus.join("o__r")).unwrap();
+        let flat = corpus.join("o__r/a__b__c.rib");
+        std::fs::write(&flat, "WorldBegin WorldEnd").unwrap();
+        let restored = restore_layout(&corpus, &flat, &dir.path().join("tree")).unwrap();
+        assert_eq!(restored, dir.path().join("tree/o__r/a/b/c.rib"));
+        assert_eq!(std::fs::read_to_string(restored).unwrap(), "WorldBegin WorldEnd");
+    }
 
     #[test]
     fn warning_class_strips_location_names_and_numbers() {
