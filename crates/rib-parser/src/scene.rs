@@ -275,6 +275,31 @@ pub struct RenderSettings {
     pub depth_of_field: Option<DepthOfField>,
     /// `Imager "name" params` (`"background"` sets the colour where rays miss).
     pub imager: Option<ShaderCall>,
+    /// `MakeTexture`, `MakeLatLongEnvironment` and `MakeCubeFaceEnvironment` requests, in order:
+    /// renderers that read images directly resolve a texture name through them.
+    pub textures: Vec<MadeTexture>,
+}
+
+/// What a `Make...` request makes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MadeTextureKind {
+    /// `MakeTexture picture name swrap twrap filter swidth twidth`.
+    Texture { picture: String, swrap: String, twrap: String },
+    /// `MakeLatLongEnvironment picture name filter swidth twidth`.
+    LatLong { picture: String },
+    /// `MakeCubeFaceEnvironment px nx py ny pz nz name fov filter swidth twidth`.
+    CubeFaces { faces: [String; 6], fov: f32 },
+}
+
+/// A texture file that a RIB asks to make from pictures: `name` is what shaders refer to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MadeTexture {
+    pub name: String,
+    pub kind: MadeTextureKind,
+    pub filter: String,
+    pub filter_width: (f32, f32),
+    pub params: ParamList,
+    pub loc: FileLoc,
 }
 
 impl Default for RenderSettings {
@@ -290,6 +315,7 @@ impl Default for RenderSettings {
             shutter: None,
             depth_of_field: None,
             imager: None,
+            textures: Vec::new(),
         }
     }
 }

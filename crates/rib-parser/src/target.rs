@@ -11,7 +11,8 @@
 
 use crate::diagnostics::{DiagnosticKind, Diagnostics};
 use crate::scene::{
-    Basis, FileLoc, Handle, ParamDecl, ParamList, PatchKind, ShaderCall, SubdivisionTag, TrimCurves, Wrap,
+    Basis, FileLoc, Handle, MadeTexture, MadeTextureKind, ParamDecl, ParamList, PatchKind, ShaderCall,
+    SubdivisionTag, TrimCurves, Wrap,
 };
 use glam::{DMat4, DVec3, Vec3};
 
@@ -261,6 +262,15 @@ pub trait RibTarget {
             DiagnosticKind::Unsupported,
             format!("{request} is not supported (no texture files are made); skipped"),
         );
+    }
+    /// `MakeTexture`, `MakeLatLongEnvironment`, `MakeCubeFaceEnvironment`, with their arguments.
+    fn made_texture(&mut self, made: MadeTexture, cx: &mut Cx<'_>) {
+        let request = match made.kind {
+            MadeTextureKind::Texture { .. } => "MakeTexture",
+            MadeTextureKind::LatLong { .. } => "MakeLatLongEnvironment",
+            MadeTextureKind::CubeFaces { .. } => "MakeCubeFaceEnvironment",
+        };
+        self.make_texture(request, cx);
     }
     /// `MakeShadow`: a shadow map from a depth image.
     fn make_shadow(&mut self, cx: &mut Cx<'_>) {

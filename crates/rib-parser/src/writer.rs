@@ -278,6 +278,26 @@ impl Writer {
         if let Some(d) = r.depth_of_field {
             self.line(format!("DepthOfField {} {} {}", f(d.fstop), f(d.focal_length), f(d.focal_distance)));
         }
+        for t in &r.textures {
+            let (sw, tw) = (f(t.filter_width.0), f(t.filter_width.1));
+            let (filter, name, params) = (s(&t.filter), s(&t.name), param_list(&t.params));
+            self.line(match &t.kind {
+                MadeTextureKind::Texture { picture, swrap, twrap } => format!(
+                    "MakeTexture {} {name} {} {} {filter} {sw} {tw}{params}",
+                    s(picture),
+                    s(swrap),
+                    s(twrap)
+                ),
+                MadeTextureKind::LatLong { picture } => {
+                    format!("MakeLatLongEnvironment {} {name} {filter} {sw} {tw}{params}", s(picture))
+                }
+                MadeTextureKind::CubeFaces { faces, fov } => format!(
+                    "MakeCubeFaceEnvironment {} {name} {} {filter} {sw} {tw}{params}",
+                    faces.iter().map(|p| s(p)).collect::<Vec<_>>().join(" "),
+                    f(*fov)
+                ),
+            });
+        }
         for disp in &scene.displays {
             let name = if disp.secondary { format!("+{}", disp.name) } else { disp.name.clone() };
             self.line(format!(

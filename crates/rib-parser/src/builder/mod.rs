@@ -659,6 +659,15 @@ impl RibTarget for SceneBuilder {
         SceneBuilder::imager(self, call, cx)
     }
 
+    fn made_texture(&mut self, made: MadeTexture, cx: &mut Cx<'_>) {
+        // A bound on the list, not on the pictures (their sizes are the renderer's limit).
+        if self.opts.render.textures.len() >= 1 << 16 {
+            cx.error(DiagnosticKind::Limit, "too many texture requests; this one is ignored");
+            return;
+        }
+        self.opts.render.textures.push(made);
+    }
+
     fn make_shadow(&mut self, cx: &mut Cx<'_>) {
         // Shadows are ray traced exactly: no map is needed (reported by `lrt-depth --stats`).
         self.superseded_shadow_maps.push(cx.loc.clone());

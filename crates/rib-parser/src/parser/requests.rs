@@ -4,7 +4,7 @@ use super::{PResult, ParamContext, PeekKind, Reader, Stop};
 use crate::basis::named_basis;
 use crate::diagnostics::DiagnosticKind;
 use crate::params::{self, ClassCounts};
-use crate::scene::{Basis, FileLoc, Handle, ParamList, ShaderCall};
+use crate::scene::{Basis, FileLoc, Handle, MadeTexture, MadeTextureKind, ParamList, ShaderCall};
 use crate::target::{RibTarget, ShaderSlot};
 use glam::{DMat4, DVec3};
 
@@ -468,13 +468,48 @@ impl Reader {
                 self.geometry(name, &loc, t)?;
             }
 
-            // Texture making: never done here.
-            "MakeTexture"
-            | "MakeBump"
-            | "MakeLatLongEnvironment"
-            | "MakeCubeFaceEnvironment"
-            | "MakeBrickMap"
-            | "MakeOcclusion" => {
+            // Textures are never made here: the request is kept, so a renderer can read the
+            // pictures themselves.
+            "MakeTexture" => {
+                let picture = self.arg_string(r, "the picture name")?;
+                let name = self.arg_string(r, "the texture name")?;
+                let swrap = self.arg_string(r, "the s wrap mode")?;
+                let twrap = self.arg_string(r, "the t wrap mode")?;
+                let filter = self.arg_string(r, "the filter name")?;
+                let [sw, tw] = self.arg_f32s::<2>(r, "the filter widths")?;
+                let params = self.param_list(r, ParamContext::Call, None)?;
+                let kind = MadeTextureKind::Texture { picture, swrap, twrap };
+                let made =
+                    MadeTexture { name, kind, filter, filter_width: (sw, tw), params, loc: loc.clone() };
+                t.made_texture(made, &mut self.cx(loc));
+            }
+            "MakeLatLongEnvironment" => {
+                let picture = self.arg_string(r, "the picture name")?;
+                let name = self.arg_string(r, "the texture name")?;
+                let filter = self.arg_string(r, "the filter name")?;
+                let [sw, tw] = self.arg_f32s::<2>(r, "the filter widths")?;
+                let params = self.param_list(r, ParamContext::Call, None)?;
+                let kind = MadeTextureKind::LatLong { picture };
+                let made =
+                    MadeTexture { name, kind, filter, filter_width: (sw, tw), params, loc: loc.clone() };
+                t.made_texture(made, &mut self.cx(loc));
+            }
+            "MakeCubeFaceEnvironment" => {
+                let mut faces: [String; 6] = Default::default();
+                for (face, what) in faces.iter_mut().zip(["+x", "-x", "+y", "-y", "+z", "-z"]) {
+                    *face = self.arg_string(r, &format!("the {what} picture"))?;
+                }
+                let name = self.arg_string(r, "the texture name")?;
+                let fov = self.arg_f32(r, "the field of view")?;
+                let filter = self.arg_string(r, "the filter name")?;
+                let [sw, tw] = self.arg_f32s::<2>(r, "the filter widths")?;
+                let params = self.param_list(r, ParamContext::Call, None)?;
+                let kind = MadeTextureKind::CubeFaces { faces, fov };
+                let made =
+                    MadeTexture { name, kind, filter, filter_width: (sw, tw), params, loc: loc.clone() };
+                t.made_texture(made, &mut self.cx(loc));
+            }
+            "MakeBump" | "MakeBrickMap" | "MakeOcclusion" => {
                 self.skip_arguments();
                 t.make_texture(name, &mut self.cx(loc));
             }
