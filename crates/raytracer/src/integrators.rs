@@ -266,7 +266,9 @@ pub fn sample_one_light(
 /// emission of lights, which the integrators weight themselves).
 pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
     let set = world.light_set(si.attributes);
-    material.self_emission(si.ns, si.wo, si.st) + material.ambient_reflectance(si.st) * set.ambient
+    material.self_emission(si.ns, si.wo, si.st, si.st_width)
+        + material.ambient_reflectance(si.st, si.st_width) * set.ambient
+        + material.environment_reflection(si.ns, si.wo)
 }
 
 /// A surface integrator ready to render: made from an [`IntegratorKind`] and the world by
@@ -381,7 +383,7 @@ fn whitted(
     if let Some(e) = si.emitter {
         l += world.lights[e as usize].emitted(si.ng, si.wo);
     }
-    let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+    let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
     if depth == 0 {
         crate::light_layers::primary_vertex(world, &si, material, &bsdf, weight);
     }
@@ -481,7 +483,7 @@ fn path(
             }
         }
         l += beta * surface_terms(world, &si, material);
-        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
         if depth == 0 {
             crate::light_layers::primary_vertex(world, &si, material, &bsdf, beta);
         }

@@ -6,7 +6,7 @@
 //! | `plastic` | `Ka` 1, `Kd` .5, `Ks` .5, `roughness` .1, `specularcolor` 1 | Lambertian + Blinn microfacet, exponent `1 / roughness` |
 //! | `paintedplastic` | as plastic, `texturename` | plastic with `Cs` multiplied by the texture at `(s, t)` |
 //! | `metal` | `Ka` 1, `Ks` 1, `roughness` .1 | Blinn microfacet tinted by `Cs` |
-//! | `shinymetal` | `Ka` 1, `Ks` 1, `Kr` 1, `roughness` .1 | metal + perfect mirror `Kr * Cs` (ray traced instead of an environment map) |
+//! | `shinymetal` | `Ka` 1, `Ks` 1, `Kr` 1, `roughness` .1, `texturename` | metal + perfect mirror `Kr * Cs`: the lat-long environment map `texturename` in the reflected direction (world space, +z up) when given, else ray traced |
 //! | `mirror` | `Kr` 1 | perfect mirror, reflectance `Kr * Cs` |
 //! | `glass` | `eta` 1.5 (or `index`), `Kr` 1, `Kt` 1 | smooth dielectric, exact Fresnel, both parts tinted by `Cs` |
 //! | `constant` | | emits `Cs` toward every ray, reflects nothing |
@@ -28,13 +28,39 @@ use std::sync::Arc;
 #[derive(Clone, Debug)]
 pub enum Surface {
     Constant,
-    DefaultSurface { ka: f32, kd: f32 },
-    Matte { kd: f32 },
-    Plastic { kd: f32, ks: f32, roughness: f32, specular_color: Vec3, texture: Option<Arc<Texture>> },
-    Metal { ks: f32, roughness: f32 },
-    ShinyMetal { ks: f32, kr: f32, roughness: f32 },
-    Mirror { kr: f32 },
-    Glass { kr: f32, kt: f32, eta: f32 },
+    DefaultSurface {
+        ka: f32,
+        kd: f32,
+    },
+    Matte {
+        kd: f32,
+    },
+    Plastic {
+        kd: f32,
+        ks: f32,
+        roughness: f32,
+        specular_color: Vec3,
+        texture: Option<Arc<Texture>>,
+    },
+    Metal {
+        ks: f32,
+        roughness: f32,
+    },
+    /// `environment`: the lat-long map reflected instead of the scene, when `texturename` names one.
+    ShinyMetal {
+        ks: f32,
+        kr: f32,
+        roughness: f32,
+        environment: Option<Arc<Texture>>,
+    },
+    Mirror {
+        kr: f32,
+    },
+    Glass {
+        kr: f32,
+        kt: f32,
+        eta: f32,
+    },
 }
 
 /// A shader with the attribute state it is used with.
@@ -123,7 +149,12 @@ impl Material {
             ),
             "metal" => (Surface::Metal { ks: p("Ks", 1.0), roughness: roughness(0.1) }, p("Ka", 1.0)),
             "shinymetal" => (
-                Surface::ShinyMetal { ks: p("Ks", 1.0), kr: p("Kr", 1.0), roughness: roughness(0.1) },
+                Surface::ShinyMetal {
+                    ks: p("Ks", 1.0),
+                    kr: p("Kr", 1.0),
+                    roughness: roughness(0.1),
+                    environment: texture(),
+                },
                 p("Ka", 1.0),
             ),
             "mirror" => (Surface::Mirror { kr: p("Kr", 1.0) }, 0.0),
@@ -163,40 +194,70 @@ impl Material {
         match self.surface {
             Surface::Mirror { kr } => kr > 0.0,
             Surface::Glass { .. } => true,
-            Surface::ShinyMetal { kr, .. } => kr > 0.0,
+            Surface::ShinyMetal { kr, environment: None, .. } => kr > 0.0,
             _ => false,
         }
     }
 
-    /// The surface colour at texture coordinates `st`.
-    pub fn color_at(&self, st: Vec2) -> Vec3 {
+    /// The surface colour at texture coordinates `st`, the texture filtered over `st_width`
+    /// (the footprint of a pixel in texture space; 0 reads the finest level).
+    pub fn color_at(&self, st: Vec2, st_width: f32) -> Vec3 {
         match &self.surface {
-            Surface::Plastic { texture: Some(t), .. } => self.color * t.lookup(st),
+            Surface::Plastic { texture: Some(t), .. } => self.color * t.lookup_filtered(st, st_width),
             _ => self.color,
         }
     }
 
     /// Radiance the shader itself emits toward `wo` (constant and defaultsurface).
-    pub fn self_emission(&self, ns: Vec3, wo: Vec3, st: Vec2) -> Vec3 {
+    pub fn self_emission(&self, ns: Vec3, wo: Vec3, st: Vec2, st_width: f32) -> Vec3 {
         match self.surface {
-            Surface::Constant => self.color_at(st),
+            Surface::Constant => self.color_at(st, st_width),
             Surface::DefaultSurface { ka, kd } => {
                 let c = ns.dot(wo);
-                self.color_at(st) * (ka + kd * c * c)
+                self.color_at(st, st_width) * (ka + kd * c * c)
             }
             _ => Vec3::ZERO,
         }
     }
 
+    /// `shinymetal`'s `Kr * Cs * environment(texturename, R)`: the lat-long map in the mirror
+    /// direction of `wo` about `ns` (world axes, +z up: `s = atan2(y, x) / 2 pi`,
+    /// `t = acos(z) / pi`, as PRMan and pbrt index lat-long maps). Zero without a map.
+    pub fn environment_reflection(&self, ns: Vec3, wo: Vec3) -> Vec3 {
+        let Surface::ShinyMetal { ks, kr, environment: Some(map), .. } = &self.surface else {
+            return Vec3::ZERO;
+        };
+        let r = (2.0 * wo.dot(ns) * ns - wo).normalize_or_zero();
+        if r == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let phi = r.y.atan2(r.x).rem_euclid(2.0 * std::f32::consts::PI);
+        let st =
+            Vec2::new(phi / (2.0 * std::f32::consts::PI), r.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
+        // The same energy split as the ray-traced mirror lobe.
+        let (_, m) = conserve(self.color * ks.max(0.0), self.color * kr.max(0.0));
+        m * map.lookup(st)
+    }
+
     /// `Ka * Cs`: what multiplies the ambient light.
-    pub fn ambient_reflectance(&self, st: Vec2) -> Vec3 {
-        if self.ka > 0.0 { self.color_at(st) * self.ka } else { Vec3::ZERO }
+    pub fn ambient_reflectance(&self, st: Vec2, st_width: f32) -> Vec3 {
+        if self.ka > 0.0 { self.color_at(st, st_width) * self.ka } else { Vec3::ZERO }
     }
 
     /// The BSDF at a surface point. `ng` and `ns` are the geometric and shading normals (same
     /// hemisphere), `n_outward` the solid's outward normal (for glass), `dpdu` a tangent hint.
-    pub fn bsdf(&self, wo: Vec3, ng: Vec3, ns: Vec3, n_outward: Vec3, dpdu: Vec3, st: Vec2) -> Bsdf {
-        let cs = self.color_at(st);
+    #[allow(clippy::too_many_arguments)]
+    pub fn bsdf(
+        &self,
+        wo: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        n_outward: Vec3,
+        dpdu: Vec3,
+        st: Vec2,
+        st_width: f32,
+    ) -> Bsdf {
+        let cs = self.color_at(st, st_width);
         if let Surface::Glass { kr, kt, eta } = self.surface {
             // The frame's +z is the outward normal: the lobe knows which side is inside.
             let flip = ng.dot(n_outward) < 0.0;
@@ -224,10 +285,13 @@ impl Material {
                     exponent: exponent(roughness),
                 });
             }
-            Surface::ShinyMetal { ks, kr, roughness } => {
+            Surface::ShinyMetal { ks, kr, roughness, ref environment } => {
                 let (g, m) = conserve(cs * ks.max(0.0), cs * kr.max(0.0));
                 bsdf.add(Lobe::Blinn { ks: g, exponent: exponent(roughness) });
-                bsdf.add(Lobe::SpecularReflection { r: m });
+                // With a map, the mirror term is the map's light (`environment_reflection`).
+                if environment.is_none() {
+                    bsdf.add(Lobe::SpecularReflection { r: m });
+                }
             }
             Surface::Mirror { kr } => {
                 bsdf.add(Lobe::SpecularReflection { r: (cs * kr.max(0.0)).min(Vec3::ONE) })
@@ -272,7 +336,7 @@ mod tests {
     fn matte_albedo_and_unknown_fallback() {
         let (m, notes) = material("matte", &[("Kd", 0.5)]);
         assert!(notes.is_empty());
-        let b = m.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, Vec2::ZERO);
+        let b = m.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, Vec2::ZERO, 0.0);
         let f = b.f(Vec3::Z, Vec3::new(0.0, 0.6, 0.8), crate::bsdf::LobeFlags::ALL);
         assert!((f.x - 0.5 / std::f32::consts::PI).abs() < 1e-6);
         let (m, notes) = material("wood_grain", &[("Kd", 0.3)]);
@@ -283,7 +347,7 @@ mod tests {
     #[test]
     fn plastic_is_energy_bounded_and_two_sided() {
         let (m, _) = material("plastic", &[("Kd", 1.0), ("Ks", 1.0)]);
-        let b = m.bsdf(-Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, Vec2::ZERO);
+        let b = m.bsdf(-Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, Vec2::ZERO, 0.0);
         // Viewed from below: the frame faces the viewer.
         assert!(b.frame.z.z < 0.0);
         let sum: f32 = b

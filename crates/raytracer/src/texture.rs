@@ -1,16 +1,98 @@
 //! Image texture maps for `paintedplastic`: any format the `image` crate reads (PNG, JPEG,
-//! TIFF, OpenEXR), looked up bilinearly with periodic wrapping. Like RenderMan, `(s, t) = (0, 0)`
-//! is the top-left corner of the image and values are used as stored (no gamma decoding).
+//! TIFF, OpenEXR). Like RenderMan, `(s, t) = (0, 0)` is the top-left corner of the image and
+//! values are used as stored (no gamma decoding). Lookups are filtered: a mip-map pyramid
+//! (2x2 box reductions) is built at load, and [`Texture::lookup_filtered`] blends the two
+//! levels around the footprint's size (trilinear filtering, as pbrt and RenderMan's
+//! `texture()` do by default). Wrap modes are `MakeTexture`'s: periodic (the default for a
+//! picture read directly), clamp, or black.
 
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
-/// An RGB texture in linear memory, row 0 at the top.
+/// How coordinates outside `[0, 1)` are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    Periodic,
+    Clamp,
+    Black,
+}
+
+impl Wrap {
+    /// A `MakeTexture` wrap mode (`"periodic"`, `"clamp"`, `"black"`); `None` for others.
+    pub fn from_name(name: &str) -> Option<Wrap> {
+        match name {
+            "periodic" => Some(Wrap::Periodic),
+            "clamp" => Some(Wrap::Clamp),
+            "black" => Some(Wrap::Black),
+            _ => None,
+        }
+    }
+
+    /// The texel index for `i` in a row of `n`, `None` for black.
+    fn index(self, i: i64, n: u32) -> Option<usize> {
+        let n = i64::from(n);
+        match self {
+            Wrap::Periodic => Some(i.rem_euclid(n) as usize),
+            Wrap::Clamp => Some(i.clamp(0, n - 1) as usize),
+            Wrap::Black => (0..n).contains(&i).then_some(i as usize),
+        }
+    }
+}
+
+/// One level of the pyramid, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Texture {
+struct Level {
     width: u32,
     height: u32,
     texels: Vec<Vec3>,
+}
+
+impl Level {
+    fn texel(&self, x: i64, y: i64, wrap: (Wrap, Wrap)) -> Vec3 {
+        match (wrap.0.index(x, self.width), wrap.1.index(y, self.height)) {
+            (Some(x), Some(y)) => self.texels[y * self.width as usize + x],
+            _ => Vec3::ZERO,
+        }
+    }
+
+    fn bilinear(&self, st: Vec2, wrap: (Wrap, Wrap)) -> Vec3 {
+        let x = st.x * self.width as f32 - 0.5;
+        let y = st.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let a = self.texel(x0, y0, wrap).lerp(self.texel(x0 + 1, y0, wrap), fx);
+        let b = self.texel(x0, y0 + 1, wrap).lerp(self.texel(x0 + 1, y0 + 1, wrap), fx);
+        a.lerp(b, fy)
+    }
+
+    /// The next coarser level: each texel the mean of up to 2x2 texels.
+    fn reduced(&self) -> Level {
+        let (w, h) = ((self.width / 2).max(1), (self.height / 2).max(1));
+        let mut texels = Vec::with_capacity(w as usize * h as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = Vec3::ZERO;
+                let mut n = 0.0;
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (sx, sy) = (2 * x + dx, 2 * y + dy);
+                    if sx < self.width && sy < self.height {
+                        sum += self.texels[(sy * self.width + sx) as usize];
+                        n += 1.0;
+                    }
+                }
+                texels.push(sum / n);
+            }
+        }
+        Level { width: w, height: h, texels }
+    }
+}
+
+/// An RGB texture with its mip-map pyramid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    levels: Vec<Level>,
+    wrap: (Wrap, Wrap),
 }
 
 /// Textures larger than this many texels are refused rather than allocated.
@@ -18,11 +100,22 @@ pub const MAX_TEXELS: u64 = 1 << 28;
 
 impl Texture {
     pub fn from_rgb(width: u32, height: u32, texels: Vec<Vec3>) -> Option<Texture> {
-        (width > 0 && height > 0 && texels.len() == width as usize * height as usize).then_some(Texture {
-            width,
-            height,
-            texels,
-        })
+        if !(width > 0 && height > 0 && texels.len() == width as usize * height as usize) {
+            return None;
+        }
+        let mut levels = vec![Level { width, height, texels }];
+        while let Some(last) = levels.last()
+            && (last.width > 1 || last.height > 1)
+        {
+            let next = last.reduced();
+            levels.push(next);
+        }
+        Some(Texture { levels, wrap: (Wrap::Periodic, Wrap::Periodic) })
+    }
+
+    /// The same texture read with other wrap modes (s, t).
+    pub fn with_wrap(self, swrap: Wrap, twrap: Wrap) -> Texture {
+        Texture { wrap: (swrap, twrap), ..self }
     }
 
     /// Reads an image file; the error is a human-readable reason.
@@ -46,25 +139,29 @@ impl Texture {
         Texture::from_rgb(rgb.width(), rgb.height(), texels).ok_or_else(|| "empty image".to_string())
     }
 
-    fn texel(&self, x: i64, y: i64) -> Vec3 {
-        let x = x.rem_euclid(i64::from(self.width)) as usize;
-        let y = y.rem_euclid(i64::from(self.height)) as usize;
-        self.texels[y * self.width as usize + x]
+    /// Bilinear lookup of the finest level at `(s, t)`.
+    pub fn lookup(&self, st: Vec2) -> Vec3 {
+        self.lookup_filtered(st, 0.0)
     }
 
-    /// Bilinear lookup at `(s, t)`, wrapping periodically.
-    pub fn lookup(&self, st: Vec2) -> Vec3 {
+    /// Lookup filtered over a footprint `width` wide in `(s, t)` units: bilinear in the two
+    /// pyramid levels whose texels are about that size, blended by the level in between.
+    pub fn lookup_filtered(&self, st: Vec2, width: f32) -> Vec3 {
+        let finest = &self.levels[0];
         if !st.is_finite() {
-            return self.texels[0];
+            return finest.texels[0];
         }
-        let x = st.x * self.width as f32 - 0.5;
-        let y = st.y * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let a = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let b = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
-        a.lerp(b, fy)
+        let texels_across = width * finest.width.max(finest.height) as f32;
+        let level = if texels_across > 1.0 && texels_across.is_finite() { texels_across.log2() } else { 0.0 };
+        let coarsest = (self.levels.len() - 1) as f32;
+        let level = level.min(coarsest);
+        let lo = level.floor() as usize;
+        let f = level - lo as f32;
+        let a = self.levels[lo].bilinear(st, self.wrap);
+        if f == 0.0 {
+            return a;
+        }
+        a.lerp(self.levels[lo + 1].bilinear(st, self.wrap), f)
     }
 }
 
@@ -80,5 +177,29 @@ mod tests {
         assert!((t.lookup(Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
         assert_eq!(t.lookup(Vec2::new(1.25, 0.5)), Vec3::ZERO);
         assert!(Texture::load(Path::new("/nonexistent.png")).is_err());
+    }
+
+    /// A fine checkerboard seen through a footprint of many texels is its mean, and wrap modes
+    /// read outside `[0, 1)` as `MakeTexture` says.
+    #[test]
+    fn filtered_lookups_average_and_wrap_modes() {
+        let n = 64u32;
+        let texels = (0..n * n)
+            .map(|i| if (i % n + i / n).is_multiple_of(2) { Vec3::ONE } else { Vec3::ZERO })
+            .collect();
+        let t = Texture::from_rgb(n, n, texels).unwrap();
+        for st in [Vec2::new(0.31, 0.77), Vec2::new(0.5, 0.5), Vec2::new(0.013, 0.9)] {
+            let fine = t.lookup(st + Vec2::splat(0.5 / n as f32));
+            assert!(fine == Vec3::ONE || fine == Vec3::ZERO || (fine.x - 0.5).abs() < 0.5);
+            let wide = t.lookup_filtered(st, 16.0 / n as f32);
+            assert!((wide.x - 0.5).abs() < 1e-6, "{wide}");
+        }
+        let ramp = Texture::from_rgb(2, 1, vec![Vec3::ZERO, Vec3::ONE]).unwrap();
+        let clamp = ramp.clone().with_wrap(Wrap::Clamp, Wrap::Clamp);
+        assert_eq!(clamp.lookup(Vec2::new(1.75, 0.5)), Vec3::ONE);
+        let black = ramp.with_wrap(Wrap::Black, Wrap::Black);
+        assert_eq!(black.lookup(Vec2::new(1.75, 0.5)), Vec3::ZERO);
+        assert_eq!(Wrap::from_name("clamp"), Some(Wrap::Clamp));
+        assert_eq!(Wrap::from_name("mirror"), None);
     }
 }

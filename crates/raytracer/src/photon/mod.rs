@@ -483,7 +483,7 @@ impl PhotonMapper {
         let mut has_specular = false;
         let mut has_non_specular = false;
         for m in &world.materials {
-            let bsdf = m.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, glam::Vec2::ZERO);
+            let bsdf = m.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, glam::Vec2::ZERO, 0.0);
             has_specular |= m.has_specular();
             has_non_specular |= bsdf.has_non_specular();
         }

@@ -134,7 +134,7 @@ impl PhotonMapper {
         if let Some(e) = si.emitter {
             l += world.lights[e as usize].emitted(si.ng, si.wo);
         }
-        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
         if depth == 0 {
             crate::light_layers::primary_vertex(world, &si, material, &bsdf, weight);
         }
@@ -367,7 +367,7 @@ impl PhotonMapper {
             let material = world.material(si.attributes);
             // Self-emitting shaders and ambient light are not in the photons.
             l += beta * surface_terms(world, &si, material);
-            let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+            let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
             if bsdf.has_non_specular() {
                 l += beta * self.exitant(&si, &bsdf, scratch);
             }

@@ -547,7 +547,7 @@ fn trace_path(
         let Some((si, weight)) = found else { break };
         alpha *= weight;
         let material = world.material(si.attributes);
-        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st);
+        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
         if bsdf.is_black() {
             break;
         }

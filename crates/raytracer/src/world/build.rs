@@ -9,10 +9,10 @@ use crate::lights::{EmitterShape, Light, LightSet, RENDERMAN_LIGHT_SCALE, quadri
 use crate::materials::{Material, MaterialNote};
 
 use crate::sampling::Distribution1D;
-use crate::texture::Texture;
-use rib_parser::scene::{AttributesId, LightKind, Scene, Shape, ShapeEntity};
+use crate::texture::{Texture, Wrap};
+use rib_parser::scene::{AttributesId, LightKind, MadeTextureKind, Scene, Shape, ShapeEntity};
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use tessellate::{
@@ -49,6 +49,11 @@ pub enum PixelFootprint {
 }
 
 impl PixelFootprint {
+    /// The footprint at `distance` from the eye, 0 when the camera is not known.
+    pub(super) fn width_at(&self, distance: f64) -> f64 {
+        self.at(distance).unwrap_or(0.0)
+    }
+
     fn at(&self, distance: f64) -> Option<f64> {
         let s = match *self {
             PixelFootprint::Perspective { radians_per_pixel } => radians_per_pixel * distance,
@@ -313,6 +318,38 @@ impl BlasBuilder {
     }
 }
 
+/// The texture a shader names: the picture of the last `MakeTexture` (or lat-long environment)
+/// that made `name`, with its wrap modes, or else the file `name` itself. Relative paths are
+/// tried from the working directory, then from the RIB file's directory.
+fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
+    let resolve = |file: &str| {
+        let direct = PathBuf::from(file);
+        if direct.is_absolute() || direct.exists() {
+            return direct;
+        }
+        match Path::new(scene.source.as_ref()).parent() {
+            Some(dir) if dir.join(file).exists() => dir.join(file),
+            _ => direct,
+        }
+    };
+    let made = scene.render.textures.iter().rev().find(|t| t.name == name);
+    match made.map(|t| &t.kind) {
+        Some(MadeTextureKind::Texture { picture, swrap, twrap }) => {
+            let wrap = |w: &str| Wrap::from_name(w).unwrap_or(Wrap::Periodic);
+            let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
+            Ok(Arc::new(texture.with_wrap(wrap(swrap), wrap(twrap))))
+        }
+        Some(MadeTextureKind::LatLong { picture }) => {
+            let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
+            Ok(Arc::new(texture.with_wrap(Wrap::Periodic, Wrap::Clamp)))
+        }
+        Some(MadeTextureKind::CubeFaces { .. }) => {
+            Err("a cube-face environment cannot be a surface texture".to_string())
+        }
+        None => Texture::load(&resolve(name)).map(Arc::new),
+    }
+}
+
 /// Bounds of the transformed box (all eight corners in `f64`, rounded outward).
 pub(super) fn transformed_box(m: &DMat4, lo: DVec3, hi: DVec3) -> (Vec3, Vec3) {
     let mut bmin = DVec3::splat(f64::INFINITY);
@@ -372,10 +409,7 @@ impl World {
         for attrs in &scene.attributes {
             let mut notes = Vec::new();
             let mut load = |path: &str| {
-                texture_cache
-                    .entry(path.to_string())
-                    .or_insert_with(|| Texture::load(&PathBuf::from(path)).map(Arc::new))
-                    .clone()
+                texture_cache.entry(path.to_string()).or_insert_with(|| load_texture(scene, path)).clone()
             };
             let m = Material::from_attributes(attrs, &mut load, &mut notes);
             let loc = attrs.surface.as_ref().map(|s| &s.loc);
@@ -759,6 +793,7 @@ impl World {
             bounds,
             stats,
             background: background(scene),
+            footprint,
         })
     }
 }

@@ -144,6 +144,9 @@ pub struct SurfaceInteraction {
     pub dpdu: Vec3,
     /// Texture coordinates.
     pub st: Vec2,
+    /// About how far `st` changes across one pixel's footprint here (for filtered texture
+    /// lookups; 0 when the camera is not known).
+    pub st_width: f32,
     /// Direction toward the ray's origin.
     pub wo: Vec3,
     /// True when the ray arrived on the front side.
@@ -205,6 +208,9 @@ pub struct World {
     /// `Imager "background"`: composited under each camera sample by its alpha, as RenderMan's
     /// `Ci += (1 - alpha) * background` (reflections and lighting do not see it).
     pub background: Vec3,
+    /// The camera's pixel footprint, for texture filter widths (pbrt-v4's approximation: the
+    /// footprint of a camera ray at the hit's distance from the eye, on every path vertex).
+    footprint: PixelFootprint,
 }
 
 impl World {
@@ -540,6 +546,8 @@ impl World {
         let inst = &self.instances[hit.instance as usize];
         let blas = &self.blases[inst.blas as usize];
         let (p_blas, err_blas, ng_blas, ns_blas, n_outward_blas, dpdu_blas, st, shape);
+        // Texture-space units per BLAS-space unit around the hit (isotropic).
+        let st_per_length: f64;
         match hit.detail {
             HitDetail::Triangle(i, b) => {
                 let tri = &blas.triangles[i as usize];
@@ -563,11 +571,14 @@ impl World {
                     _ => ng,
                 };
                 n_outward_blas = ng;
-                st = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
+                let area = 0.5 * ng.length();
+                (st, st_per_length) = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
                     (Some(sts), Some(v)) => {
-                        sts[v[0] as usize] * bw[0] + sts[v[1] as usize] * bw[1] + sts[v[2] as usize] * bw[2]
+                        let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
+                        let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
+                        (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
                     }
-                    _ => Vec2::new(bw[1], bw[2]),
+                    _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
                 };
                 dpdu_blas = (tri.p[1] - tri.p[0]).as_dvec3();
             }
@@ -591,6 +602,7 @@ impl World {
                 n_outward_blas = transform_normal(normal_matrix, h.n * q.quadric.orientation);
                 dpdu_blas = m.transform_vector3(h.dpdu);
                 st = h.uv.as_vec2();
+                st_per_length = 1.0 / dpdu_blas.length();
                 shape = q.shape;
             }
         }
@@ -636,6 +648,9 @@ impl World {
             ns = ng;
         }
         let (p, p_error) = round_point(p64, err64);
+        let pixel = self.footprint.width_at(p64.length());
+        let st_width = (pixel * st_per_length) as f32;
+        let st_width = if st_width.is_finite() { st_width } else { 0.0 };
         let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
         let emitter = inst.emitters.get(shape as usize).copied().filter(|&e| e != u32::MAX);
         let wo = -ray.direction.normalize_or(Vec3::Z);
@@ -649,6 +664,7 @@ impl World {
             n_outward: if n_outward == Vec3::ZERO { ng } else { n_outward },
             dpdu,
             st,
+            st_width,
             wo,
             front: ray.direction.dot(ng) < 0.0,
             attributes,
