@@ -130,10 +130,7 @@ pub(crate) fn transform_mesh(mesh: &mut TriangleMesh, m: &DMat4, reverse_orienta
                 any_singular = true;
                 break;
             }
-            let world = cofactor(&j) * n.as_dvec3() * j.determinant().signum();
-            let world = if reverse_orientation { -world } else { world };
-            *n = world.normalize_or_zero().as_vec3();
-            if *n == Vec3::ZERO {
+            if !place_normal(n, &cofactor(&j), j.determinant().signum(), reverse_orientation) {
                 any_singular = true;
                 break;
             }
@@ -168,10 +165,7 @@ fn transform_mesh_affine(
     {
         let (cof, sign) = (cofactor(linear), det.signum());
         for n in normals.iter_mut() {
-            let world = cof * n.as_dvec3() * sign;
-            let world = if reverse_orientation { -world } else { world };
-            *n = world.normalize_or_zero().as_vec3();
-            if *n == Vec3::ZERO {
+            if !place_normal(n, &cof, sign, reverse_orientation) {
                 any_singular = true;
                 break;
             }
@@ -185,6 +179,15 @@ fn transform_mesh_affine(
             tri.swap(1, 2);
         }
     }
+}
+
+/// Maps an object-space normal by the Jacobian's `cofactor` and determinant `sign`, flipped for
+/// reversed orientation; false when it degenerates to zero.
+fn place_normal(n: &mut Vec3, cofactor: &DMat3, sign: f64, reverse_orientation: bool) -> bool {
+    let world = *cofactor * n.as_dvec3() * sign;
+    let world = if reverse_orientation { -world } else { world };
+    *n = world.normalize_or_zero().as_vec3();
+    *n != Vec3::ZERO
 }
 
 /// `det(a) * a^-T`, defined for singular matrices too.
