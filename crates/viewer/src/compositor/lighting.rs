@@ -1,0 +1,168 @@
+//! Lighting data for the shaders: lights, materials and live objects moved to camera space in
+//! f64, packed into the uniform blocks the shaders read.
+
+use super::{Compositor, MAX_LIGHTS};
+use crate::live::{LiveLight, LiveObjects, Material, ShadowSource};
+use bytemuck::{Pod, Zeroable};
+use glam::{DMat3, DMat4, DVec3};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(super) struct GpuLight {
+    pub(super) position: [f32; 4],
+    pub(super) direction: [f32; 4],
+    pub(super) colour: [f32; 4],
+    pub(super) params: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(super) struct GpuMaterial {
+    pub(super) colour: [f32; 4],
+    pub(super) coefficients: [f32; 4],
+    pub(super) specular_colour: [f32; 4],
+}
+
+impl From<&Material> for GpuMaterial {
+    fn from(m: &Material) -> Self {
+        GpuMaterial {
+            colour: [m.colour.x, m.colour.y, m.colour.z, if m.unlit { 1.0 } else { 0.0 }],
+            coefficients: [m.ka, m.kd, m.ks, m.roughness],
+            specular_colour: m.specular_colour.extend(0.0).to_array(),
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct FrameUniform {
+    pub(super) clip_from_camera: [[f32; 4]; 4],
+    pub(super) clip_from_raster: [[f32; 4]; 4],
+    pub(super) screen_window: [f32; 4],
+    pub(super) raster: [f32; 4],
+    pub(super) tone: [f32; 4],
+    pub(super) counts: [u32; 4],
+    pub(super) shadow_light: [f32; 4],
+    pub(super) shadow_params: [f32; 4],
+    pub(super) sphere: [f32; 4],
+    pub(super) sphere_material: GpuMaterial,
+    pub(super) lights: [GpuLight; MAX_LIGHTS],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct MeshUniform {
+    pub(super) camera_from_object: [[f32; 4]; 4],
+    pub(super) normal_from_object: [[f32; 4]; 4],
+    pub(super) material: GpuMaterial,
+}
+
+pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
+    m.as_mat4().to_cols_array_2d()
+}
+
+pub(super) fn vec4(v: DVec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+impl Compositor {
+    /// The uniform block for this frame: live objects and lights moved to camera space in f64.
+    pub(super) fn frame_uniform(&self, live: &LiveObjects) -> FrameUniform {
+        let camera = self.projection.camera();
+        let camera_from_world = camera.camera_from_world();
+        let linear = DMat3::from_mat4(camera_from_world);
+        // The camera transform's uniform scale (1 for a rigid camera, mirrors included).
+        let scale = linear.determinant().abs().cbrt();
+        let point = |p: DVec3| camera_from_world.transform_point3(p);
+        let direction = |d: DVec3| (linear * d).normalize_or_zero();
+        let sw = camera.screen_window();
+        let (tan_half, perspective) = match camera.tan_half_fov() {
+            Some(t) => (t as f32, 1.0),
+            None => (0.0, 0.0),
+        };
+        let mut lights = [GpuLight::default(); MAX_LIGHTS];
+        for (slot, light) in lights.iter_mut().zip(&self.lights) {
+            *slot = match light {
+                LiveLight::Ambient { colour } => GpuLight {
+                    position: [0.0, 0.0, 0.0, 0.0],
+                    colour: colour.extend(0.0).to_array(),
+                    ..Default::default()
+                },
+                LiveLight::Distant { direction: d, colour } => GpuLight {
+                    position: [0.0, 0.0, 0.0, 1.0],
+                    direction: vec4(direction(*d), 0.0),
+                    colour: colour.extend(0.0).to_array(),
+                    ..Default::default()
+                },
+                LiveLight::Point { position, colour } => GpuLight {
+                    position: vec4(point(*position), 2.0),
+                    colour: colour.extend(0.0).to_array(),
+                    ..Default::default()
+                },
+                LiveLight::Spot {
+                    position,
+                    axis,
+                    colour,
+                    cone_angle,
+                    cone_delta_angle,
+                    beam_distribution,
+                } => GpuLight {
+                    position: vec4(point(*position), 3.0),
+                    direction: vec4(direction(*axis), 0.0),
+                    colour: colour.extend(0.0).to_array(),
+                    params: [
+                        cone_angle.cos(),
+                        (cone_angle - cone_delta_angle).cos(),
+                        *beam_distribution,
+                        0.0,
+                    ],
+                },
+                LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } => GpuLight {
+                    position: vec4(point(*centroid), 4.0),
+                    direction: vec4(
+                        normal.map(direction).unwrap_or(DVec3::ZERO),
+                        if *two_sided { 1.0 } else { 0.0 },
+                    ),
+                    colour: (*radiance * (*area * scale * scale) as f32)
+                        .extend(if normal.is_some() { 1.0 } else { 0.0 })
+                        .to_array(),
+                    ..Default::default()
+                },
+            };
+        }
+        let sphere =
+            live.sphere.as_ref().filter(|s| s.radius > 0.0 && s.radius.is_finite() && s.centre.is_finite());
+        let (sphere_vec, sphere_material) = match sphere {
+            Some(s) => (vec4(point(s.centre), (s.radius * scale) as f32), GpuMaterial::from(&s.material)),
+            None => ([0.0; 4], GpuMaterial::default()),
+        };
+        let (shadow_on, shadow_light, shadow_params) =
+            match (self.shadow_light, self.settings.shadows, sphere) {
+                (Some(k), Some(settings), Some(_)) => match self.lights[k].shadow_source() {
+                    Some(ShadowSource::Point { position, radius }) => (
+                        1,
+                        vec4(point(position), 1.0),
+                        [(radius * scale) as f32, settings.strength, 0.0, 0.0],
+                    ),
+                    Some(ShadowSource::Direction(d)) => {
+                        (1, vec4(direction(d), 0.0), [0.0, settings.strength, 0.0, 0.0])
+                    }
+                    None => (0, [0.0; 4], [0.0; 4]),
+                },
+                _ => (0, [0.0; 4], [0.0; 4]),
+            };
+        FrameUniform {
+            clip_from_camera: mat4_f32(self.projection.clip_from_camera()),
+            clip_from_raster: mat4_f32(self.projection.clip_from_raster()),
+            screen_window: [sw.left as f32, sw.right as f32, sw.bottom as f32, sw.top as f32],
+            raster: [self.width as f32, self.height as f32, tan_half, perspective],
+            tone: self.tone,
+            counts: [self.lights.len().min(MAX_LIGHTS) as u32, shadow_on, u32::from(sphere.is_some()), 0],
+            shadow_light,
+            shadow_params,
+            sphere: sphere_vec,
+            sphere_material,
+            lights,
+        }
+    }
+}

@@ -1,0 +1,131 @@
+//! Reading a frame back from the GPU: colour, live-object mask and depth (the depth through a
+//! compute pass, since GL cannot copy depth textures to buffers).
+
+use super::{Compositor, align_up};
+use crate::backdrop::Rgba8Image;
+use crate::error::ViewerError;
+
+/// A frame read back from the GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameReadback {
+    pub colour: Rgba8Image,
+    /// One byte per pixel: 255 where a live object is visible, 0 elsewhere.
+    pub mask: Vec<u8>,
+    /// The depth buffer's values, row-major, top row first.
+    pub depth: Vec<f32>,
+}
+
+impl FrameReadback {
+    /// The mask as a grey PNG (white exactly where a live object is visible), written atomically.
+    pub fn write_mask_png(&self, path: &std::path::Path) -> Result<(), ViewerError> {
+        crate::backdrop::write_png_atomically(
+            path,
+            self.colour.width,
+            self.colour.height,
+            image::ExtendedColorType::L8,
+            &self.mask,
+        )
+    }
+}
+
+impl Compositor {
+    /// Waits until the GPU has finished everything submitted so far.
+    pub fn wait_idle(&self) -> Result<(), ViewerError> {
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        Ok(())
+    }
+
+    /// Reads the last rendered frame back: colour, mask and depth.
+    pub fn read_back(&self) -> Result<FrameReadback, ViewerError> {
+        let device = &self.gpu.device;
+        let (w, h) = (self.width, self.height);
+        let row = |bytes_per_pixel: u32| align_up(u64::from(w * bytes_per_pixel), 256);
+        let colour_row = row(4);
+        let mask_row = row(1);
+        let map_buffer = |label: &str, size: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let colour_buffer = map_buffer("colour readback", colour_row * u64::from(h));
+        let mask_buffer = map_buffer("mask readback", mask_row * u64::from(h));
+        let depth_buffer = map_buffer("depth readback", u64::from(w) * u64::from(h) * 4);
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+        for (texture, buffer, bytes_per_row) in
+            [(&self.frame_texture, &colour_buffer, colour_row), (&self.mask_texture, &mask_buffer, mask_row)]
+        {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(bytes_per_row as u32),
+                        rows_per_image: Some(h),
+                    },
+                },
+                size,
+            );
+        }
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("depth readback"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.readback_pipeline);
+            pass.set_bind_group(0, &self.readback_bind_group, &[]);
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        encoder.copy_buffer_to_buffer(
+            &self.depth_storage,
+            0,
+            &depth_buffer,
+            0,
+            u64::from(w) * u64::from(h) * 4,
+        );
+        self.gpu.queue.submit([encoder.finish()]);
+
+        let (tx, rx) = std::sync::mpsc::channel();
+        for (k, buffer) in [&colour_buffer, &mask_buffer, &depth_buffer].into_iter().enumerate() {
+            let tx = tx.clone();
+            buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+                let _ = tx.send((k, r));
+            });
+        }
+        drop(tx);
+        self.wait_idle()?;
+        for (k, result) in rx.iter() {
+            result.map_err(|e| ViewerError::Gpu(format!("mapping readback buffer {k}: {e}")))?;
+        }
+        self.gpu.take_errors()?;
+        let unpad =
+            |buffer: &wgpu::Buffer, padded_row: u64, row_bytes: usize| -> Result<Vec<u8>, ViewerError> {
+                let view = buffer.get_mapped_range(..).map_err(|e| ViewerError::Gpu(e.to_string()))?;
+                let mut out = Vec::with_capacity(row_bytes * h as usize);
+                for r in 0..h as usize {
+                    let start = r * padded_row as usize;
+                    out.extend_from_slice(&view[start..start + row_bytes]);
+                }
+                Ok(out)
+            };
+        let colour = unpad(&colour_buffer, colour_row, w as usize * 4)?;
+        let mask = unpad(&mask_buffer, mask_row, w as usize)?;
+        let depth_bytes = unpad(&depth_buffer, u64::from(w) * 4, w as usize * 4)?;
+        let depth =
+            depth_bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        Ok(FrameReadback { colour: Rgba8Image { width: w, height: h, pixels: colour }, mask, depth })
+    }
+}

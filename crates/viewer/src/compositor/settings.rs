@@ -1,0 +1,84 @@
+//! How the compositor is set up: output formats, composite mode, depth buffer and shadows.
+
+use depth_remap::{DepthConvention, NearFar};
+
+/// Format of the composited frame: 8-bit unorm, not sRGB, so input bytes pass through untouched.
+pub const FRAME_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Format of the live-object mask.
+pub const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
+/// Most lights passed to the shaders; further lights are dropped (the brightest are kept).
+pub const MAX_LIGHTS: usize = 16;
+
+/// How the pre-rendered image and its depth get into the frame. Both give identical colour and
+/// depth buffers (the test suite checks it bit for bit).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CompositeMode {
+    /// The paper's: one point per pixel at `(i + 0.5, j + 0.5, window depth)` through the
+    /// orthographic matrix that passes depth through.
+    Points,
+    /// Lawlor's: one full-screen triangle whose fragment shader reads the pixel's colour and
+    /// writes its fragment depth from textures.
+    Fullscreen,
+}
+
+impl CompositeMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            CompositeMode::Points => "points",
+            CompositeMode::Fullscreen => "fullscreen",
+        }
+    }
+}
+
+/// The depth buffer: its format and which way it runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthSettings {
+    pub format: wgpu::TextureFormat,
+    pub convention: DepthConvention,
+}
+
+impl Default for DepthSettings {
+    /// Reversed-Z in a 32-bit float buffer: nearly constant relative precision in eye depth.
+    fn default() -> Self {
+        DepthSettings { format: wgpu::TextureFormat::Depth32Float, convention: DepthConvention::WgpuReversed }
+    }
+}
+
+/// Shadows of the live sphere on the pre-rendered scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowSettings {
+    /// The fraction of a pixel's value removed where the sphere hides the whole shadow light
+    /// (the share of the pre-rendered radiance that light's direct illumination is taken to be).
+    pub strength: f32,
+    /// Index into the scene's lights; `None` picks the dominant light.
+    pub light: Option<usize>,
+}
+
+impl Default for ShadowSettings {
+    fn default() -> Self {
+        ShadowSettings { strength: 0.6, light: None }
+    }
+}
+
+/// How the compositor is set up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompositorSettings {
+    pub mode: CompositeMode,
+    pub depth: DepthSettings,
+    /// Near/far planes; `None` derives them from the depth table
+    /// ([`crate::projection::near_far_policy`]).
+    pub depth_range: Option<NearFar>,
+    /// `None` disables shadows.
+    pub shadows: Option<ShadowSettings>,
+}
+
+impl Default for CompositorSettings {
+    fn default() -> Self {
+        CompositorSettings {
+            mode: CompositeMode::Fullscreen,
+            depth: DepthSettings::default(),
+            depth_range: None,
+            shadows: Some(ShadowSettings::default()),
+        }
+    }
+}
