@@ -41,8 +41,8 @@ pub(crate) fn linspace(a: f64, b: f64, n: usize) -> Vec<f64> {
 
 /// A grid's vertices, welded, ready for triangles.
 pub(crate) struct Grid {
-    nu: usize,
-    nv: usize,
+    pub(crate) nu: usize,
+    pub(crate) nv: usize,
     /// Output vertex of grid point `(i, j)` at `j * (nu + 1) + i`.
     ids: Vec<u32>,
     pub mesh: TriangleMesh,
@@ -78,16 +78,9 @@ impl Grid {
                     continue;
                 }
                 let (u, v) = (spec.us[i], spec.vs[j]);
-                let (p, mut n) = eval(u, v);
-                if !(n.length_squared() > 0.0) || !n.is_finite() {
-                    // A singular point: take the normal a little way towards the domain centre.
-                    let du = if nu > 0 { (spec.us[1.min(nu)] - spec.us[0]).abs() } else { 0.0 };
-                    let dv = if nv > 0 { (spec.vs[1.min(nv)] - spec.vs[0]).abs() } else { 0.0 };
-                    let nudge = |x: f64, mid: f64, step: f64| x + (mid - x).signum() * step * 1e-3;
-                    n = eval(nudge(u, u_mid, du), nudge(v, v_mid, dv)).1;
-                }
-                points[k] = p;
-                normals[k] = if n.is_finite() { n.normalize_or_zero() } else { DVec3::ZERO };
+                let du = if nu > 0 { (spec.us[1.min(nu)] - spec.us[0]).abs() } else { 0.0 };
+                let dv = if nv > 0 { (spec.vs[1.min(nv)] - spec.vs[0]).abs() } else { 0.0 };
+                (points[k], normals[k]) = sample_at(eval, (u, v), (du, dv), (u_mid, v_mid));
                 source[k] = k;
             }
         }
@@ -97,57 +90,16 @@ impl Grid {
             source[k] = if source[s] == s { s } else { source[source[s]] };
         }
 
-        // Union-find over the border samples that coincide.
-        let mut parent: Vec<usize> = (0..count).collect();
-        fn find(parent: &mut [usize], mut x: usize) -> usize {
-            while parent[x] != x {
-                parent[x] = parent[parent[x]];
-                x = parent[x];
-            }
-            x
+        let mut border: Vec<usize> = Vec::with_capacity(2 * (nu + nv + 2));
+        for i in 0..=nu {
+            border.push(source[i]);
+            border.push(source[nv * cols + i]);
         }
-        if weld_eps > 0.0 {
-            let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-            // Cells relative to one sample, so far-off surfaces keep small keys.
-            let origin = points[source[0]];
-            let key = |p: DVec3| ((p - origin) / weld_eps).floor().as_i64vec3().to_array();
-            let mut border: Vec<usize> = Vec::with_capacity(2 * (nu + nv + 2));
-            for i in 0..=nu {
-                border.push(source[i]);
-                border.push(source[nv * cols + i]);
-            }
-            for j in 0..=nv {
-                border.push(source[j * cols]);
-                border.push(source[j * cols + nu]);
-            }
-            border.sort_unstable();
-            border.dedup();
-            for &k in &border {
-                let p = points[k];
-                let c = key(p);
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for dz in -1..=1 {
-                            let cell =
-                                [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
-                            let Some(others) = cells.get(&cell) else { continue };
-                            // One representative per cell is enough: its members are already one.
-                            if let Some(&o) = others.iter().find(|&&o| points[o].distance(p) <= weld_eps) {
-                                let (ra, rb) = (find(&mut parent, k), find(&mut parent, o));
-                                if ra != rb {
-                                    parent[ra.max(rb)] = ra.min(rb);
-                                }
-                            }
-                        }
-                    }
-                }
-                let members = cells.entry(c).or_default();
-                if members.len() < 4 {
-                    members.push(k);
-                }
-            }
+        for j in 0..=nv {
+            border.push(source[j * cols]);
+            border.push(source[j * cols + nu]);
         }
-
+        let mut parent = weld_roots(&points, &mut border, weld_eps, source[0]);
         let mut ids = vec![u32::MAX; count];
         let mut out_of_root: HashMap<usize, u32> = HashMap::new();
         let mut mesh = TriangleMesh::default();
@@ -157,7 +109,7 @@ impl Grid {
             for i in 0..=nu {
                 let k = j * cols + i;
                 let s = source[k];
-                let root = find(&mut parent, s);
+                let root = find_root(&mut parent, s);
                 let id = *out_of_root.entry(root).or_insert_with(|| {
                     mesh.positions.push(points[root].as_vec3());
                     normal_sums.push(DVec3::ZERO);
@@ -216,6 +168,11 @@ impl Grid {
         (self.mesh.positions.len() - 1) as u32
     }
 
+    /// Adds another sample's unit normal to vertex `id` (a vertex welded from several samples).
+    pub fn add_normal(&mut self, id: u32, n: DVec3) {
+        self.normal_sums[id as usize] += n;
+    }
+
     pub fn emit_all(&mut self, face_of_cell: &dyn Fn(usize, usize) -> u32) {
         self.mesh.indices.reserve(2 * self.nu * self.nv);
         self.mesh.face_index.reserve(2 * self.nu * self.nv);
@@ -253,6 +210,76 @@ impl Grid {
         compact(&mut mesh);
         mesh
     }
+}
+
+/// Evaluates `eval` at `(u, v)`; where the normal is singular (a pole), takes it a little way
+/// (1e-3 of `step`) towards the domain centre `mid`. Returns the position and unit normal (zero
+/// when none is usable).
+pub(crate) fn sample_at(
+    eval: &mut dyn FnMut(f64, f64) -> Sample,
+    (u, v): (f64, f64),
+    step: (f64, f64),
+    mid: (f64, f64),
+) -> Sample {
+    let (p, mut n) = eval(u, v);
+    if !(n.length_squared() > 0.0) || !n.is_finite() {
+        let nudge = |x: f64, mid: f64, step: f64| x + (mid - x).signum() * step * 1e-3;
+        n = eval(nudge(u, mid.0, step.0), nudge(v, mid.1, step.1)).1;
+    }
+    (p, if n.is_finite() { n.normalize_or_zero() } else { DVec3::ZERO })
+}
+
+/// Union-find root of `x`, compressing the path.
+pub(crate) fn find_root(parent: &mut [usize], mut x: usize) -> usize {
+    while parent[x] != x {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    x
+}
+
+/// Groups the points listed in `candidates` that lie within `weld_eps` of each other: returns a
+/// union-find parent table over all of `points` (resolve with [`find_root`]); the root of a
+/// group is its lowest index. `origin` (an index into `points`) keeps the cell keys small.
+pub(crate) fn weld_roots(
+    points: &[DVec3],
+    candidates: &mut Vec<usize>,
+    weld_eps: f64,
+    origin: usize,
+) -> Vec<usize> {
+    let mut parent: Vec<usize> = (0..points.len()).collect();
+    if !(weld_eps > 0.0) || points.is_empty() {
+        return parent;
+    }
+    let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let origin = points[origin];
+    let key = |p: DVec3| ((p - origin) / weld_eps).floor().as_i64vec3().to_array();
+    candidates.sort_unstable();
+    candidates.dedup();
+    for &k in candidates.iter() {
+        let p = points[k];
+        let c = key(p);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let cell = [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
+                    let Some(others) = cells.get(&cell) else { continue };
+                    // One representative per cell is enough: its members are already one.
+                    if let Some(&o) = others.iter().find(|&&o| points[o].distance(p) <= weld_eps) {
+                        let (ra, rb) = (find_root(&mut parent, k), find_root(&mut parent, o));
+                        if ra != rb {
+                            parent[ra.max(rb)] = ra.min(rb);
+                        }
+                    }
+                }
+            }
+        }
+        let members = cells.entry(c).or_default();
+        if members.len() < 4 {
+            members.push(k);
+        }
+    }
+    parent
 }
 
 /// Drops vertices no triangle uses.

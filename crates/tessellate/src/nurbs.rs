@@ -5,10 +5,13 @@
 //! points, divided by `w`. The grid covers `[umin, umax] x [vmin, vmax]`, with grid lines on
 //! every distinct knot inside it so no cell straddles a knot (where the surface may only be
 //! C0); the density per knot span comes from [`choose_span_counts`]. Trim curves are handled
-//! by the `trim` module.
+//! by the `trim` module; an untrimmed surface's sides are diced per knot span from their
+//! boundary curves alone and stitched to the grid (the `stitch` module), so separate surfaces
+//! that share a side (with the same knots along it) meet without cracks.
 
 use super::grid::{Grid, GridSpec, choose_span_counts, span_of, span_values};
 use super::patch::{check_weights, rational, weld_distance};
+use super::stitch::{Sides, check_stitched_budget};
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
 use glam::{DVec3, DVec4, Vec2};
 use rib_parser::scene::NuPatch;
@@ -243,23 +246,38 @@ pub(crate) fn tessellate_nupatch(
     let v_breaks = surface.v.breaks(v0, v1);
     check_budget(KIND, 2.0 * (u_breaks.len() - 1) as f64 * (v_breaks.len() - 1) as f64, tol)?;
     let position = |s: f64, t: f64| surface.eval(s, t).0;
-    let (nu, nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &position, eps, (1, 1), tol)?;
-    surface.weight_error()?;
-    let spec = GridSpec {
-        us: span_values(&u_breaks, &nu),
-        vs: span_values(&v_breaks, &nv),
-        u_periodic: false,
-        v_periodic: false,
+    let (mut nu, mut nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &position, eps, (1, 1), tol)?;
+    // Untrimmed, each side is diced per knot span from its own boundary curve, so separate
+    // surfaces sharing it agree; trimmed surfaces end on their trim curves instead.
+    let sides = match np.trim {
+        Some(_) => None,
+        None => Some(Sides::new(KIND, &u_breaks, &v_breaks, &position, eps)?),
     };
+    let sides = sides.filter(|s| !s.match_grid(&nu, &nv));
+    let spec = match &sides {
+        Some(sides) => {
+            let spec = sides.grid_spec(&u_breaks, &v_breaks, &mut nu, &mut nv);
+            check_stitched_budget(KIND, &spec, sides, tol)?;
+            spec
+        }
+        None => GridSpec {
+            us: span_values(&u_breaks, &nu),
+            vs: span_values(&v_breaks, &nv),
+            u_periodic: false,
+            v_periodic: false,
+        },
+    };
+    surface.weight_error()?;
     let st = |s: f64, t: f64| Vec2::new(s as f32, t as f32);
     let mut eval = |s: f64, t: f64| surface.eval(s, t);
-    let mut grid = Grid::evaluate(&spec, &mut eval, weld_distance(size, eps), Some(&st));
+    let weld = weld_distance(size, eps);
+    let mut grid = Grid::evaluate(&spec, &mut eval, weld, Some(&st));
     surface.weight_error()?;
     let (u_span, v_span) = (span_of(&nu), span_of(&nv));
     let spans_u = (u_breaks.len() - 1) as u32;
     let face = |i: usize, j: usize| v_span[j] as u32 * spans_u + u_span[i] as u32;
-    match &np.trim {
-        Some(trim) => {
+    match (&np.trim, &sides) {
+        (Some(trim), _) => {
             let loops = super::trim::TrimLoops::new(trim, eps, &surface, (u0, u1, v0, v1))?;
             super::trim::emit_trimmed(
                 &mut grid,
@@ -272,7 +290,14 @@ pub(crate) fn tessellate_nupatch(
             );
             surface.weight_error()?;
         }
-        None => grid.emit_all(&face),
+        (None, Some(sides)) => {
+            // The span of a parameter: the last break at or below it.
+            let span = |breaks: &[f64], x: f64| breaks.partition_point(|&b| b <= x).clamp(1, breaks.len() - 1) - 1;
+            let face_at = |s: f64, t: f64| span(&v_breaks, t) as u32 * spans_u + span(&u_breaks, s) as u32;
+            grid.emit_stitched(&spec, sides, &mut eval, Some(&st), weld, &face_at);
+            surface.weight_error()?;
+        }
+        (None, None) => grid.emit_all(&face),
     }
     Ok(grid.finish())
 }

@@ -6,10 +6,13 @@
 //! 4 x 4 control points `G` picked with the basis step; homogeneous points are summed in 4D and
 //! divided by `w`. The whole mesh is one grid whose columns and rows never straddle a patch
 //! boundary, so neighbouring patches share their boundary vertices; the density per patch comes
-//! from [`choose_span_counts`].
+//! from [`choose_span_counts`]. The mesh's four sides are diced per patch from their boundary
+//! curves alone and stitched to the grid (the `stitch` module), so separate primitives that
+//! share a side meet without cracks.
 
 use super::grid::{Grid, GridSpec, choose_span_counts, span_of, span_values};
 use super::primvar::st_var;
+use super::stitch::{Sides, check_stitched_budget};
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
 use glam::{DVec3, DVec4, Vec2};
 use rib_parser::scene::{Basis, PatchKind, PatchMesh, StorageClass, Wrap};
@@ -183,32 +186,41 @@ pub(crate) fn tessellate_patches(
 
     let u_breaks: Vec<f64> = (0..=du.patches).map(|k| k as f64).collect();
     let v_breaks: Vec<f64> = (0..=dv.patches).map(|k| k as f64).collect();
-    let (nu, nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &eval_position, eps, (1, 1), tol)?;
+    let (mut nu, mut nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &eval_position, eps, (1, 1), tol)?;
+    // Each side is diced from its own boundary curve, so separate primitives sharing it agree.
+    let sides = Sides::new(KIND, &u_breaks, &v_breaks, &eval_position, eps)?;
+    let stitch = !sides.match_grid(&nu, &nv);
+    let spec = if stitch {
+        sides.grid_spec(&u_breaks, &v_breaks, &mut nu, &mut nv)
+    } else {
+        GridSpec { us: span_values(&u_breaks, &nu), vs: span_values(&v_breaks, &nv), u_periodic: false, v_periodic: false }
+    };
+    check_stitched_budget(KIND, &spec, &sides, tol)?;
     if bad_weight.get() {
         return Err(TessellateError::NonFinite {
             kind: KIND,
             reason: "a homogeneous weight vanishes on the surface".into(),
         });
     }
-    let spec = GridSpec {
-        us: span_values(&u_breaks, &nu),
-        vs: span_values(&v_breaks, &nv),
-        u_periodic: false,
-        v_periodic: false,
-    };
 
     let st_fn = texture_coordinates(pm, &du, &dv);
     let mut eval = eval_full;
-    let mut grid = Grid::evaluate(&spec, &mut eval, weld_distance(size, eps), Some(&*st_fn));
+    let weld = weld_distance(size, eps);
+    let mut grid = Grid::evaluate(&spec, &mut eval, weld, Some(&*st_fn));
+    let patches_u = du.patches as u32;
+    if stitch {
+        let face_at = |u: f64, v: f64| dv.locate(v).0 as u32 * patches_u + du.locate(u).0 as u32;
+        grid.emit_stitched(&spec, &sides, &mut eval, Some(&*st_fn), weld, &face_at);
+    } else {
+        let (u_span, v_span) = (span_of(&nu), span_of(&nv));
+        grid.emit_all(&|i, j| v_span[j] as u32 * patches_u + u_span[i] as u32);
+    }
     if bad_weight.get() {
         return Err(TessellateError::NonFinite {
             kind: KIND,
             reason: "a homogeneous weight vanishes on the surface".into(),
         });
     }
-    let (u_span, v_span) = (span_of(&nu), span_of(&nv));
-    let patches_u = du.patches as u32;
-    grid.emit_all(&|i, j| v_span[j] as u32 * patches_u + u_span[i] as u32);
     Ok(grid.finish())
 }
 

@@ -2,6 +2,7 @@
 //! scene-level walk over shapes and object instances.
 
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, blobby, tessellate_scaled};
+use super::seam::SeamWelder;
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use rib_parser::scene::{Attributes, AttributesId, FileLoc, ObjectId, Scene, Shape, ShapeEntity};
 
@@ -230,6 +231,8 @@ pub fn tessellate_scene_filtered(
 ) -> SceneMeshes {
     let mut out = SceneMeshes::default();
     let mut total: u64 = 0;
+    // Separate patches that share an edge get bitwise-equal vertices along it.
+    let mut seams = scene_bounds(scene).map(|(lo, hi)| SeamWelder::new(lo, hi));
     let attributes = |id: AttributesId| scene.attributes.get(id.0 as usize);
     let mut visit = |origin: MeshOrigin,
                      entity: &ShapeEntity,
@@ -255,7 +258,10 @@ pub fn tessellate_scene_filtered(
         // Leave the scene budget's remainder as this shape's limit.
         let local = tol.with_max_triangles(tol.max_triangles.min(tol.max_scene_triangles - total));
         match place(&entity.shape, &world_from_object, reverse, &local, options) {
-            Ok(mesh) => {
+            Ok(mut mesh) => {
+                if let Some(seams) = seams.as_mut().filter(|_| SeamWelder::applies_to(&entity.shape)) {
+                    seams.weld(&mut mesh);
+                }
                 total += mesh.triangle_count() as u64;
                 out.meshes.push(WorldMesh {
                     mesh,

@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use tessellate::{
-    RibbonFacing, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths, shape_kind,
-    tessellate_placed,
+    RibbonFacing, SeamWelder, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths,
+    shape_kind, tessellate_placed,
 };
 
 struct BlasBuilder {
@@ -436,6 +436,10 @@ impl World {
         // World shapes are placed in render space, where the eye is the origin; object
         // definitions in their own space (no camera distance).
         let mut triangle_count = 0usize;
+        // Separate patches of the world that share an edge get bitwise-equal vertices along it,
+        // so the watertight triangle test closes the seam.
+        let mut seams = tessellate::scene_bounds(scene)
+            .map(|(lo, hi)| SeamWelder::new(lo - eye_world, hi - eye_world));
         let mut geometry = |entity: &ShapeEntity,
                             blas_from_object: &DMat4,
                             in_render_space: bool,
@@ -449,8 +453,13 @@ impl World {
             }
             let fp = if in_render_space { Some(&footprint) } else { None };
             match place_geometry(&entity.shape, blas_from_object, fp) {
-                Ok(g) => {
-                    if let Geometry::Mesh(m) = &g {
+                Ok(mut g) => {
+                    if let Geometry::Mesh(m) = &mut g {
+                        if let Some(seams) = seams.as_mut().filter(|_| in_render_space)
+                            && SeamWelder::applies_to(&entity.shape)
+                        {
+                            seams.weld(m);
+                        }
                         triangle_count += m.indices.len();
                     }
                     Some(g)
