@@ -159,6 +159,7 @@ pub(crate) fn tessellate_patches(
     let eps = tol.effective(size, scale)?;
     check_budget(KIND, 2.0 * du.patches as f64 * dv.patches as f64, tol)?;
 
+    let homogeneous = control.iter().any(|p| p.w != 1.0);
     let bad_weight = Cell::new(false);
     let eval_full = |u: f64, v: f64| -> (DVec3, DVec3) {
         let (pu, tu) = du.locate(u);
@@ -179,6 +180,12 @@ pub(crate) fn tessellate_patches(
             h += wv[b] * r;
             h_u += wv[b] * r_u;
             h_v += dwv[b] * r;
+        }
+        if !homogeneous {
+            // Points given as "P" or "Pz" are not homogeneous: the Hermite and power bases'
+            // weights do not sum to one (tangents and coefficients are no points), so the
+            // weight must not be summed with them.
+            (h.w, h_u.w, h_v.w) = (1.0, 0.0, 0.0);
         }
         rational(h, h_u, h_v, max_w, &bad_weight)
     };

@@ -1,7 +1,7 @@
 use super::polygon::float_param;
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
 use crate::{TessellateError, Tolerance, TriangleMesh, tessellate};
-use glam::{DVec3, Vec2, Vec4};
+use glam::{DVec3, Vec2, Vec3, Vec4};
 use rib_parser::scene::{Basis, ParamList, ParamType, PatchKind, PatchMesh, Shape, StorageClass, Wrap};
 
 pub(crate) const BEZIER: Basis = Basis {
@@ -326,4 +326,32 @@ fn bad_patch_meshes_are_errors() {
     );
     let m = tessellate(&point, &tol).unwrap();
     assert!(m.is_empty());
+}
+
+#[test]
+fn hermite_and_power_points_are_not_homogeneous() {
+    // P(u, v) = (u, v, u v) in the power basis: the coefficients of u (x), v (y) and u v (z).
+    // With "P" the weights are not summed: summing them (all 1) would divide by
+    // (u^3 + u^2 + u + 1)(v^3 + v^2 + v + 1) and bend the surface away.
+    let mut p = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); 16];
+    p[3 * 4 + 2] = Vec4::new(1.0, 0.0, 0.0, 1.0);
+    p[2 * 4 + 3] = Vec4::new(0.0, 1.0, 0.0, 1.0);
+    p[2 * 4 + 2] = Vec4::new(0.0, 0.0, 1.0, 1.0);
+    let power = rib_parser::basis::named_basis("power").unwrap();
+    let m = run(&mesh(PatchKind::Bicubic, 4, 4, (Wrap::NonPeriodic, Wrap::NonPeriodic), power, p), 1e-3);
+    let (lo, hi) = m.bounds().unwrap();
+    assert!(lo.abs().max_element() < 1e-6 && (hi - Vec3::ONE).abs().max_element() < 1e-6, "{lo} {hi}");
+    for v in &m.positions {
+        assert!((v.z - v.x * v.y).abs() < 1e-6, "{v}");
+    }
+    // A Hermite patch (3u, v, 0): positions and tangents (P0, T0, P1, T1) of x = 3u in u and
+    // of y = v in v, each times the constant 1 (positions 1, tangents 0) in the other direction;
+    // the tangent entries carry weights that do not sum to one.
+    let (x, y, one) = ([0.0, 3.0, 3.0, 3.0], [0.0, 1.0, 1.0, 1.0], [1.0, 0.0, 1.0, 0.0]);
+    let h: Vec<Vec4> =
+        (0..16).map(|k| Vec4::new(x[k % 4] * one[k / 4], y[k / 4] * one[k % 4], 0.0, 1.0)).collect();
+    let hermite = rib_parser::basis::named_basis("hermite").unwrap();
+    let m = run(&mesh(PatchKind::Bicubic, 4, 4, (Wrap::NonPeriodic, Wrap::NonPeriodic), hermite, h), 1e-3);
+    let (lo, hi) = m.bounds().unwrap();
+    assert!((lo - Vec3::ZERO).abs().max_element() < 1e-6 && (hi - Vec3::new(3.0, 1.0, 0.0)).abs().max_element() < 1e-6, "{lo} {hi}");
 }
