@@ -1,8 +1,8 @@
 //! Placing tessellations in the world: transforms in `f64`, RenderMan orientation, and the
 //! scene-level walk over shapes and object instances.
 
-use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, blobby, tessellate_scaled};
 use super::seam::SeamWelder;
+use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, blobby, tessellate_scaled};
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use rib_parser::scene::{Attributes, AttributesId, FileLoc, ObjectId, Scene, Shape, ShapeEntity};
 
@@ -327,6 +327,10 @@ pub fn shape_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
     match shape {
         Shape::Sphere { radius, z_min, z_max, .. } => {
             let r = radius.abs() as f64;
+            // A NaN radius has no bounds (and would make `clamp` panic).
+            if !r.is_finite() {
+                return None;
+            }
             ring(r, (*z_min as f64).clamp(-r, r), (*z_max as f64).clamp(-r, r))
         }
         Shape::Cylinder { radius, z_min, z_max, .. } => ring(*radius as f64, *z_min as f64, *z_max as f64),

@@ -292,4 +292,7 @@ fn scene_bounds_cover_shapes_and_instances() {
         crate::shape_bounds(&Shape::Points(Points { positions: vec![], primvars: ParamList::default() }))
             .is_none()
     );
+    // A NaN radius has no bounds (it used to panic in clamp).
+    let nan = Shape::Sphere { radius: f32::NAN, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 };
+    assert!(crate::shape_bounds(&nan).is_none());
 }
