@@ -57,7 +57,8 @@ struct Surface {
 
 impl Surface {
     fn patches(&self) -> (usize, usize) {
-        let count = |n: usize, step: usize, periodic: bool| if periodic { n / step } else { (n - 4) / step + 1 };
+        let count =
+            |n: usize, step: usize, periodic: bool| if periodic { n / step } else { (n - 4) / step + 1 };
         (count(self.n.0, self.step.0, self.periodic.0), count(self.n.1, self.step.1, self.periodic.1))
     }
 
@@ -115,7 +116,13 @@ struct Probe {
 /// Probes across every seam: `per_seam` points of the surface, each up to `jitter` across the
 /// seam in the parameter, with a direction within 60 degrees of the surface normal there, from
 /// either side.
-fn seam_probes(surfaces: &[Surface], seams: &[Seam], per_seam: usize, jitter: f64, rng: &mut Rng) -> Vec<Probe> {
+fn seam_probes(
+    surfaces: &[Surface],
+    seams: &[Seam],
+    per_seam: usize,
+    jitter: f64,
+    rng: &mut Rng,
+) -> Vec<Probe> {
     let mut probes = Vec::new();
     for seam in seams {
         let s = &surfaces[seam.surface];
@@ -132,7 +139,7 @@ fn seam_probes(surfaces: &[Surface], seams: &[Seam], per_seam: usize, jitter: f6
             let (u, v) = if seam.along_v { (seam.at + across, t) } else { (t, seam.at + across) };
             let (aim, p_u, p_v) = s.eval(u, v);
             let normal = p_u.cross(p_v);
-            if !(normal.length() > 1e-9 * p_u.length().max(p_v.length()).powi(2)) {
+            if normal.length() <= 1e-9 * p_u.length().max(p_v.length()).powi(2) {
                 continue; // A pole: no seam to cross there.
             }
             let n = normal.normalize();
@@ -211,7 +218,11 @@ fn assert_watertight(name: &str, scene: &Scene, surfaces: &[Surface], seams: &[S
     let (length, tol) = (0.25 * size, 0.02 * size);
     let eye = centre + DVec3::new(0.3, -0.4, 2.0) * size;
     let (world_leaks, proxy_leaks) = leaks(scene, &probes, length, tol, eye);
-    eprintln!("{name}: {} probes on {} seams: {world_leaks} world leaks, {proxy_leaks} proxy leaks", probes.len(), seams.len());
+    eprintln!(
+        "{name}: {} probes on {} seams: {world_leaks} world leaks, {proxy_leaks} proxy leaks",
+        probes.len(),
+        seams.len()
+    );
     assert!(probes.len() >= seams.len() * per_seam / 2, "{name}: too few probes");
     assert_eq!((world_leaks, proxy_leaks), (0, 0), "{name}: rays through seams (world, haptic proxy)");
 }
@@ -264,7 +275,8 @@ fn hermite_field(patches: usize) -> (Vec<DVec3>, usize) {
     (out, n)
 }
 
-const BEZIER: [f64; 16] = [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+const BEZIER: [f64; 16] =
+    [-1.0, 3.0, -3.0, 1.0, 3.0, -6.0, 3.0, 0.0, -3.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
 
 /// Power-basis coefficients of the Bezier patch grid `bezier` (`n x n`, step 3): `M G M^T` per
 /// patch, so the power mesh is the same (continuous) surface.
@@ -306,7 +318,9 @@ fn patch_meshes_of_every_basis_split_into_pieces_have_no_cracks() {
             let (i0, j0) = (2 * step * a, 2 * step * b);
             let points = (j0..j0 + piece).flat_map(|j| (i0..i0 + piece).map(move |i| (i, j)));
             let points = rib_points(points.map(|(i, j)| control[j * n + i]));
-            rib += &format!("PatchMesh \"bicubic\" {piece} \"nonperiodic\" {piece} \"nonperiodic\" \"P\" [{points}]\n");
+            rib += &format!(
+                "PatchMesh \"bicubic\" {piece} \"nonperiodic\" {piece} \"nonperiodic\" \"P\" [{points}]\n"
+            );
         }
         let scene = load("split.rib", format!("WorldBegin\n{rib}WorldEnd\n"));
         let (m, parsed_step) = basis_of(&scene);
@@ -421,7 +435,10 @@ fn teapot_sides(p: &[Vec4]) -> [([Vec4; 4], bool, f64); 4] {
 
 #[test]
 fn the_teapot_has_no_cracks_between_its_patches() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/rib-corpus/aqsis__aqsis/librib2__tests__teapot.rib");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/rib-corpus/aqsis__aqsis/librib2__tests__teapot.rib"
+    );
     let bytes = std::fs::read(path).expect("the corpus teapot");
     let scene = rib_parser::load_bytes("teapot.rib", bytes, &Default::default()).unwrap().scene;
     let mut surfaces = Vec::new();
@@ -449,9 +466,10 @@ fn the_teapot_has_no_cracks_between_its_patches() {
         let collapsed = side.iter().all(|p| *p == side[0]);
         let mut reversed = *side;
         reversed.reverse();
-        let shared = sides.iter().enumerate().any(|(l, (t, other, _, _))| {
-            l != k && t != s && (*other == *side || *other == reversed)
-        });
+        let shared = sides
+            .iter()
+            .enumerate()
+            .any(|(l, (t, other, _, _))| l != k && t != s && (*other == *side || *other == reversed));
         if shared && !collapsed {
             seams.push(Seam { surface: *s, along_v: *along_v, at: *at, range: (0.0, 1.0) });
         }
@@ -501,4 +519,3 @@ WorldEnd
     eprintln!("subdivision: {} probes: {world_leaks} world leaks, {proxy_leaks} proxy leaks", probes.len());
     assert_eq!((world_leaks, proxy_leaks), (0, 0));
 }
-

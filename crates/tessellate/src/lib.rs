@@ -70,11 +70,11 @@ mod trim;
 pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
 pub use curves::{CurvePolyline, RibbonFacing, curve_polylines, curve_ribbons, point_widths};
 pub use mesh::TriangleMesh;
-pub use seam::SeamWelder;
 pub use placed::{
     MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,
     tessellate_scene, tessellate_scene_filtered,
 };
+pub use seam::SeamWelder;
 
 use glam::DVec3;
 use rib_parser::scene::Shape;

@@ -292,7 +292,8 @@ pub(crate) fn tessellate_nupatch(
         }
         (None, Some(sides)) => {
             // The span of a parameter: the last break at or below it.
-            let span = |breaks: &[f64], x: f64| breaks.partition_point(|&b| b <= x).clamp(1, breaks.len() - 1) - 1;
+            let span =
+                |breaks: &[f64], x: f64| breaks.partition_point(|&b| b <= x).clamp(1, breaks.len() - 1) - 1;
             let face_at = |s: f64, t: f64| span(&v_breaks, t) as u32 * spans_u + span(&u_breaks, s) as u32;
             grid.emit_stitched(&spec, sides, &mut eval, Some(&st), weld, &face_at);
             surface.weight_error()?;

@@ -200,7 +200,12 @@ pub(crate) fn tessellate_patches(
     let spec = if stitch {
         sides.grid_spec(&u_breaks, &v_breaks, &mut nu, &mut nv)
     } else {
-        GridSpec { us: span_values(&u_breaks, &nu), vs: span_values(&v_breaks, &nv), u_periodic: false, v_periodic: false }
+        GridSpec {
+            us: span_values(&u_breaks, &nu),
+            vs: span_values(&v_breaks, &nv),
+            u_periodic: false,
+            v_periodic: false,
+        }
     };
     check_stitched_budget(KIND, &spec, &sides, tol)?;
     if bad_weight.get() {

@@ -82,7 +82,8 @@ impl SeamWelder {
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
-                        let cell = [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
+                        let cell =
+                            [c[0].saturating_add(dx), c[1].saturating_add(dy), c[2].saturating_add(dz)];
                         for &q in self.cells.get(&cell).into_iter().flatten() {
                             let d = (q - p).abs().max_element();
                             if (d as f64) <= self.radius && best.is_none_or(|(bd, _)| d < bd) {

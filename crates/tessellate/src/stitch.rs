@@ -154,7 +154,13 @@ impl Sides {
     /// twisted patch: one segment for the whole side), that line is put at `r` of the first
     /// cell, so the triangle's twist error (the product of its two extents) stays that of a
     /// grid cell.
-    pub fn grid_spec(&self, u_breaks: &[f64], v_breaks: &[f64], nu: &mut [usize], nv: &mut [usize]) -> GridSpec {
+    pub fn grid_spec(
+        &self,
+        u_breaks: &[f64],
+        v_breaks: &[f64],
+        nu: &mut [usize],
+        nv: &mut [usize],
+    ) -> GridSpec {
         for counts in [&mut *nu, &mut *nv] {
             if counts.iter().sum::<usize>() < 2 {
                 counts[0] = 2;
@@ -279,10 +285,14 @@ impl Grid {
 
         // The first interior row or column next to each side, corner to corner.
         let inner_row = |j: usize| -> Vec<StripVertex> {
-            (1..nu).map(|i| StripVertex { id: self.id(i, j), t: spec.us[i], uv: (spec.us[i], spec.vs[j]) }).collect()
+            (1..nu)
+                .map(|i| StripVertex { id: self.id(i, j), t: spec.us[i], uv: (spec.us[i], spec.vs[j]) })
+                .collect()
         };
         let inner_column = |i: usize| -> Vec<StripVertex> {
-            (1..nv).map(|j| StripVertex { id: self.id(i, j), t: spec.vs[j], uv: (spec.us[i], spec.vs[j]) }).collect()
+            (1..nv)
+                .map(|j| StripVertex { id: self.id(i, j), t: spec.vs[j], uv: (spec.us[i], spec.vs[j]) })
+                .collect()
         };
         let inner = [inner_row(1), inner_column(nu - 1), inner_row(nv - 1), inner_column(1)];
 
@@ -309,7 +319,8 @@ impl Grid {
     ) {
         let (mut a, mut b) = (0, 0);
         while a + 1 < outer.len() || b + 1 < inner.len() {
-            let advance_outer = b + 1 >= inner.len() || (a + 1 < outer.len() && outer[a + 1].t <= inner[b + 1].t);
+            let advance_outer =
+                b + 1 >= inner.len() || (a + 1 < outer.len() && outer[a + 1].t <= inner[b + 1].t);
             let tri = if advance_outer {
                 a += 1;
                 [outer[a - 1], outer[a], inner[b]]

@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use tessellate::{
-    RibbonFacing, SeamWelder, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths,
-    shape_kind, tessellate_placed,
+    RibbonFacing, SeamWelder, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths, shape_kind,
+    tessellate_placed,
 };
 
 struct BlasBuilder {
@@ -438,8 +438,8 @@ impl World {
         let mut triangle_count = 0usize;
         // Separate patches of the world that share an edge get bitwise-equal vertices along it,
         // so the watertight triangle test closes the seam.
-        let mut seams = tessellate::scene_bounds(scene)
-            .map(|(lo, hi)| SeamWelder::new(lo - eye_world, hi - eye_world));
+        let mut seams =
+            tessellate::scene_bounds(scene).map(|(lo, hi)| SeamWelder::new(lo - eye_world, hi - eye_world));
         let mut geometry = |entity: &ShapeEntity,
                             blas_from_object: &DMat4,
                             in_render_space: bool,

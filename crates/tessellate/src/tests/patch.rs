@@ -353,5 +353,9 @@ fn hermite_and_power_points_are_not_homogeneous() {
     let hermite = rib_parser::basis::named_basis("hermite").unwrap();
     let m = run(&mesh(PatchKind::Bicubic, 4, 4, (Wrap::NonPeriodic, Wrap::NonPeriodic), hermite, h), 1e-3);
     let (lo, hi) = m.bounds().unwrap();
-    assert!((lo - Vec3::ZERO).abs().max_element() < 1e-6 && (hi - Vec3::new(3.0, 1.0, 0.0)).abs().max_element() < 1e-6, "{lo} {hi}");
+    assert!(
+        (lo - Vec3::ZERO).abs().max_element() < 1e-6
+            && (hi - Vec3::new(3.0, 1.0, 0.0)).abs().max_element() < 1e-6,
+        "{lo} {hi}"
+    );
 }
