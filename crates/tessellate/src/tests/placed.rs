@@ -296,3 +296,31 @@ fn scene_bounds_cover_shapes_and_instances() {
     let nan = Shape::Sphere { radius: f32::NAN, z_min: -1.0, z_max: 1.0, theta_max_degrees: 360.0 };
     assert!(crate::shape_bounds(&nan).is_none());
 }
+
+#[test]
+fn the_seam_welder_snaps_boundary_vertices_within_its_radius_only() {
+    use crate::{SeamWelder, TriangleMesh};
+    let square = |x0: f32, offset: f32| TriangleMesh {
+        positions: vec![
+            Vec3::new(x0, 0.0, 0.0),
+            Vec3::new(x0 + 1.0, offset, 0.0),
+            Vec3::new(x0 + 1.0, 1.0 + offset, 0.0),
+            Vec3::new(x0, 1.0, 0.0),
+        ],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        face_index: vec![0, 0],
+        ..TriangleMesh::default()
+    };
+    let mut seams = SeamWelder::new(DVec3::ZERO, DVec3::new(2.0, 1.0, 0.0));
+    let mut left = square(0.0, 0.0);
+    assert_eq!(seams.weld(&mut left), 0);
+    // The right square's left side is a rounding error away from the left square's right side.
+    let ulp = f32::EPSILON;
+    let mut right = square(1.0 + ulp, 0.0);
+    assert_eq!(seams.weld(&mut right), 2);
+    assert_eq!((right.positions[0], right.positions[3]), (left.positions[1], left.positions[2]));
+    // Far beyond the radius nothing moves.
+    let mut apart = square(1.0 + 1e-3, 0.0);
+    assert_eq!(seams.weld(&mut apart), 0);
+    assert_eq!(apart.positions[0].x, 1.0 + 1e-3);
+}
