@@ -476,6 +476,17 @@ fn the_teapot_has_no_cracks_between_its_patches() {
     }
     assert!(seams.len() >= 40, "{} shared sides", seams.len());
     assert_watertight("teapot", &scene, &surfaces, &seams, 40);
+
+    // The same patches inside an object definition, instanced once: the definition's own
+    // space has its seam welder too.
+    let text = String::from_utf8(std::fs::read(path).unwrap()).unwrap().replace("\r\n", "\n");
+    let text = text.replacen("# Object \"Teekanne01\"\nAttributeBegin", "ObjectBegin 1\nAttributeBegin", 1);
+    let text =
+        text.replacen("AttributeEnd\nWorldEnd", "AttributeEnd\nObjectEnd\nObjectInstance 1\nWorldEnd", 1);
+    let instanced =
+        rib_parser::load_bytes("teapot.rib", text.into_bytes(), &Default::default()).unwrap().scene;
+    assert_eq!((instanced.shapes.len(), instanced.instances.len()), (0, 1));
+    assert_watertight("instanced teapot", &instanced, &surfaces, &seams, 40);
 }
 
 #[test]

@@ -351,6 +351,19 @@ fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
 }
 
 /// Bounds of the transformed box (all eight corners in `f64`, rounded outward).
+/// A seam welder for the shapes of an object definition, in their BLAS space (the
+/// definition's), over their bounds; `None` when no shape has bounds.
+fn definition_seams(shapes: &[ShapeEntity]) -> Option<SeamWelder> {
+    let mut bounds: Option<(DVec3, DVec3)> = None;
+    for entity in shapes {
+        let Some((lo, hi)) = tessellate::shape_bounds(&entity.shape) else { continue };
+        let (lo, hi) = transformed_box(&entity.world_from_object, lo, hi);
+        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+        bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+    }
+    bounds.filter(|(lo, hi)| lo.is_finite() && hi.is_finite()).map(|(lo, hi)| SeamWelder::new(lo, hi))
+}
+
 pub(super) fn transformed_box(m: &DMat4, lo: DVec3, hi: DVec3) -> (Vec3, Vec3) {
     let mut bmin = DVec3::splat(f64::INFINITY);
     let mut bmax = DVec3::splat(f64::NEG_INFINITY);
@@ -647,10 +660,16 @@ impl World {
             let blas_index = *definition_blas.entry(object).or_insert_with(|| {
                 let mut builder = BlasBuilder::new();
                 let mut placed = Vec::new();
+                let mut seams = definition_seams(&def.shapes);
                 for entity in &def.shapes {
-                    let Some(g) = geometry(entity, &entity.world_from_object, false, diagnostics) else {
+                    let Some(mut g) = geometry(entity, &entity.world_from_object, false, diagnostics) else {
                         continue;
                     };
+                    if let (Geometry::Mesh(m), Some(seams)) = (&mut g, seams.as_mut())
+                        && SeamWelder::applies_to(&entity.shape)
+                    {
+                        seams.weld(m);
+                    }
                     if builder.add(&g, &entity.world_from_object, entity.attributes, scene).is_some() {
                         let reverse = scene.attributes_of(entity.attributes).reverse_orientation;
                         placed.push((g, entity.world_from_object, reverse));
