@@ -488,8 +488,16 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "As above, from the ray tracer: displacement is a gap still to build.",
     ),
     (
-        "motion blur",
-        "Gap: motion blur (time samples per ray) is not built; the first sample of each motion block is used.",
+        "deformation motion blur",
+        "Gap: deformation blur (geometry, lights or attributes inside `MotionBegin`) is not built; the first sample is used. Transformation motion blur is rendered.",
+    ),
+    (
+        "camera motion blur",
+        "Gap: a moving camera is not built; the camera at shutter open is used. Moving objects are blurred.",
+    ),
+    (
+        "moving area light",
+        "Gap: an area light that moves is placed at shutter open (its emission and shadows would need time-dependent light sampling).",
     ),
     (
         "Geometry",

@@ -18,8 +18,16 @@ pub fn tone_map(scene: &Scene) -> ToneMap {
 }
 
 /// Warns when the pre-rendered image has camera effects the live objects are drawn without:
-/// they are drawn with a pinhole, so they stay sharp where the image is defocused.
+/// they are drawn with a pinhole, so they stay sharp where the image is defocused, and at one
+/// instant, so they stay sharp where the image is motion blurred (its depth table holds the
+/// scene at shutter open).
 pub fn camera_effects(scene: &Scene, skipped: &mut Skipped) {
+    if scene.has_motion_blur() {
+        let (open, close) = scene.render.shutter.unwrap_or_default();
+        skipped.warnings.push(format!(
+            "Shutter {open} {close}: the image has motion blur but live objects are drawn sharp, and depths are those at shutter open"
+        ));
+    }
     if let Some(d) = scene.render.depth_of_field {
         skipped.warnings.push(format!(
             "DepthOfField {} {} {}: the image is defocused but live objects are drawn sharp (pinhole)",
@@ -192,6 +200,21 @@ mod tests {
         rib_parser::load_bytes("test.rib", rib.as_bytes().to_vec(), &rib_parser::LoadOptions::default())
             .expect("a valid scene")
             .scene
+    }
+
+    #[test]
+    fn motion_blur_warns_only_with_an_open_shutter_and_something_moving() {
+        let moving = "WorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\nMotionEnd\nSphere 1 -1 1 360\nWorldEnd\n";
+        let warnings = |rib: &str| {
+            let mut skipped = Skipped::default();
+            camera_effects(&scene(rib), &mut skipped);
+            skipped.warnings
+        };
+        let w = warnings(&format!("Shutter 0 1\n{moving}"));
+        assert!(w.len() == 1 && w[0].contains("motion blur"), "{w:?}");
+        // RenderMan's default shutter (0 0) takes one instant: no blur.
+        assert!(warnings(moving).is_empty());
+        assert!(warnings("Shutter 0 1\nWorldBegin\nSphere 1 -1 1 360\nWorldEnd\n").is_empty());
     }
 
     #[test]

@@ -149,6 +149,7 @@ pub fn find_surface(
             direction: ray.direction,
             t_min: 0.0,
             t_max: if ray.t_max.is_finite() { (ray.t_max - travelled).max(0.0) } else { f32::INFINITY },
+            time: ray.time,
         };
     }
     None

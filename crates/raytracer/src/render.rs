@@ -217,6 +217,7 @@ impl CameraRays {
             direction: wr.direction.as_vec3(),
             t_min: t_near as f32,
             t_max: if t_far.is_finite() { t_far as f32 } else { f32::INFINITY },
+            time: 0.0,
         };
         Some((ray, o))
     }
@@ -586,8 +587,11 @@ fn render_tile(
                 let y = py as f64 + f64::from(jitter.y);
                 // A lens sample only where there is a lens, so pinhole images stay as they were.
                 let lens_u = if rays.has_lens() { sampler.uniform2() } else { Vec2::ZERO };
+                // A time sample only where something moves, so still images stay as they were.
+                let time = if world.motion_blur { sampler.uniform() } else { 0.0 };
                 let r = match rays.lens_ray(DVec2::new(x, y), lens_u) {
                     Some((ray, _)) => {
+                        let ray = Ray { time, ..ray };
                         world.over_background(integrator.li(world, ray, &mut sampler, &mut counters))
                     }
                     None => Default::default(),

@@ -96,6 +96,7 @@ impl SceneBuilder {
         self.scene.shapes.push(ShapeEntity {
             shape: Arc::new(shape),
             world_from_object,
+            motion: None,
             attributes,
             in_solid: false,
             loc: here(),

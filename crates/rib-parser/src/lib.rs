@@ -47,6 +47,7 @@ pub mod diagnostics;
 pub mod generated;
 mod lexer;
 pub mod limits;
+pub mod motion;
 pub mod params;
 pub mod parser;
 pub mod scene;

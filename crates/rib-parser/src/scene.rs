@@ -705,11 +705,26 @@ pub enum Shape {
     Blobby(Blobby),
 }
 
+impl Scene {
+    /// Whether something moves while the shutter is open (`Shutter open close` with
+    /// `close > open` and a shape or instance with transformation motion): the image then has
+    /// motion blur.
+    pub fn has_motion_blur(&self) -> bool {
+        let open = self.render.shutter.is_some_and(|(open, close)| close > open);
+        open && (self.shapes.iter().any(|s| s.motion.is_some())
+            || self.instances.iter().any(|i| i.motion.is_some()))
+    }
+}
+
 /// A shape placed in the world with the attribute state it was made under.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShapeEntity {
     pub shape: Arc<Shape>,
+    /// The transformation at shutter open (the whole of it for a shape that does not move).
     pub world_from_object: DMat4,
+    /// `world_from_object` at each key time of a `MotionBegin` block around its
+    /// transformations (scene times, as `Shutter` gives them); `None` when it does not move.
+    pub motion: Option<Arc<crate::motion::TransformMotion>>,
     pub attributes: AttributesId,
     /// True when the shape was given inside `SolidBegin`/`SolidEnd`; for world shapes the
     /// operations are in [`Scene::solids`].
@@ -775,7 +790,11 @@ pub struct ObjectDefinition {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObjectInstanceEntity {
     pub object: ObjectId,
+    /// The instance's transformation at shutter open.
     pub world_from_instance: DMat4,
+    /// `world_from_instance` at each key time when the instance moves (see
+    /// [`ShapeEntity::motion`]).
+    pub motion: Option<Arc<crate::motion::TransformMotion>>,
     pub attributes: AttributesId,
     /// One entry per shape of the definition, in the definition's order.
     pub shape_attributes: Vec<AttributesId>,

@@ -88,6 +88,14 @@ fn dv3(v: glam::DVec3) -> String {
     format!("({} {} {})", n(v.x), n(v.y), n(v.z))
 }
 
+/// ` motion=[t0: m0; t1: m1 ...]` for a moving transformation, empty otherwise.
+fn motion_text(motion: Option<&crate::motion::TransformMotion>) -> String {
+    let Some(motion) = motion else { return String::new() };
+    let keys: Vec<String> =
+        motion.times().iter().zip(motion.matrices()).map(|(t, m)| format!("{}: {}", n(*t), mat(m))).collect();
+    format!(" motion=[{}]", keys.join("; "))
+}
+
 /// A matrix as `identity` or its 16 numbers in RIB's row-vector order.
 fn mat(m: &DMat4) -> String {
     if m.abs_diff_eq(DMat4::IDENTITY, 0.0) {
@@ -394,11 +402,12 @@ pub fn dump(scene: &Scene) -> String {
     for (i, s) in scene.shapes.iter().enumerate() {
         let _ = writeln!(
             o,
-            "shape {i}: {} attributes={}{} world_from_object={} at {}",
+            "shape {i}: {} attributes={}{} world_from_object={}{} at {}",
             shape_text(&s.shape),
             s.attributes.0,
             if s.in_solid { " solid" } else { "" },
             mat(&s.world_from_object),
+            motion_text(s.motion.as_deref()),
             s.loc
         );
     }
@@ -441,11 +450,12 @@ pub fn dump(scene: &Scene) -> String {
         let ids: Vec<String> = inst.shape_attributes.iter().map(|a| a.0.to_string()).collect();
         let _ = writeln!(
             o,
-            "instance {i}: object={} attributes={} shape_attributes=[{}] world_from_instance={} at {}",
+            "instance {i}: object={} attributes={} shape_attributes=[{}] world_from_instance={}{} at {}",
             inst.object.0,
             inst.attributes.0,
             ids.join(" "),
             mat(&inst.world_from_instance),
+            motion_text(inst.motion.as_deref()),
             inst.loc
         );
     }

@@ -2,6 +2,7 @@
 //! per definition, instances, materials, lights and light sets.
 
 use super::csg::Csg;
+use super::motion::{motion_box, shutter_motion};
 use super::*;
 use crate::accel::BvhStats;
 use crate::diagnostics::Diagnostics;
@@ -600,7 +601,26 @@ impl World {
         // The world BLAS (render space).
         let mut world_blas = BlasBuilder::new();
         let mut world_emitters: Vec<u32> = Vec::new();
+        // Shapes that move while the shutter is open get a BLAS of their own (object space),
+        // placed by a moving instance.
+        let mut moving_shapes: Vec<(&ShapeEntity, Arc<TransformMotion>)> = Vec::new();
         for (i, entity) in scene.shapes.iter().enumerate() {
+            if let Some(motion) = shutter_motion(scene, &entity.motion, &render_from_world) {
+                let static_why = if in_solid_blas[i] {
+                    Some("a moving shape inside SolidBegin is placed at shutter open (no motion blur)")
+                } else if scene.attributes_of(entity.attributes).area_light.is_some() {
+                    Some("a moving area light is placed at shutter open (no motion blur)")
+                } else {
+                    None
+                };
+                match static_why {
+                    Some(why) => diagnostics.warn_once(Some(&entity.loc), why.to_string()),
+                    None => {
+                        moving_shapes.push((entity, motion));
+                        continue;
+                    }
+                }
+            }
             if !in_solid_blas[i] {
                 place_world_shape(entity, &mut world_blas, &mut world_emitters, diagnostics);
             }
@@ -635,6 +655,7 @@ impl World {
                 one_sided: None,
                 reverse_xor: false,
                 emitters: if has_emitters { emitters } else { Vec::new() },
+                motion: None,
             }
         };
         if !world_blas.prims.is_empty() {
@@ -649,6 +670,33 @@ impl World {
             blas.csg = Some(csg);
             blases.push(blas);
             instances.push(identity_instance(blases.len() as u32 - 1, shape_emitters));
+        }
+
+        for (entity, motion) in moving_shapes {
+            let object_from_object = DMat4::IDENTITY;
+            let Some(g) = geometry(entity, &object_from_object, false, diagnostics) else { continue };
+            let mut builder = BlasBuilder::new();
+            if builder.add(&g, &object_from_object, entity.attributes, scene).is_none() {
+                diagnostics.skip("shapes (degenerate geometry)");
+                continue;
+            }
+            let blas = builder.finish();
+            if blas.prims.is_empty() {
+                continue;
+            }
+            blases.push(blas);
+            let render_from_blas = motion.at(0.0);
+            instances.push(Instance {
+                blas: blases.len() as u32 - 1,
+                identity: false,
+                render_from_blas,
+                blas_from_render: render_from_blas.inverse(),
+                attributes: None,
+                one_sided: None,
+                reverse_xor: false,
+                emitters: Vec::new(),
+                motion: Some(motion),
+            });
         }
 
         // Object definitions, each its own BLAS, built only when instanced.
@@ -684,7 +732,19 @@ impl World {
                 Some(blases.len() as u32 - 1)
             });
             let Some(blas_index) = blas_index else { continue };
-            let render_from_blas = render_from_world * inst.world_from_instance;
+            let attrs = scene.attributes_of(inst.attributes);
+            let mut motion = shutter_motion(scene, &inst.motion, &render_from_world);
+            if motion.is_some() && attrs.area_light.is_some() {
+                diagnostics.warn_once(
+                    Some(&inst.loc),
+                    "a moving area light is placed at shutter open (no motion blur)".to_string(),
+                );
+                motion = None;
+            }
+            let render_from_blas = match &motion {
+                Some(m) => m.at(0.0),
+                None => render_from_world * inst.world_from_instance,
+            };
             if !render_from_blas.is_finite() || render_from_blas.determinant() == 0.0 {
                 diagnostics.warn_once(
                     Some(&inst.loc),
@@ -692,7 +752,6 @@ impl World {
                 );
                 continue;
             }
-            let attrs = scene.attributes_of(inst.attributes);
             let mut inst_emitters = Vec::new();
             if let Some(id) = attrs.area_light {
                 for (g, def_from_object, reverse) in definition_geometry.get(&object).into_iter().flatten() {
@@ -717,6 +776,7 @@ impl World {
                 one_sided: Some(attrs.sides == 1),
                 reverse_xor: attrs.reverse_orientation,
                 emitters: inst_emitters,
+                motion,
             });
         }
 
@@ -748,6 +808,8 @@ impl World {
             let b = &blases[inst.blas as usize].bounds;
             let bb = if inst.identity {
                 *b
+            } else if let Some(motion) = &inst.motion {
+                motion_box(motion, b.0.as_dvec3(), b.1.as_dvec3())
             } else {
                 transformed_box(&inst.render_from_blas, b.0.as_dvec3(), b.1.as_dvec3())
             };
@@ -755,6 +817,7 @@ impl World {
             bounds.1 = bounds.1.max(bb.1);
             instance_boxes.push(bb);
         }
+        let motion_blur = instances.iter().any(|i| i.motion.is_some());
         let (tlas, instances) = if instances.is_empty() || (instances.len() == 1 && instances[0].identity) {
             (None, instances)
         } else {
@@ -820,6 +883,7 @@ impl World {
             attributes_light_set,
             bounds,
             stats,
+            motion_blur,
             background: background(scene),
             footprint,
         })

@@ -12,6 +12,7 @@
 
 mod build;
 mod csg;
+mod motion;
 
 pub use build::{
     MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
@@ -25,7 +26,9 @@ use crate::math::{offset_ray_origin, round_point, transform_normal, transform_po
 
 use crate::shapes::{Quadric, QuadricHit, RayShear, barycentric_point, intersect_triangle};
 use glam::{DMat4, DVec3, Vec2, Vec3};
+use rib_parser::motion::TransformMotion;
 use rib_parser::scene::AttributesId;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// A ray in render space.
@@ -35,11 +38,15 @@ pub struct Ray {
     pub direction: Vec3,
     pub t_min: f32,
     pub t_max: f32,
+    /// When the ray travels, as a fraction of the shutter interval (0 at shutter open, 1 at
+    /// close): moving objects are placed at that time.
+    pub time: f32,
 }
 
 impl Ray {
+    /// A ray at shutter open.
     pub fn new(origin: Vec3, direction: Vec3) -> Ray {
-        Ray { origin, direction, t_min: 0.0, t_max: f32::INFINITY }
+        Ray { origin, direction, t_min: 0.0, t_max: f32::INFINITY, time: 0.0 }
     }
 }
 
@@ -98,8 +105,11 @@ struct Blas {
 struct Instance {
     blas: u32,
     identity: bool,
+    /// At shutter open when the instance moves.
     render_from_blas: DMat4,
     blas_from_render: DMat4,
+    /// `render_from_blas` at key times given as shutter fractions ([`Ray::time`]).
+    motion: Option<Arc<TransformMotion>>,
     /// Attribute state of an `ObjectInstance` (replaces the definition's).
     attributes: Option<AttributesId>,
     one_sided: Option<bool>,
@@ -154,12 +164,14 @@ pub struct SurfaceInteraction {
     pub attributes: AttributesId,
     /// The area light this surface belongs to, if it emits.
     pub emitter: Option<u32>,
+    /// The time of the ray that found the surface ([`Ray::time`]); rays leaving it keep it.
+    pub time: f32,
 }
 
 impl SurfaceInteraction {
     /// A ray leaving the surface in direction `d`, from an origin pushed off the surface.
     pub fn spawn_ray(&self, d: Vec3) -> Ray {
-        Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, d), d)
+        Ray { time: self.time, ..Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, d), d) }
     }
 
     /// A shadow-ray segment from this surface to a point `p` (with error `p_error` and normal
@@ -168,7 +180,7 @@ impl SurfaceInteraction {
         let from = offset_ray_origin(self.p, self.p_error, self.ng, p - self.p);
         let to = if n == Vec3::ZERO { p } else { offset_ray_origin(p, p_error, n, from - p) };
         // Stop just short of the end: a relative epsilon (scale-free).
-        Ray { origin: from, direction: to - from, t_min: 0.0, t_max: 1.0 - 1e-4 }
+        Ray { origin: from, direction: to - from, t_min: 0.0, t_max: 1.0 - 1e-4, time: self.time }
     }
 }
 
@@ -205,6 +217,8 @@ pub struct World {
     /// Render-space bounds of all geometry.
     pub bounds: (Vec3, Vec3),
     pub stats: WorldStats,
+    /// Whether something moves while the shutter is open (camera rays then need a time sample).
+    pub motion_blur: bool,
     /// `Imager "background"`: composited under each camera sample by its alpha, as RenderMan's
     /// `Ci += (1 - alpha) * background` (reflections and lighting do not see it).
     pub background: Vec3,
@@ -300,15 +314,7 @@ impl World {
         match &self.tlas {
             None => {
                 if let Some(inst) = self.instances.first() {
-                    self.intersect_instance(
-                        0,
-                        inst,
-                        ray.origin,
-                        ray.direction,
-                        ray.t_min,
-                        &mut t_max,
-                        &mut best,
-                    );
+                    self.intersect_instance(0, inst, ray, &mut t_max, &mut best);
                 }
             }
             Some(tlas) => {
@@ -316,15 +322,7 @@ impl World {
                 tlas.closest(&mut tray, |r, slot| {
                     let inst = &self.instances[slot as usize];
                     let mut t = r.t_max;
-                    self.intersect_instance(
-                        slot,
-                        inst,
-                        ray.origin,
-                        ray.direction,
-                        ray.t_min,
-                        &mut t,
-                        &mut best,
-                    );
+                    self.intersect_instance(slot, inst, ray, &mut t, &mut best);
                     (t < r.t_max).then_some(t)
                 });
             }
@@ -332,30 +330,46 @@ impl World {
         best
     }
 
+    /// An instance's `(render_from_blas, blas_from_render)` at shutter fraction `time`.
+    fn placement(inst: &Instance, time: f32) -> (DMat4, DMat4) {
+        match &inst.motion {
+            None => (inst.render_from_blas, inst.blas_from_render),
+            Some(motion) => {
+                let m = motion.at(f64::from(time));
+                (m, m.inverse())
+            }
+        }
+    }
+
     /// The ray in an instance's BLAS space (the parameter `t` is preserved).
     #[inline]
-    fn to_blas(inst: &Instance, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+    fn to_blas(inst: &Instance, o: Vec3, d: Vec3, time: f32) -> (Vec3, Vec3) {
         if inst.identity {
             (o, d)
         } else {
-            let m = &inst.blas_from_render;
+            let moved;
+            let m = match &inst.motion {
+                None => &inst.blas_from_render,
+                Some(_) => {
+                    moved = Self::placement(inst, time).1;
+                    &moved
+                }
+            };
             (m.transform_point3(o.as_dvec3()).as_vec3(), m.transform_vector3(d.as_dvec3()).as_vec3())
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn intersect_instance(
         &self,
         instance: u32,
         inst: &Instance,
-        o: Vec3,
-        d: Vec3,
-        t_min: f32,
+        ray: &Ray,
         t_max: &mut f32,
         best: &mut Option<Hit>,
     ) {
         let blas = &self.blases[inst.blas as usize];
-        let (o, d) = Self::to_blas(inst, o, d);
+        let t_min = ray.t_min;
+        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
         if let Some(csg) = &blas.csg {
             if let Some((t, detail, entering)) = csg::intersect(blas, csg, o, d, t_min, *t_max) {
                 *best = Some(Hit { t, instance, detail, csg_entering: Some(entering) });
@@ -462,7 +476,7 @@ impl World {
 
     fn transmittance_instance(&self, inst: &Instance, ray: &Ray, tr: &mut Vec3) {
         let blas = &self.blases[inst.blas as usize];
-        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction);
+        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
         if let Some(csg) = &blas.csg {
             // The first boundary crossing of the solid decides (a semi-transparent solid
             // attenuates once).
@@ -606,15 +620,16 @@ impl World {
                 shape = q.shape;
             }
         }
-        // BLAS space to render space.
+        // BLAS space to render space (where a moving instance is at the ray's time).
+        let (render_from_blas, blas_from_render) = Self::placement(inst, ray.time);
         let (p64, err64, to_render_n): (DVec3, DVec3, Option<&DMat4>) = if inst.identity {
             (p_blas, err_blas, None)
         } else {
-            let m = &inst.render_from_blas;
+            let m = &render_from_blas;
             let p = m.transform_point3(p_blas);
             let abs = DMat4::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs(), glam::DVec4::ZERO);
             let err = abs.transform_vector3(err_blas) + transform_point_error(m, p_blas);
-            (p, err, Some(&inst.blas_from_render))
+            (p, err, Some(&blas_from_render))
         };
         let map_n = |n: DVec3| match to_render_n {
             Some(inv) => transform_normal(inv, n),
@@ -630,7 +645,7 @@ impl World {
             n_outward = -n_outward;
         }
         let dpdu = match to_render_n {
-            Some(_) => inst.render_from_blas.transform_vector3(dpdu_blas).as_vec3(),
+            Some(_) => render_from_blas.transform_vector3(dpdu_blas).as_vec3(),
             None => dpdu_blas.as_vec3(),
         };
         let (_, reverse) = self.sidedness(inst, blas, shape);
@@ -669,6 +684,7 @@ impl World {
             front: ray.direction.dot(ng) < 0.0,
             attributes,
             emitter,
+            time: ray.time,
         }
     }
 }

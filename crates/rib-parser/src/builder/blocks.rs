@@ -3,11 +3,13 @@
 //! `TransformBegin`/`TransformEnd`, `SolidBegin`/`SolidEnd` and `MotionBegin`/`MotionEnd`.
 
 use super::transforms::snap_affine;
-use super::{Block, BlockKind, FrameInfo, Motion, SceneBuilder, WorldState, lights};
+use super::{Block, BlockKind, FrameInfo, Motion, MotionStep, SceneBuilder, WorldState, lights};
 use crate::diagnostics::DiagnosticKind;
+use crate::motion::TransformMotion;
 use crate::scene::*;
 use crate::target::Cx;
 use glam::{DMat4, DVec4};
+use std::sync::Arc;
 
 impl SceneBuilder {
     pub(super) fn push_block(&mut self, kind: BlockKind, cx: &mut Cx<'_>) {
@@ -37,7 +39,10 @@ impl SceneBuilder {
 
     pub(super) fn restore(&mut self, block: Block) {
         match block.kind {
-            BlockKind::Transform => self.gs.ctm = block.saved.ctm,
+            BlockKind::Transform => {
+                self.gs.ctm = block.saved.ctm;
+                self.gs.motion = block.saved.motion;
+            }
             _ => self.gs = block.saved,
         }
         if let Some(opts) = block.saved_options {
@@ -51,6 +56,12 @@ impl SceneBuilder {
             return;
         }
         self.push_block(BlockKind::World, cx);
+        if self.gs.motion.take().is_some() {
+            cx.warn(
+                DiagnosticKind::Unsupported,
+                "camera motion blur (a MotionBegin block around the camera transformation) is not supported: the camera at shutter open is used",
+            );
+        }
         self.camera_from_world = snap_affine(self.gs.ctm);
         let mut settings = self.opts.camera.clone();
         settings.camera_from_world = self.camera_from_world;
@@ -254,18 +265,75 @@ impl SceneBuilder {
         if times.is_empty() {
             cx.error(DiagnosticKind::BadArguments, "MotionBegin needs at least one time");
         }
-        self.warn_once(
-            "motion",
-            cx,
-            DiagnosticKind::Unsupported,
-            "motion blur is not supported: the first sample of each motion block is used",
-        );
-        self.motion = Some(Motion { seen: 0 });
+        let times = times.iter().map(|&t| f64::from(t)).collect();
+        self.motion = Some(Motion { times, transforms: Vec::new(), others: 0 });
     }
 
+    /// Ends a motion block. Its transformation requests, one per key time, make the current
+    /// transformation move: key `i` is the transformation before the block (at time `t_i`)
+    /// followed by request `i`. Other requests keep their first sample.
     pub(super) fn motion_end(&mut self, cx: &mut Cx<'_>) {
-        if self.motion.take().is_none() {
+        let Some(motion) = self.motion.take() else {
             cx.error(DiagnosticKind::Nesting, "MotionEnd without MotionBegin");
+            return;
+        };
+        if motion.others > 1 {
+            self.warn_once(
+                "motion-deformation",
+                cx,
+                DiagnosticKind::Unsupported,
+                "deformation motion blur (geometry, lights or attributes inside MotionBegin) is not supported: the first sample of each such motion block is used",
+            );
+        }
+        if motion.transforms.is_empty() {
+            return;
+        }
+        if motion.others > 0 {
+            cx.warn(
+                DiagnosticKind::BadArguments,
+                "a motion block mixes transformations with other requests; its transformations are used, the other requests keep their first sample",
+            );
+        }
+        let base = (self.gs.ctm, self.gs.motion.clone());
+        let key = |step: MotionStep, time: f64| match step {
+            MotionStep::Concat(m) => base.1.as_ref().map_or(base.0, |b| b.at(time)) * m,
+            MotionStep::Set(m) => m,
+        };
+        if motion.transforms.len() != motion.times.len() {
+            cx.error(
+                DiagnosticKind::BadArguments,
+                format!(
+                    "MotionBegin gives {} times but the block has {} transformations; only the first is used",
+                    motion.times.len(),
+                    motion.transforms.len()
+                ),
+            );
+            // The block is closed, so these apply as plain requests.
+            match motion.transforms[0] {
+                MotionStep::Concat(m) => self.concat(m, "MotionBegin", cx),
+                MotionStep::Set(m) => self.set_transform(m),
+            }
+            return;
+        }
+        let keys: Vec<DMat4> =
+            motion.transforms.iter().zip(&motion.times).map(|(&step, &t)| key(step, t)).collect();
+        if !keys.iter().all(|k| k.is_finite()) {
+            cx.error(DiagnosticKind::BadValue, "a motion block makes the transformation non-finite; ignored");
+            return;
+        }
+        match TransformMotion::new(motion.times, keys) {
+            None => cx.error(
+                DiagnosticKind::BadValue,
+                "MotionBegin times must be finite and increasing; the block's transformations are ignored",
+            ),
+            Some(m) if m.is_static() => {
+                self.gs.ctm = m.matrices()[0];
+                self.gs.motion = None;
+            }
+            Some(m) => {
+                self.gs.ctm = m.at(self.shutter_open());
+                self.gs.motion = Some(Arc::new(m));
+            }
         }
     }
 }

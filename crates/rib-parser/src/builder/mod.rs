@@ -59,6 +59,7 @@ mod transforms;
 
 use crate::diagnostics::{DiagnosticKind, Diagnostics};
 use crate::limits::Limits;
+use crate::motion::TransformMotion;
 use crate::scene::*;
 use crate::target::{Cx, NuPatchArgs, Quadric, RibTarget, ShaderSlot};
 use depth_remap::CameraSettings;
@@ -139,6 +140,9 @@ struct GraphicsState {
     /// Before `WorldBegin`: `camera_from_current`; inside the world: `world_from_current`;
     /// inside an object definition: `object_from_current`.
     ctm: DMat4,
+    /// The current transformation at each key time when a `MotionBegin` block moved it;
+    /// `ctm` is then its value at shutter open.
+    motion: Option<Arc<TransformMotion>>,
     attrs: AttrState,
 }
 
@@ -172,9 +176,22 @@ struct WorldState {
     light_handles: HashMap<Handle, LightId>,
 }
 
-/// Motion block state: only the first sample of each motion block is used.
+/// An open `MotionBegin` block.
 struct Motion {
-    seen: usize,
+    times: Vec<f64>,
+    /// Its transformation requests, one per key time.
+    transforms: Vec<MotionStep>,
+    /// Its other requests (geometry, lights, attributes): only the first is used.
+    others: usize,
+}
+
+/// One transformation request inside a motion block.
+#[derive(Clone, Copy)]
+enum MotionStep {
+    /// `Translate`, `Rotate`, `Scale`, `Skew`, `ConcatTransform`, `Perspective`.
+    Concat(DMat4),
+    /// `Identity`, `Transform`, `CoordSysTransform`.
+    Set(DMat4),
 }
 
 /// Builds a [`Scene`] from RIB requests. Use it with [`crate::parser::Reader`], or through
@@ -229,7 +246,7 @@ impl SceneBuilder {
             options,
             source: source.into(),
             opts: OptionState::default(),
-            gs: GraphicsState { ctm: DMat4::IDENTITY, attrs: AttrState::default() },
+            gs: GraphicsState { ctm: DMat4::IDENTITY, motion: None, attrs: AttrState::default() },
             blocks: Vec::new(),
             world: None,
             world_loc: None,
@@ -310,15 +327,33 @@ impl SceneBuilder {
         self.world.is_some()
     }
 
-    /// Inside a motion block only the first request is used; the rest are skipped.
+    /// Inside a motion block only the first request other than a transformation is used (there
+    /// is no deformation blur); the rest are skipped.
     fn skip_motion_sample(&mut self) -> bool {
         match &mut self.motion {
             Some(m) => {
-                m.seen += 1;
-                m.seen > 1
+                m.others += 1;
+                m.others > 1
             }
             None => false,
         }
+    }
+
+    /// Inside a motion block, records a transformation request as the next key and returns
+    /// true; outside one returns false.
+    fn record_motion_step(&mut self, step: MotionStep) -> bool {
+        match &mut self.motion {
+            Some(m) => {
+                m.transforms.push(step);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The scene time of shutter open (`Shutter`'s first value, 0 without one as RISpec says).
+    fn shutter_open(&self) -> f64 {
+        self.opts.render.shutter.map_or(0.0, |(open, _)| f64::from(open))
     }
 
     fn world_mut(&mut self) -> Option<&mut WorldState> {

@@ -76,6 +76,7 @@ impl SceneBuilder {
         self.push_block(BlockKind::Object, cx);
         // The definition's shapes are kept in the object's own space.
         self.gs.ctm = DMat4::IDENTITY;
+        self.gs.motion = None;
         self.recording =
             Some(ObjectDef { handle, shapes: Vec::new(), steps: Vec::new(), loc: cx.loc.clone() });
     }
@@ -109,6 +110,7 @@ impl SceneBuilder {
             return;
         }
         let world_from_instance = self.gs.ctm;
+        let motion = self.gs.motion.clone();
         let instance_attrs = self.intern_attributes();
         let camera_from_instance_det = (self.camera_from_world * world_from_instance).determinant();
         let def = &self.defs[def_index];
@@ -126,6 +128,7 @@ impl SceneBuilder {
                         ShapeEntity {
                             shape: s.shape.clone(),
                             world_from_object: s.object_from_shape,
+                            motion: None,
                             attributes: attributes::intern(&mut state, &mut world.attributes),
                             in_solid: s.in_solid,
                             loc: s.loc.clone(),
@@ -177,6 +180,7 @@ impl SceneBuilder {
         world.instances.push(ObjectInstanceEntity {
             object,
             world_from_instance,
+            motion,
             attributes: instance_attrs,
             shape_attributes,
             loc: cx.loc.clone(),

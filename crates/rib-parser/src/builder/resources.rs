@@ -133,6 +133,7 @@ impl SceneBuilder {
         if transform {
             if saved.world == self.current_world() {
                 self.gs.ctm = saved.gs.ctm;
+                self.gs.motion = saved.gs.motion;
             } else {
                 cx.warn(
                     DiagnosticKind::Nesting,

@@ -193,6 +193,14 @@ impl SceneBuilder {
             return;
         }
         let in_solid = self.solid_depth > 0;
+        if self.recording.is_some() && self.gs.motion.is_some() {
+            self.warn_once(
+                "motion-in-object",
+                cx,
+                DiagnosticKind::Unsupported,
+                "motion blur inside ObjectBegin/ObjectEnd is not supported: the shape is placed at shutter open (move the ObjectInstance instead)",
+            );
+        }
         if let Some(def) = &mut self.recording {
             def.add_shape(
                 Arc::new(shape),
@@ -217,6 +225,7 @@ impl SceneBuilder {
                 "this shape's transformation is projective (Perspective); consumers that need affine transformations may reject it",
             );
         }
+        let motion = self.gs.motion.clone();
         if let Some(world) = self.world_mut() {
             if let Some(&solid) = world.open_solids.last() {
                 let index = world.shapes.len() as u32;
@@ -225,6 +234,7 @@ impl SceneBuilder {
             world.shapes.push(ShapeEntity {
                 shape: Arc::new(shape),
                 world_from_object,
+                motion,
                 attributes,
                 in_solid,
                 loc: cx.loc.clone(),

@@ -2,10 +2,11 @@
 //! `Translate`, `Rotate`, `Scale`, `Skew`) and named coordinate systems (`CoordinateSystem`,
 //! `CoordSysTransform`), composed in `f64`.
 
-use super::SceneBuilder;
+use super::{MotionStep, SceneBuilder};
 use crate::diagnostics::DiagnosticKind;
 use crate::target::Cx;
 use glam::{DMat4, DVec3, DVec4};
+use std::sync::Arc;
 
 impl SceneBuilder {
     /// The handedness of the current coordinate system: left-handed (RenderMan's camera
@@ -17,12 +18,16 @@ impl SceneBuilder {
     }
 
     /// Applies `m` to the current transformation (`ctm = ctm * m`), refusing non-finite results.
+    /// Inside a motion block the request is the next key (see `motion_end`).
     pub(super) fn concat(&mut self, m: DMat4, request: &str, cx: &mut Cx<'_>) {
-        if self.skip_motion_sample() {
+        if self.record_motion_step(MotionStep::Concat(m)) {
             return;
         }
         let next = self.gs.ctm * m;
-        if !next.is_finite() {
+        let next_motion = self.gs.motion.as_ref().and_then(|motion| motion.map(|k| k * m));
+        if !next.is_finite()
+            || next_motion.as_ref().is_some_and(|n| !n.matrices().iter().all(|k| k.is_finite()))
+        {
             cx.error(
                 DiagnosticKind::BadValue,
                 format!("{request} makes the transformation non-finite; ignored"),
@@ -30,24 +35,28 @@ impl SceneBuilder {
             return;
         }
         self.gs.ctm = next;
+        self.gs.motion = next_motion.map(Arc::new);
+    }
+
+    /// Sets the current transformation (outside a motion block; inside, `m` is the next key).
+    pub(super) fn set_transform(&mut self, m: DMat4) {
+        if self.record_motion_step(MotionStep::Set(m)) {
+            return;
+        }
+        self.gs.ctm = m;
+        self.gs.motion = None;
     }
 
     pub(super) fn identity(&mut self, _cx: &mut Cx<'_>) {
-        if self.skip_motion_sample() {
-            return;
-        }
-        self.gs.ctm = DMat4::IDENTITY;
+        self.set_transform(DMat4::IDENTITY);
     }
 
     pub(super) fn transform(&mut self, matrix: DMat4, cx: &mut Cx<'_>) {
-        if self.skip_motion_sample() {
-            return;
-        }
         if !matrix.is_finite() {
             cx.error(DiagnosticKind::BadValue, "Transform: the matrix is not finite; ignored");
             return;
         }
-        self.gs.ctm = matrix;
+        self.set_transform(matrix);
     }
 
     pub(super) fn concat_transform(&mut self, matrix: DMat4, cx: &mut Cx<'_>) {
@@ -108,9 +117,6 @@ impl SceneBuilder {
     }
 
     pub(super) fn coord_sys_transform(&mut self, name: &str, cx: &mut Cx<'_>) {
-        if self.skip_motion_sample() {
-            return;
-        }
         let in_world = self.in_world();
         let m = match name {
             "world" if in_world => Some(DMat4::IDENTITY),
@@ -120,7 +126,7 @@ impl SceneBuilder {
             other => self.named_spaces.iter().find(|(n, _)| n == other).map(|(_, m)| *m),
         };
         match m {
-            Some(m) => self.gs.ctm = m,
+            Some(m) => self.set_transform(m),
             None => cx.error(
                 DiagnosticKind::UnknownHandle,
                 format!("CoordSysTransform: no coordinate system named \"{name}\""),

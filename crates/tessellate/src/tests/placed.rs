@@ -133,6 +133,7 @@ fn entity(shape: Shape, m: DMat4, attributes: u32) -> ShapeEntity {
     ShapeEntity {
         shape: Arc::new(shape),
         world_from_object: m,
+        motion: None,
         attributes: AttributesId(attributes),
         in_solid: false,
         loc: FileLoc::new("scene.rib", 10 + attributes, 1),
@@ -193,6 +194,7 @@ fn test_scene() -> Scene {
             ObjectInstanceEntity {
                 object: ObjectId(0),
                 world_from_instance: DMat4::from_translation(DVec3::Z * 10.0),
+                motion: None,
                 attributes: AttributesId(0),
                 shape_attributes: vec![AttributesId(0)],
                 loc: FileLoc::new("scene.rib", 30, 1),
@@ -200,6 +202,7 @@ fn test_scene() -> Scene {
             ObjectInstanceEntity {
                 object: ObjectId(0),
                 world_from_instance: DMat4::from_scale(DVec3::new(-2.0, 2.0, 2.0)),
+                motion: None,
                 attributes: AttributesId(1),
                 shape_attributes: vec![AttributesId(1)],
                 loc: FileLoc::new("scene.rib", 31, 1),
@@ -208,6 +211,7 @@ fn test_scene() -> Scene {
             ObjectInstanceEntity {
                 object: ObjectId(7),
                 world_from_instance: DMat4::IDENTITY,
+                motion: None,
                 attributes: AttributesId(0),
                 shape_attributes: vec![AttributesId(0)],
                 loc: FileLoc::new("scene.rib", 32, 1),
