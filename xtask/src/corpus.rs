@@ -473,7 +473,7 @@ fn glyph(c: char) -> [u8; 7] {
 const EXPLANATIONS: &[(&str, &str)] = &[
     (
         "cannot find archive",
-        "Gap in the corpus, partly in the loader: the archive named is not in the corpus (SOURCES.md took only some chains complete), or it is found through a search path (`Option \"searchpath\" \"archive\"`, lucille) or an absolute path (Blender-to-Renderman) that the loader does not resolve inside the corpus. A scene whose world is all in missing archives fails.",
+        "The right answer, not a loader gap: the archive is not where the scene says. cgkit's `include.rib` is not in the corpus; Blender-to-Renderman names absolute paths on its author's machine (`/home/frigge/...`, and its `Lamp.001_Beauty0001.rib` is not in the corpus either); lucille's `F1SB0Scene.rib` rendered on its own lacks the search path its parent `Scene_DEFAULT_Set0.rib` sets (the parent renders). Each error names every place looked.",
     ),
     (
         "unknown surface shader",
