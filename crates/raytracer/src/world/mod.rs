@@ -12,11 +12,13 @@
 
 mod build;
 mod csg;
+mod lighting;
 mod motion;
+mod placement;
 
-pub use build::{
+pub use build::WorldError;
+pub use placement::{
     MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
-    WorldError,
 };
 
 use crate::accel::{Bvh, TraversalRay};
@@ -283,7 +285,7 @@ impl World {
             }
             for q in &blas.quadrics {
                 if wanted[q.shape as usize] {
-                    let (lo, hi) = build::transformed_box(
+                    let (lo, hi) = placement::transformed_box(
                         &q.blas_from_object,
                         q.quadric.bounds_min,
                         q.quadric.bounds_max,
@@ -295,7 +297,7 @@ impl World {
                 out.push(if inst.identity {
                     (lo, hi)
                 } else {
-                    build::transformed_box(&inst.render_from_blas, lo.as_dvec3(), hi.as_dvec3())
+                    placement::transformed_box(&inst.render_from_blas, lo.as_dvec3(), hi.as_dvec3())
                 });
             }
         }

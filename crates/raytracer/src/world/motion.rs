@@ -1,7 +1,7 @@
 //! Transformation motion in the world: which shapes and instances move while the shutter is
 //! open, their keys in render space at shutter fractions, and boxes that hold them throughout.
 
-use super::build::transformed_box;
+use super::placement::transformed_box;
 use glam::{DMat4, DVec3, Vec3};
 use rib_parser::motion::TransformMotion;
 use rib_parser::scene::Scene;
