@@ -222,7 +222,7 @@ fn read_layers_inner(
 /// size is within `limits`, without decoding pixels.
 pub(crate) fn read_header(
     path: &Path,
-    kind: &str,
+    kind: &'static str,
     limits: ReadLimits,
 ) -> Result<exr::meta::header::Header, SidecarErrorKind> {
     let meta = MetaData::read_from_file(path, false).map_err(exr_error)?;
@@ -239,10 +239,7 @@ pub(crate) fn read_header(
     match attrs.get(&Text::from(ATTR_KIND)) {
         Some(AttributeValue::Text(t)) if t.eq(kind) => {}
         Some(AttributeValue::Text(t)) => {
-            return Err(SidecarErrorKind::WrongKind {
-                expected: if kind == KIND_LAYERS { KIND_LAYERS } else { "probes" },
-                found: t.to_string(),
-            });
+            return Err(SidecarErrorKind::WrongKind { expected: kind, found: t.to_string() });
         }
         Some(_) => return Err(bad_type(ATTR_KIND, "a string")),
         None => return Err(SidecarErrorKind::MissingAttribute { name: ATTR_KIND.into() }),

@@ -8,6 +8,9 @@
 //!   at the primary hit, such that the beauty image is the sum of the radiance layers.
 //! - [`write_layers`] writes them atomically; [`read_layers`] refuses anything that does not
 //!   belong to the image it is paired with, naming the file.
+//! - [`ProbeGrid`] ([`write_probes`], [`read_probes`]): irradiance probes (SH + visibility).
+//! - [`ReflectionProbes`] ([`write_reflections`], [`read_reflections`]): octahedral radiance
+//!   maps prefiltered per roughness ([`reflection_level`]) with a distance map each.
 //!
 //! ```
 //! use sidecar::{LayerExpectation, LightLayers, LightSource, SidecarPaths, depth_fingerprint};
@@ -30,6 +33,8 @@ mod layers_io;
 mod paths;
 mod probes;
 mod probes_io;
+mod reflections;
+mod reflections_io;
 pub mod sh;
 
 pub use error::{SidecarError, SidecarErrorKind};
@@ -44,6 +49,13 @@ pub use probes::{
     octahedral_uv,
 };
 pub use probes_io::{read_probes, write_probes};
+pub use reflections::{
+    REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, blinn_exponent, octahedral_texel_center,
+    octahedral_texel_solid_angle, prefilter_radiance, reflection_level, reflection_level_exponent,
+    reflection_level_roughness, reflection_level_texels, reflection_levels, reflection_lobe,
+    reflections_absent_note,
+};
+pub use reflections_io::{MAX_REFLECTION_PROBES, read_reflections, write_reflections};
 
 /// The sidecar format version written in every file's header (`lrt.sidecar.version`).
 pub const FORMAT_VERSION: i32 = 1;

@@ -8,13 +8,15 @@ use std::path::{Path, PathBuf};
 pub struct SidecarPaths {
     /// Light layers, normal and albedo: `STEM.layers.exr`.
     pub layers: PathBuf,
-    /// Irradiance and reflection probes: `STEM.probes.exr`.
+    /// Irradiance probes: `STEM.probes.exr`.
     pub probes: PathBuf,
+    /// Reflection probes: `STEM.reflections.exr`.
+    pub reflections: PathBuf,
 }
 
 impl SidecarPaths {
     /// The sidecar of the depth table at `depth`: its file name without the extension (and
-    /// without a `.depth` before a final `.exr`), plus `.layers.exr` / `.probes.exr`, in the same
+    /// without a `.depth` before a final `.exr`), plus `.layers.exr` / `.probes.exr` / `.reflections.exr`, in the same
     /// directory. `out.depth` and `out.depth.exr` give `out.layers.exr`.
     pub fn for_depth(depth: &Path) -> SidecarPaths {
         SidecarPaths::from_stem(&stem_path(depth))
@@ -43,7 +45,11 @@ impl SidecarPaths {
             name.push(suffix);
             PathBuf::from(name)
         };
-        SidecarPaths { layers: with(".layers.exr"), probes: with(".probes.exr") }
+        SidecarPaths {
+            layers: with(".layers.exr"),
+            probes: with(".probes.exr"),
+            reflections: with(".reflections.exr"),
+        }
     }
 }
 
@@ -66,6 +72,7 @@ mod tests {
         let p = SidecarPaths::for_depth(Path::new("dir/out.depth"));
         assert_eq!(p.layers, Path::new("dir/out.layers.exr"));
         assert_eq!(p.probes, Path::new("dir/out.probes.exr"));
+        assert_eq!(p.reflections, Path::new("dir/out.reflections.exr"));
         assert_eq!(SidecarPaths::for_depth(Path::new("out.depth.exr")).layers, Path::new("out.layers.exr"));
         assert_eq!(SidecarPaths::for_depth(Path::new("z.exr")).layers, Path::new("z.layers.exr"));
         assert_eq!(SidecarPaths::for_depth(Path::new("noext")).layers, Path::new("noext.layers.exr"));

@@ -114,7 +114,7 @@ pub fn read_probes(path: &Path, depth_fingerprint: Option<u64>) -> Result<ProbeG
     read_inner(path, depth_fingerprint).map_err(|kind| SidecarError::new(path, kind))
 }
 
-fn parse_triple<T: std::str::FromStr>(
+pub(crate) fn parse_triple<T: std::str::FromStr>(
     attrs: &HashMap<Text, AttributeValue>,
     name: &str,
 ) -> Result<[T; 3], SidecarErrorKind> {

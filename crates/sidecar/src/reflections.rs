@@ -1,0 +1,422 @@
+//! Reflection probes: a coarse grid of probes, each holding an octahedral map of the radiance
+//! arriving at it, prefiltered into mip levels for increasing roughness of the ray tracer's
+//! glossy (Blinn) lobe (split-sum prefiltered radiance, Karis 2013), and the distance to the
+//! first surface per texel so that a viewer can parallax-correct and choose probes
+//! (docs/sidecar.md). [`ReflectionProbes::sample`] and [`ReflectionProbes::radiance`] are the
+//! reference lookups the viewer ports to WGSL.
+
+use crate::probes::{octahedral_direction, octahedral_uv};
+use std::f32::consts::PI;
+use std::path::Path;
+
+/// Texels per side of level 0 of a reflection probe's octahedral map.
+pub const REFLECTION_TEXELS: usize = 32;
+
+/// Mip levels per probe: `32, 16, 8, 4, 2` texels per side.
+pub const REFLECTION_LEVELS: usize = 5;
+
+/// Blinn exponent the prefilter of level 1 uses; each further level uses a quarter of the
+/// previous one's (64, 16, 4, 1), so that the lobe's angular width doubles as the texels do.
+const LEVEL_1_EXPONENT: f32 = 64.0;
+
+/// Texels per side of level `level` (`REFLECTION_TEXELS >> level`).
+pub fn reflection_level_texels(level: usize) -> usize {
+    (REFLECTION_TEXELS >> level.min(REFLECTION_LEVELS - 1)).max(1)
+}
+
+/// The Blinn exponent of `plastic`, `metal` and `shinymetal` for RenderMan's `roughness`, as
+/// the ray tracer's materials compute it: `1 / max(roughness, 1e-4)`, clamped to `[1, 10^4]`.
+pub fn blinn_exponent(roughness: f32) -> f32 {
+    (1.0 / roughness.max(1e-4)).clamp(1.0, 10_000.0)
+}
+
+/// The Blinn exponent level `level` is prefiltered with: `None` for level 0 (the unfiltered
+/// radiance, a mirror), `64 / 4^(level - 1)` above.
+pub fn reflection_level_exponent(level: usize) -> Option<f32> {
+    (level > 0).then(|| LEVEL_1_EXPONENT / 4f32.powi(level.min(REFLECTION_LEVELS - 1) as i32 - 1))
+}
+
+/// The roughness level `level` is prefiltered for (`1 / exponent`; 0 for level 0):
+/// `0, 1/64, 1/16, 1/4, 1`.
+pub fn reflection_level_roughness(level: usize) -> f32 {
+    reflection_level_exponent(level).map_or(0.0, |e| 1.0 / e)
+}
+
+/// The (fractional) mip level a shader samples for a surface of RenderMan `roughness`: with
+/// `e = blinn_exponent(roughness)`, `64 / e` for `e >= 64` (between the mirror level 0 and
+/// level 1), else `1 + log4(64 / e)`; at most `REFLECTION_LEVELS - 1`. The level's own
+/// roughness maps to the level exactly.
+pub fn reflection_level(roughness: f32) -> f32 {
+    let e = blinn_exponent(roughness);
+    let level =
+        if e >= LEVEL_1_EXPONENT { LEVEL_1_EXPONENT / e } else { 1.0 + (LEVEL_1_EXPONENT / e).log(4.0) };
+    level.clamp(0.0, (REFLECTION_LEVELS - 1) as f32)
+}
+
+/// The prefilter's kernel: the ray tracer's Blinn lobe (`D(h) G / 4`, pbrt-v1's Blinn
+/// distribution with V-cavity shadowing, `ks = 1`) at normal incidence, with the view
+/// direction and the normal both along the reflected direction `r` (the split-sum
+/// approximation's `n = v = r`), as a weight of unit incoming direction `l`. Its integral over
+/// `l` is the lobe's albedo at normal incidence.
+pub fn reflection_lobe(r: [f32; 3], l: [f32; 3], exponent: f32) -> f32 {
+    let cos_l = dot(r, l);
+    if cos_l <= 0.0 {
+        return 0.0;
+    }
+    // The half vector of r and l makes half their angle with r.
+    let cos_h = ((1.0 + cos_l) * 0.5).sqrt();
+    let d = (exponent + 2.0) / (2.0 * PI) * cos_h.powf(exponent);
+    let g = (2.0 * cos_l).min(1.0);
+    d * g * 0.25
+}
+
+/// The direction through the centre of texel `texel` (row-major, `v` as the row) of an
+/// octahedral map of `texels` per side.
+pub fn octahedral_texel_center(texels: usize, texel: usize) -> [f32; 3] {
+    let (i, j) = (texel % texels, texel / texels);
+    octahedral_direction([(i as f32 + 0.5) / texels as f32, (j as f32 + 0.5) / texels as f32])
+}
+
+/// The solid angle of texel `texel` of an octahedral map of `texels` per side. The map sends
+/// the point `p` of the octahedron `|x| + |y| + |z| = 1` to `p / |p|`, whose Jacobian is
+/// `1 / |p|^3` per unit of octahedron area (the folding of the lower half keeps area), and the
+/// square `[0, 1]^2` is a quarter of the octahedron's projected area: `4 / |p|^3` per unit of
+/// `uv` area, integrated here with 4x4 points per texel. The texels sum to `4 pi`.
+pub fn octahedral_texel_solid_angle(texels: usize, texel: usize) -> f32 {
+    const SUB: usize = 4;
+    let (i, j) = (texel % texels, texel / texels);
+    let n = texels as f32;
+    let mut sum = 0.0f32;
+    for a in 0..SUB {
+        for b in 0..SUB {
+            let u = (i as f32 + (a as f32 + 0.5) / SUB as f32) / n * 2.0 - 1.0;
+            let v = (j as f32 + (b as f32 + 0.5) / SUB as f32) / n * 2.0 - 1.0;
+            let z = 1.0 - u.abs() - v.abs();
+            // |p| is the same on both halves: the fold moves (x, y) but keeps |x| + |y| + |z|.
+            let (x, y) =
+                if z < 0.0 { ((1.0 - v.abs()) * u.signum(), (1.0 - u.abs()) * v.signum()) } else { (u, v) };
+            let len = (x * x + y * y + z * z).sqrt();
+            sum += 4.0 / (len * len * len);
+        }
+    }
+    sum / (SUB * SUB) as f32 / (n * n)
+}
+
+/// Prefilters the octahedral radiance map `base` (`REFLECTION_TEXELS^2` texels) with the
+/// [`reflection_lobe`] of `exponent` into a map of `texels` per side: each output texel is the
+/// lobe-weighted mean (weights times the source texels' solid angles, normalised by their sum)
+/// of the source texels around the output texel's direction. A constant map stays constant.
+pub fn prefilter_radiance(base: &[[f32; 3]], exponent: f32, texels: usize) -> Vec<[f32; 3]> {
+    let source = source_texels();
+    (0..texels * texels)
+        .map(|t| {
+            let r = octahedral_texel_center(texels, t);
+            let mut sum = [0.0f64; 3];
+            let mut total = 0.0f64;
+            for ((l, solid_angle), radiance) in source.iter().zip(base) {
+                let w = reflection_lobe(r, *l, exponent) * solid_angle;
+                if w > 0.0 {
+                    total += f64::from(w);
+                    for c in 0..3 {
+                        sum[c] += f64::from(w * radiance[c]);
+                    }
+                }
+            }
+            if total > 0.0 { sum.map(|s| (s / total) as f32) } else { [0.0; 3] }
+        })
+        .collect()
+}
+
+/// Every mip level of a probe from its level-0 radiance map `base` (`REFLECTION_TEXELS^2`
+/// texels): level 0 is `base` itself, level `k` is `base` prefiltered with
+/// [`reflection_level_exponent`]`(k)` at [`reflection_level_texels`]`(k)`.
+pub fn reflection_levels(base: &[[f32; 3]]) -> Vec<Vec<[f32; 3]>> {
+    (0..REFLECTION_LEVELS)
+        .map(|k| match reflection_level_exponent(k) {
+            None => base.to_vec(),
+            Some(e) => prefilter_radiance(base, e, reflection_level_texels(k)),
+        })
+        .collect()
+}
+
+/// Directions and solid angles of the level-0 texels.
+fn source_texels() -> Vec<([f32; 3], f32)> {
+    let n = REFLECTION_TEXELS;
+    (0..n * n).map(|t| (octahedral_texel_center(n, t), octahedral_texel_solid_angle(n, t))).collect()
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// A grid of reflection probes in world space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReflectionProbes {
+    /// [`crate::depth_fingerprint`] of the depth table rendered with these probes.
+    pub depth_fingerprint: u64,
+    /// World position of probe `(0, 0, 0)`.
+    pub origin: [f32; 3],
+    /// Distance between neighbouring probes along x, y, z (each > 0).
+    pub spacing: [f32; 3],
+    /// Probes along x, y, z (each >= 1).
+    pub counts: [u32; 3],
+    /// `REFLECTION_LEVELS` levels; level `k` holds, per probe (x fastest, then y, then z),
+    /// `reflection_level_texels(k)^2` texels (row-major octahedral map) of RGB radiance in the
+    /// image's units.
+    pub radiance: Vec<Vec<[f32; 3]>>,
+    /// Per probe, `REFLECTION_TEXELS^2` texels: the distance from the probe to the first
+    /// surface through the texel's centre (`2 * |bounds diagonal|` where the ray leaves).
+    pub distance: Vec<f32>,
+}
+
+impl ReflectionProbes {
+    pub fn probe_count(&self) -> usize {
+        self.counts.iter().map(|&c| c as usize).product()
+    }
+
+    /// Index of probe `(x, y, z)`.
+    pub fn probe_index(&self, [x, y, z]: [u32; 3]) -> usize {
+        (x as usize) + self.counts[0] as usize * (y as usize + self.counts[1] as usize * z as usize)
+    }
+
+    /// World position of probe `(x, y, z)`.
+    pub fn probe_position(&self, cell: [u32; 3]) -> [f32; 3] {
+        std::array::from_fn(|a| self.origin[a] + cell[a] as f32 * self.spacing[a])
+    }
+
+    /// The grid cell of the probe nearest to world point `p`.
+    pub fn nearest_probe(&self, p: [f32; 3]) -> [u32; 3] {
+        std::array::from_fn(|a| {
+            let t = ((p[a] - self.origin[a]) / self.spacing[a]).round();
+            if t.is_finite() { t.clamp(0.0, (self.counts[a] - 1) as f32) as u32 } else { 0 }
+        })
+    }
+
+    /// Radiance arriving at probe `probe` from unit direction `dir`, prefiltered for
+    /// `roughness`: what one `textureSampleLevel(map, clamp-to-edge linear sampler, uv, level)`
+    /// returns, with `uv = octahedral_uv(dir)` and `level = reflection_level(roughness)`
+    /// (bilinear within a level, linear between levels).
+    pub fn sample(&self, probe: usize, dir: [f32; 3], roughness: f32) -> [f32; 3] {
+        let level = reflection_level(roughness);
+        let below = (level.floor() as usize).min(REFLECTION_LEVELS - 1);
+        let above = (below + 1).min(REFLECTION_LEVELS - 1);
+        let t = level - below as f32;
+        let uv = octahedral_uv(dir);
+        let a = self.bilinear(probe, below, uv);
+        let b = self.bilinear(probe, above, uv);
+        std::array::from_fn(|c| a[c] + (b[c] - a[c]) * t)
+    }
+
+    fn bilinear(&self, probe: usize, level: usize, uv: [f32; 2]) -> [f32; 3] {
+        let n = reflection_level_texels(level);
+        let map = &self.radiance[level][probe * n * n..(probe + 1) * n * n];
+        let x = (uv[0] * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+        let y = (uv[1] * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(n - 1), (y0 + 1).min(n - 1));
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        std::array::from_fn(|c| {
+            let top = map[y0 * n + x0][c] * (1.0 - fx) + map[y0 * n + x1][c] * fx;
+            let bottom = map[y1 * n + x0][c] * (1.0 - fx) + map[y1 * n + x1][c] * fx;
+            top * (1.0 - fy) + bottom * fy
+        })
+    }
+
+    /// Distance from probe `probe` to the first surface toward unit direction `dir` (the
+    /// level-0 texel it falls in).
+    pub fn distance_toward(&self, probe: usize, dir: [f32; 3]) -> f32 {
+        let n = REFLECTION_TEXELS;
+        let [u, v] = octahedral_uv(dir);
+        let i = ((u * n as f32) as usize).min(n - 1);
+        let j = ((v * n as f32) as usize).min(n - 1);
+        self.distance[probe * n * n + j * n + i]
+    }
+
+    /// Parallax-corrected glossy reflection at world point `p` for the unit reflected direction
+    /// `r`: the probe nearest to `p` is looked up toward the point where the ray `p + t r`
+    /// meets the surface the probe's distance map describes, found by three fixed-point steps
+    /// (start at the probe's distance toward `r`; each step intersects the ray with the sphere
+    /// around the probe whose radius is the probe's distance toward the current estimate).
+    pub fn radiance(&self, p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
+        let cell = self.nearest_probe(p);
+        let probe = self.probe_index(cell);
+        let c = self.probe_position(cell);
+        let pc: [f32; 3] = std::array::from_fn(|a| p[a] - c[a]);
+        let mut dir = r;
+        for _ in 0..3 {
+            let radius = self.distance_toward(probe, dir);
+            // |pc + t r| = radius, the far root (p is inside the sphere when the probe sees
+            // past it).
+            let b = dot(pc, r);
+            let disc = b * b - (dot(pc, pc) - radius * radius);
+            if disc < 0.0 {
+                break;
+            }
+            let t = (-b + disc.sqrt()).max(0.0);
+            let hit: [f32; 3] = std::array::from_fn(|a| pc[a] + t * r[a]);
+            let len = dot(hit, hit).sqrt();
+            if len.is_nan() || len <= 0.0 {
+                break;
+            }
+            dir = hit.map(|v| v / len);
+        }
+        self.sample(probe, dir, roughness)
+    }
+}
+
+/// What a reader says when a render has no reflection probes file (an `lrt-depth` from before
+/// reflection probes, or a render without layers): glossy live materials then fall back.
+pub fn reflections_absent_note(path: &Path) -> String {
+    format!(
+        "{}: note: no reflection probes (the render predates them or wrote no layers); glossy live materials reflect the irradiance probes only",
+        path.display()
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Closed form of the lobe's integral over incoming directions (its albedo at normal
+    /// incidence): with `c = cos(theta_h)`, `l` at twice `h`'s angle and `dl = 4 c dh`,
+    /// `(e + 2) [ int_{1/sqrt2}^{sqrt3/2} c^(e+1) (4c^2 - 2) dc + int_{sqrt3/2}^1 c^(e+1) dc ]`.
+    fn lobe_albedo(e: f64) -> f64 {
+        let (a, b) = (0.5f64.sqrt(), 0.75f64.sqrt());
+        let shadowed = |c: f64| 4.0 * c.powf(e + 4.0) / (e + 4.0) - 2.0 * c.powf(e + 2.0) / (e + 2.0);
+        let lit = |c: f64| c.powf(e + 2.0) / (e + 2.0);
+        (e + 2.0) * (shadowed(b) - shadowed(a) + lit(1.0) - lit(b))
+    }
+
+    #[test]
+    fn texel_solid_angles_cover_the_sphere() {
+        for n in [2, 8, REFLECTION_TEXELS] {
+            let total: f32 = (0..n * n).map(|t| octahedral_texel_solid_angle(n, t)).sum();
+            assert!((total - 4.0 * PI).abs() < 2e-3 * 4.0 * PI, "{n}: {total}");
+        }
+    }
+
+    #[test]
+    fn roughness_maps_to_levels_as_documented() {
+        assert_eq!(reflection_level_texels(0), 32);
+        assert_eq!(reflection_level_texels(4), 2);
+        assert_eq!(reflection_level_roughness(0), 0.0);
+        for (k, r) in [(1, 1.0 / 64.0), (2, 1.0 / 16.0), (3, 0.25), (4, 1.0)] {
+            assert_eq!(reflection_level_roughness(k), r);
+            assert!((reflection_level(r) - k as f32).abs() < 1e-5, "{k}: {}", reflection_level(r));
+        }
+        // Between levels, monotonic; a mirror-like surface reads (almost) level 0; past
+        // roughness 1 the exponent stops at 1 and so does the level.
+        assert!(reflection_level(0.0) < 0.01);
+        assert!((reflection_level(0.1) - (1.0 + 6.4f32.log(4.0))).abs() < 1e-5);
+        assert_eq!(reflection_level(5.0), 4.0);
+        assert_eq!(reflection_level(f32::NAN), reflection_level(0.0));
+        let mut last = -1.0;
+        for i in 0..200 {
+            let l = reflection_level(i as f32 * 0.01);
+            assert!(l >= last);
+            last = l;
+        }
+    }
+
+    #[test]
+    fn the_lobe_integrates_to_its_closed_form() {
+        let source = source_texels();
+        let r = octahedral_direction([0.3, 0.6]);
+        for e in [1.0f32, 4.0, 16.0, 64.0] {
+            let sum: f64 = source.iter().map(|(l, w)| f64::from(reflection_lobe(r, *l, e) * w)).sum();
+            let exact = lobe_albedo(f64::from(e));
+            assert!((sum - exact).abs() < 0.01 * exact, "e {e}: {sum} vs {exact}");
+        }
+    }
+
+    #[test]
+    fn a_constant_map_stays_constant_at_every_level() {
+        let base = vec![[0.25f32, 1.0, 4.0]; REFLECTION_TEXELS * REFLECTION_TEXELS];
+        for (k, level) in reflection_levels(&base).iter().enumerate() {
+            assert_eq!(level.len(), reflection_level_texels(k).pow(2));
+            for v in level {
+                for c in 0..3 {
+                    assert!((v[c] - base[0][c]).abs() < 1e-5 * base[0][c], "level {k}: {v:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn one_bright_texel_spreads_into_the_lobe_and_keeps_its_energy() {
+        let n = REFLECTION_TEXELS;
+        let bright = 17 * n + 9;
+        let l0 = octahedral_texel_center(n, bright);
+        let omega = octahedral_texel_solid_angle(n, bright);
+        let mut base = vec![[0.0f32; 3]; n * n];
+        base[bright] = [1.0, 2.0, 0.0];
+        let levels = reflection_levels(&base);
+        for (k, level) in levels.iter().enumerate().skip(1) {
+            let e = reflection_level_exponent(k).unwrap();
+            let m = reflection_level_texels(k);
+            let albedo = lobe_albedo(f64::from(e)) as f32;
+            for (t, v) in level.iter().enumerate() {
+                let r = octahedral_texel_center(m, t);
+                // Shape: the lobe around each output direction, normalised by its albedo.
+                let expected = omega * reflection_lobe(r, l0, e) / albedo;
+                assert!(
+                    (v[0] - expected).abs() <= 0.03 * expected + 1e-6,
+                    "level {k} texel {t}: {v:?} vs {expected}"
+                );
+                assert!((v[1] - 2.0 * v[0]).abs() <= 1e-6 * v[1].abs() + 1e-12);
+                assert_eq!(v[2], 0.0);
+            }
+            // Energy: spreading moves light between directions and loses none (integrated over
+            // the same filter's output at full resolution, which resolves every lobe).
+            let fine = prefilter_radiance(&base, e, n);
+            let energy: f32 =
+                fine.iter().enumerate().map(|(t, v)| v[0] * octahedral_texel_solid_angle(n, t)).sum();
+            assert!((energy - omega).abs() < 0.02 * omega, "level {k}: {energy} vs {omega}");
+        }
+    }
+
+    fn box_probe(radiance: impl Fn([f32; 3]) -> [f32; 3]) -> ReflectionProbes {
+        // One probe at the centre of the cube [-1, 1]^3: distances to the walls.
+        let n = REFLECTION_TEXELS;
+        let base: Vec<[f32; 3]> = (0..n * n).map(|t| radiance(octahedral_texel_center(n, t))).collect();
+        let distance = (0..n * n)
+            .map(|t| {
+                let d = octahedral_texel_center(n, t);
+                1.0 / d.iter().fold(0.0f32, |m, v| m.max(v.abs()))
+            })
+            .collect();
+        ReflectionProbes {
+            depth_fingerprint: 0,
+            origin: [0.0; 3],
+            spacing: [2.0; 3],
+            counts: [1, 1, 1],
+            radiance: reflection_levels(&base),
+            distance,
+        }
+    }
+
+    #[test]
+    fn parallax_correction_finds_the_wall_the_reflected_ray_meets() {
+        // The +x wall is red where y > 0 and blue below, the other walls black. Seen from
+        // (0.8, -0.5, 0) along (0.6, 0.8, 0) the ray meets the +x wall at y = -0.23 (blue),
+        // while the probe itself sees the black ceiling along that direction.
+        let probes = box_probe(|d| {
+            let t = 1.0 / d.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+            let hit = d.map(|v| v * t);
+            if hit[0] > 0.999 && hit[1] > 0.0 {
+                [1.0, 0.0, 0.0]
+            } else if hit[0] > 0.999 {
+                [0.0, 0.0, 1.0]
+            } else {
+                [0.0; 3]
+            }
+        });
+        let r = [0.6, 0.8, 0.0];
+        let naive = probes.sample(0, r, 0.0);
+        let corrected = probes.radiance([0.8, -0.5, 0.0], r, 0.0);
+        assert!(naive[0] < 0.1 && naive[2] < 0.1, "{naive:?}");
+        assert!(corrected[2] > 0.9 && corrected[0] < 0.1, "{corrected:?}");
+        // The distance map is the cube's.
+        assert!((probes.distance_toward(0, [0.0, -1.0, 0.0]) - 1.0).abs() < 1e-3);
+    }
+}
