@@ -427,6 +427,25 @@ fn write_depth(
                         println!("wrote {} ({x}x{y}x{z} irradiance probes)", probes_path.display());
                     }
                 }
+                if let Some(reflections) = &out.reflections {
+                    let path = sidecar::SidecarPaths::for_depth(&request.path).reflections;
+                    let reflections = sidecar::ReflectionProbes {
+                        depth_fingerprint: layers.depth_fingerprint,
+                        ..reflections.clone()
+                    };
+                    if let Err(e) = sidecar::write_reflections(&reflections, &path) {
+                        return fail(&e);
+                    }
+                    if !settings.quiet {
+                        let [x, y, z] = reflections.counts;
+                        let t = sidecar::REFLECTION_TEXELS;
+                        println!(
+                            "wrote {} ({x}x{y}x{z} reflection probes, {t}x{t} texels, {} roughness levels)",
+                            path.display(),
+                            sidecar::REFLECTION_LEVELS
+                        );
+                    }
+                }
             }
             None => {
                 if !settings.quiet {
@@ -474,13 +493,14 @@ fn print_stats(s: &RenderStats, parse: Duration, write: Duration, scene: &Scene)
         println!("stats: {}: {line}", s.integrator);
     }
     println!(
-        "stats: time: parse {}, build {}, prepare {}, render {}, depth {}, probes {}, write {}",
+        "stats: time: parse {}, build {}, prepare {}, render {}, depth {}, probes {}, reflections {}, write {}",
         seconds(parse),
         seconds(s.time_build),
         seconds(s.time_prepare),
         seconds(s.time_render),
         seconds(s.time_depth),
         seconds(s.time_probes),
+        seconds(s.time_reflections),
         seconds(write)
     );
     println!(

@@ -74,6 +74,10 @@ fn the_sidecar_goes_with_the_depth_table_and_belongs_to_it() {
     assert_eq!(layers.light.len(), 2);
     let probes = sidecar::read_probes(&paths.probes, expect.depth_fingerprint).unwrap();
     assert!(probes.probe_count() > 0);
+    let reflections = sidecar::read_reflections(&paths.reflections, expect.depth_fingerprint).unwrap();
+    assert!(reflections.is_some_and(|r| r.probe_count() > 0));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("small.reflections.exr (") && stdout.contains("reflection probes"), "{stdout}");
     // The float image equals the sum of the layers.
     let exr = image::open(dir.join("small.exr")).unwrap().into_rgb32f();
     for (sum, pixel) in layers.beauty().iter().zip(exr.pixels()) {

@@ -62,6 +62,7 @@ pub mod output;
 pub mod passes;
 pub mod photon;
 pub mod probe_bake;
+pub mod reflection_bake;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

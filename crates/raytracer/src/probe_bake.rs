@@ -33,26 +33,44 @@ impl Default for ProbeLimits {
     }
 }
 
-/// The probe grid over `world`'s bounds (world space), or `None` for an empty or unbounded
-/// scene. Deterministic for a seed (every probe has its own sampler streams).
-pub fn bake_probes(
-    world: &World,
-    integrator: &dyn Integrator,
-    seed: u64,
-    limits: ProbeLimits,
-) -> Option<(ProbeGrid, RayCounters)> {
+/// Where a grid of probes goes: at the centres of the cells of a grid over `world`'s bounds.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GridLayout {
+    pub counts: [u32; 3],
+    pub spacing: [f32; 3],
+    /// Probe (0, 0, 0) in render space (what rays start from) and in world space (what the
+    /// sidecar stores).
+    pub origin_render: [f32; 3],
+    pub origin_world: [f32; 3],
+    /// The distance recorded for a ray that leaves the scene: twice the bounds' diagonal.
+    pub miss_distance: f32,
+}
+
+impl GridLayout {
+    /// Render-space position of probe number `index` (x fastest, then y, then z).
+    pub fn position(&self, index: usize) -> Vec3 {
+        let (nx, ny) = (self.counts[0] as usize, self.counts[1] as usize);
+        let cell = [index % nx, (index / nx) % ny, index / (nx * ny)];
+        Vec3::from_array(std::array::from_fn(|a| self.origin_render[a] + cell[a] as f32 * self.spacing[a]))
+    }
+}
+
+/// `along` cells (clamped to 1..=64) along the bounds' longest axis and proportionally fewer
+/// along the others (at least 1), at most `max_probes` in all; `None` for an empty or
+/// unbounded scene.
+pub(crate) fn grid_layout(world: &World, along: u32, max_probes: u32) -> Option<GridLayout> {
     let (lo, hi) = world.bounds;
     let extent = hi - lo;
     if !lo.is_finite() || !hi.is_finite() || extent.max_element() <= 0.0 {
         return None;
     }
-    let along = limits.probes_along_longest.clamp(1, 64);
+    let along = along.clamp(1, 64);
     let cell = extent.max_element() / along as f32;
     let mut counts = [0u32; 3];
     for a in 0..3 {
         counts[a] = ((extent[a] / cell).round() as u32).clamp(1, along);
     }
-    while counts.iter().map(|&c| u64::from(c)).product::<u64>() > u64::from(limits.max_probes.max(1)) {
+    while counts.iter().map(|&c| u64::from(c)).product::<u64>() > u64::from(max_probes.max(1)) {
         let largest = (0..3).max_by_key(|&a| counts[a]).unwrap_or(0);
         counts[largest] = (counts[largest] - 1).max(1);
     }
@@ -61,22 +79,25 @@ pub fn bake_probes(
     let eye = world.render_from_world.inverse().transform_point3(DVec3::ZERO);
     let origin_render: [f32; 3] = std::array::from_fn(|a| lo[a] + spacing[a] * 0.5);
     let origin_world: [f32; 3] = std::array::from_fn(|a| (f64::from(origin_render[a]) + eye[a]) as f32);
+    Some(GridLayout { counts, spacing, origin_render, origin_world, miss_distance: 2.0 * extent.length() })
+}
+
+/// The probe grid over `world`'s bounds (world space), or `None` for an empty or unbounded
+/// scene. Deterministic for a seed (every probe has its own sampler streams).
+pub fn bake_probes(
+    world: &World,
+    integrator: &dyn Integrator,
+    seed: u64,
+    limits: ProbeLimits,
+) -> Option<(ProbeGrid, RayCounters)> {
+    let layout = grid_layout(world, limits.probes_along_longest, limits.max_probes)?;
+    let GridLayout { counts, spacing, origin_world, miss_distance, .. } = layout;
     let n = counts.iter().map(|&c| c as usize).product::<usize>();
-    let miss_distance = 2.0 * extent.length();
     let texels = VISIBILITY_TEXELS * VISIBILITY_TEXELS;
     let results: Vec<BakedProbe> = (0..n)
         .into_par_iter()
         .map(|index| {
-            let (x, y, z) = (
-                index % counts[0] as usize,
-                (index / counts[0] as usize) % counts[1] as usize,
-                index / (counts[0] as usize * counts[1] as usize),
-            );
-            let p = Vec3::new(
-                origin_render[0] + x as f32 * spacing[0],
-                origin_render[1] + y as f32 * spacing[1],
-                origin_render[2] + z as f32 * spacing[2],
-            );
+            let p = layout.position(index);
             let mut counters = RayCounters::default();
             let mut projector = ShProjector::default();
             // A different rotation of the direction set per probe avoids aliasing across the grid.

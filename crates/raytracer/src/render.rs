@@ -85,6 +85,8 @@ pub struct RenderStats {
     pub time_depth: Duration,
     /// Baking the sidecar's probes (zero without layers).
     pub time_probes: Duration,
+    /// Baking the sidecar's reflection probes (zero without layers).
+    pub time_reflections: Duration,
     /// What was skipped and why, with counts.
     pub skipped: Vec<(String, usize)>,
     /// The photon mapper's maps, timings and counts (`photonmap` only).
@@ -110,6 +112,8 @@ pub struct RenderOutput {
     pub layers: Option<sidecar::LightLayers>,
     /// The irradiance probes, baked with the layers.
     pub probes: Option<sidecar::ProbeGrid>,
+    /// The reflection probes, baked with the layers.
+    pub reflections: Option<sidecar::ReflectionProbes>,
     pub stats: RenderStats,
     pub warnings: Vec<Warning>,
 }
@@ -366,6 +370,20 @@ fn render_in_pool(
         probes = Some(grid);
     }
     let time_probes = probes_start.elapsed();
+    let reflections_start = Instant::now();
+    let mut reflections = None;
+    if layer_pixels.is_some()
+        && let Some((probes, c)) = crate::reflection_bake::bake_reflections(
+            &world,
+            integrator.as_ref(),
+            options.seed,
+            crate::reflection_bake::ReflectionLimits::default(),
+        )
+    {
+        counters.add(&c);
+        reflections = Some(probes);
+    }
+    let time_reflections = reflections_start.elapsed();
 
     // Depth: only when asked for.
     let depth_start = Instant::now();
@@ -406,6 +424,7 @@ fn render_in_pool(
         time_render,
         time_depth,
         time_probes,
+        time_reflections,
         skipped: diagnostics.skipped.clone(),
         photon: integrator.photon_stats(),
     };
@@ -419,11 +438,10 @@ fn render_in_pool(
         pixels: pixels_out,
     };
     let layers = layer_pixels.map(|(plan, layered)| assemble(scene, &plan, &image, &layered, depth.as_ref()));
-    let probes = probes.map(|p| sidecar::ProbeGrid {
-        depth_fingerprint: depth.as_ref().map_or(0, |d| sidecar::depth_fingerprint(&d.values)),
-        ..p
-    });
-    Ok(RenderOutput { image, depth, layers, probes, stats, warnings: diagnostics.warnings })
+    let fingerprint = depth.as_ref().map_or(0, |d| sidecar::depth_fingerprint(&d.values));
+    let probes = probes.map(|p| sidecar::ProbeGrid { depth_fingerprint: fingerprint, ..p });
+    let reflections = reflections.map(|r| sidecar::ReflectionProbes { depth_fingerprint: fingerprint, ..r });
+    Ok(RenderOutput { image, depth, layers, probes, reflections, stats, warnings: diagnostics.warnings })
 }
 
 /// What every pass of a render shares: the world, the camera rays, the filter and the pixels.

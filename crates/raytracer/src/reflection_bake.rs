@@ -1,0 +1,106 @@
+//! Baking the sidecar's reflection probes (docs/sidecar.md) from the render's own integrator:
+//! a coarse grid of probes at the cell centres of the scene's bounds, each an octahedral map of
+//! the radiance the integrator returns through every texel (jittered rays, averaged), the
+//! distance to the first surface through each texel's centre, and the map prefiltered into the
+//! roughness levels `sidecar::reflection_levels` defines.
+
+use crate::integrators::{Integrator, RayCounters};
+use crate::probe_bake::grid_layout;
+use crate::sampler::Sampler;
+use crate::world::{Ray, World};
+use glam::Vec3;
+use rayon::prelude::*;
+use sidecar::{
+    REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, octahedral_direction, reflection_levels,
+};
+
+/// Bounds on the bake's work: at most `max_probes * 1024 * rays_per_texel` integrator
+/// estimates and `max_probes * 1024` distance rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReflectionLimits {
+    /// Probes along the scene's longest axis (fewer along the others, in proportion).
+    pub probes_along_longest: u32,
+    /// Radiance rays per level-0 texel (each one the integrator's full estimate).
+    pub rays_per_texel: u32,
+    /// Most probes in all.
+    pub max_probes: u32,
+}
+
+impl Default for ReflectionLimits {
+    /// 3 probes along the longest axis (a probe at the centre of a room-like scene and one near
+    /// each wall; at most 27), 1 ray per texel: about 1000 integrator estimates a probe.
+    fn default() -> Self {
+        ReflectionLimits { probes_along_longest: 3, rays_per_texel: 1, max_probes: 27 }
+    }
+}
+
+/// The reflection probes over `world`'s bounds (world space), or `None` for an empty or
+/// unbounded scene. Deterministic for a seed, whatever the thread count: every ray has its own
+/// sampler, keyed by probe, texel and ray.
+pub fn bake_reflections(
+    world: &World,
+    integrator: &dyn Integrator,
+    seed: u64,
+    limits: ReflectionLimits,
+) -> Option<(ReflectionProbes, RayCounters)> {
+    let layout = grid_layout(world, limits.probes_along_longest, limits.max_probes.min(4096))?;
+    let n = layout.counts.iter().map(|&c| c as usize).product::<usize>();
+    let side = REFLECTION_TEXELS;
+    let rays = limits.rays_per_texel.clamp(1, 1024);
+    // One task per probe and texel row: even work for two threads or twenty.
+    let rows: Vec<(Vec<[f32; 3]>, Vec<f32>, RayCounters)> = (0..n * side)
+        .into_par_iter()
+        .map(|task| {
+            let (probe, j) = (task / side, task % side);
+            let p = layout.position(probe);
+            let mut counters = RayCounters::default();
+            let mut radiance = Vec::with_capacity(side);
+            let mut distance = Vec::with_capacity(side);
+            for i in 0..side {
+                let texel = j * side + i;
+                let mut sum = Vec3::ZERO;
+                for k in 0..rays {
+                    let mut sampler = Sampler::new(seed ^ 0x7ef1_ec75, probe as i64, texel as i64, k);
+                    let jitter = sampler.uniform2();
+                    let d = octahedral_direction([
+                        (i as f32 + jitter.x) / side as f32,
+                        (j as f32 + jitter.y) / side as f32,
+                    ]);
+                    let r =
+                        integrator.li(world, Ray::new(p, Vec3::from_array(d)), &mut sampler, &mut counters);
+                    if r.rgb.is_finite() {
+                        sum += r.rgb;
+                    }
+                }
+                radiance.push((sum / rays as f32).to_array());
+                let centre =
+                    octahedral_direction([(i as f32 + 0.5) / side as f32, (j as f32 + 0.5) / side as f32]);
+                counters.shadow += 1;
+                let hit = world.intersect(&Ray::new(p, Vec3::from_array(centre)));
+                distance.push(hit.map_or(layout.miss_distance, |h| h.t.min(layout.miss_distance)));
+            }
+            (radiance, distance, counters)
+        })
+        .collect();
+    let mut counters = RayCounters::default();
+    let mut base = Vec::with_capacity(n * side * side);
+    let mut distance = Vec::with_capacity(n * side * side);
+    for (r, d, c) in rows {
+        counters.add(&c);
+        base.extend(r);
+        distance.extend(d);
+    }
+    let levels: Vec<Vec<Vec<[f32; 3]>>> = base.par_chunks(side * side).map(reflection_levels).collect();
+    let radiance = (0..REFLECTION_LEVELS)
+        .map(|k| levels.iter().flat_map(|probe| probe[k].iter().copied()).collect())
+        .collect();
+    let probes = ReflectionProbes {
+        depth_fingerprint: 0,
+        origin: layout.origin_world,
+        spacing: layout.spacing,
+        counts: layout.counts,
+        radiance,
+        distance,
+    };
+    Some((probes, counters))
+}

@@ -1,0 +1,81 @@
+//! Reflection probes baked with the layers: a probe in a closed box with one emissive wall sees
+//! that wall's radiance toward it and black elsewhere, its distance map is the box, and the bake
+//! is the same for any thread count.
+
+use raytracer::render::{RenderOptions, RenderOutput, render};
+use sidecar::{REFLECTION_TEXELS, octahedral_texel_center};
+
+/// The cube [-1, 1]^3, black matte walls, the +x wall a two-sided area light of radiance
+/// (2, 1, 0.5); the camera at the centre.
+const BOX: &str = "Format 4 4 1\nPixelSamples 1 1\nProjection \"perspective\" \"fov\" [60]\n\
+    SurfaceIntegrator \"directlighting\"\nWorldBegin\nSides 2\nSurface \"matte\" \"Kd\" [0]\n\
+    AttributeBegin\nAreaLightSource \"arealight\" 1 \"intensity\" [2] \"lightcolor\" [1 0.5 0.25] \"twosided\" [1]\n\
+    Polygon \"P\" [1 -1 -1  1 1 -1  1 1 1  1 -1 1]\nAttributeEnd\n\
+    Polygon \"P\" [-1 -1 -1  -1 -1 1  -1 1 1  -1 1 -1]\n\
+    Polygon \"P\" [-1 -1 -1  1 -1 -1  1 -1 1  -1 -1 1]\n\
+    Polygon \"P\" [-1 1 -1  -1 1 1  1 1 1  1 1 -1]\n\
+    Polygon \"P\" [-1 -1 -1  -1 1 -1  1 1 -1  1 -1 -1]\n\
+    Polygon \"P\" [-1 -1 1  1 -1 1  1 1 1  -1 1 1]\nWorldEnd\n";
+
+fn run(threads: usize) -> RenderOutput {
+    let scene = rib_parser::load_bytes("box.rib", BOX.as_bytes().to_vec(), &Default::default())
+        .unwrap_or_else(|e| panic!("{}", e.render()))
+        .scene;
+    let options = RenderOptions { depth: true, layers: true, threads: Some(threads), ..Default::default() };
+    render(&scene, &options).unwrap()
+}
+
+#[test]
+fn a_probe_in_a_box_sees_the_emissive_wall_where_it_is_and_how_far() {
+    let out = run(2);
+    let probes = out.reflections.clone().expect("reflection probes are baked with the layers");
+    assert_eq!(probes.counts, [3, 3, 3]);
+    assert_eq!(probes.depth_fingerprint, sidecar::depth_fingerprint(&out.depth.as_ref().unwrap().values));
+    for a in 0..3 {
+        assert!((probes.origin[a] + 2.0 / 3.0).abs() < 1e-4, "{:?}", probes.origin);
+        assert!((probes.spacing[a] - 2.0 / 3.0).abs() < 1e-4, "{:?}", probes.spacing);
+    }
+    let wall = [2.0f32, 1.0, 0.5];
+    let n = REFLECTION_TEXELS * REFLECTION_TEXELS;
+    let centre = probes.probe_index([1, 1, 1]);
+    let (mut lit, mut dark) = (0, 0);
+    for t in 0..n {
+        let d = octahedral_texel_center(REFLECTION_TEXELS, t);
+        let largest = d.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        // The distance map is the cube's: 1 / max |d_i| from the centre.
+        let distance = probes.distance[centre * n + t];
+        assert!((distance - 1.0 / largest).abs() < 1e-3, "texel {t}: {distance} vs {}", 1.0 / largest);
+        // Texels whose whole footprint (about 6 degrees) lies on the lit wall see its radiance
+        // exactly; texels well away from it see black walls.
+        let radiance = probes.radiance[0][centre * n + t];
+        let others = d[1].abs().max(d[2].abs());
+        if d[0] > 1.25 * others {
+            lit += 1;
+            for c in 0..3 {
+                assert!((radiance[c] - wall[c]).abs() < 1e-4 * wall[c], "texel {t} {d:?}: {radiance:?}");
+            }
+        } else if d[0] < 0.75 * others {
+            dark += 1;
+            assert_eq!(radiance, [0.0; 3], "texel {t} {d:?}");
+        }
+    }
+    assert!(lit > n / 8 && dark > n / 2, "{lit} lit, {dark} dark texels");
+    // A probe nearer the wall sees it nearer.
+    let near = probes.probe_index([2, 1, 1]);
+    assert!((probes.distance_toward(near, [1.0, 0.0, 0.0]) - 1.0 / 3.0).abs() < 1e-3);
+    assert!((probes.distance_toward(near, [-1.0, 0.0, 0.0]) - 5.0 / 3.0).abs() < 1e-3);
+    // The lookup: a mirror and a moderately glossy surface facing the wall see its radiance, a
+    // surface facing away none; the broadest lobe toward the wall sees part of it.
+    for roughness in [0.0, 1.0 / 64.0] {
+        let toward = probes.sample(centre, [1.0, 0.0, 0.0], roughness);
+        assert!((toward[0] - wall[0]).abs() < 0.02 * wall[0], "{roughness}: {toward:?}");
+        assert!(probes.sample(centre, [-1.0, 0.0, 0.0], roughness)[0] < 1e-3);
+    }
+    let broad = probes.sample(centre, [1.0, 0.0, 0.0], 1.0)[0];
+    assert!(broad > 0.2 * wall[0] && broad < 0.9 * wall[0], "{broad}");
+}
+
+#[test]
+fn reflection_probes_are_the_same_for_any_thread_count() {
+    assert_eq!(run(1).reflections, run(2).reflections);
+}
