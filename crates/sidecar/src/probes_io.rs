@@ -16,9 +16,8 @@ use std::path::Path;
 use std::result::Result;
 
 const KIND_PROBES: &str = "probes";
-const ATTR_ORIGIN: &str = "lrt.probes.origin";
-const ATTR_SPACING: &str = "lrt.probes.spacing";
-const ATTR_COUNTS: &str = "lrt.probes.counts";
+const GRID_NAMES: GridNames =
+    GridNames { origin: "lrt.probes.origin", spacing: "lrt.probes.spacing", counts: "lrt.probes.counts" };
 const ATTR_TEXELS: &str = "lrt.probes.visibility_texels";
 /// Most probes a reader accepts.
 const MAX_PROBES: u64 = 1 << 20;
@@ -57,19 +56,9 @@ pub fn write_probes(grid: &ProbeGrid, path: &Path) -> Result<(), SidecarError> {
         }));
     }
     let attributes = |name: &str| {
-        let mut a = LayerAttributes::named(name);
-        let o = &mut a.other;
-        o.insert(Text::from(ATTR_VERSION), AttributeValue::I32(crate::FORMAT_VERSION));
-        o.insert(Text::from(ATTR_KIND), AttributeValue::Text(Text::from(KIND_PROBES)));
-        o.insert(
-            Text::from(ATTR_FINGERPRINT),
-            AttributeValue::Text(Text::from(format!("{:016x}", grid.depth_fingerprint).as_str())),
-        );
-        let triple = |v: [String; 3]| AttributeValue::Text(Text::from(v.join(" ").as_str()));
-        o.insert(Text::from(ATTR_ORIGIN), triple(grid.origin.map(|v| v.to_string())));
-        o.insert(Text::from(ATTR_SPACING), triple(grid.spacing.map(|v| v.to_string())));
-        o.insert(Text::from(ATTR_COUNTS), triple(grid.counts.map(|v| v.to_string())));
-        o.insert(Text::from(ATTR_TEXELS), AttributeValue::I32(VISIBILITY_TEXELS as i32));
+        let placement = (grid.origin, grid.spacing, grid.counts);
+        let mut a = grid_attributes(name, KIND_PROBES, grid.depth_fingerprint, &GRID_NAMES, placement);
+        a.other.insert(Text::from(ATTR_TEXELS), AttributeValue::I32(VISIBILITY_TEXELS as i32));
         a
     };
     let mut sh = Vec::new();
@@ -114,6 +103,93 @@ pub fn read_probes(path: &Path, depth_fingerprint: Option<u64>) -> Result<ProbeG
     read_inner(path, depth_fingerprint).map_err(|kind| SidecarError::new(path, kind))
 }
 
+/// A grid's placement: origin, spacing, counts.
+pub(crate) type Placement = ([f32; 3], [f32; 3], [u32; 3]);
+
+/// The header attribute names of a probe grid's placement.
+pub(crate) struct GridNames {
+    pub origin: &'static str,
+    pub spacing: &'static str,
+    pub counts: &'static str,
+}
+
+/// A part's header attributes of a probe grid file of `kind`: version, kind, fingerprint and
+/// the grid's `(origin, spacing, counts)`, each as a text of three numbers.
+pub(crate) fn grid_attributes(
+    layer: &str,
+    kind: &str,
+    fingerprint: u64,
+    names: &GridNames,
+    (origin, spacing, counts): Placement,
+) -> LayerAttributes {
+    let mut a = LayerAttributes::named(layer);
+    let o = &mut a.other;
+    o.insert(Text::from(ATTR_VERSION), AttributeValue::I32(crate::FORMAT_VERSION));
+    o.insert(Text::from(ATTR_KIND), AttributeValue::Text(Text::from(kind)));
+    o.insert(
+        Text::from(ATTR_FINGERPRINT),
+        AttributeValue::Text(Text::from(format!("{fingerprint:016x}").as_str())),
+    );
+    let triple = |v: [String; 3]| AttributeValue::Text(Text::from(v.join(" ").as_str()));
+    o.insert(Text::from(names.origin), triple(origin.map(|v| v.to_string())));
+    o.insert(Text::from(names.spacing), triple(spacing.map(|v| v.to_string())));
+    o.insert(Text::from(names.counts), triple(counts.map(|v| v.to_string())));
+    a
+}
+
+/// The grid's placement from the header, checked: finite origin, positive spacing, between 1
+/// and `max_probes` probes (`what` names the count in the error). Returns the probe count too.
+pub(crate) fn read_grid(
+    attrs: &HashMap<Text, AttributeValue>,
+    names: &GridNames,
+    what: &'static str,
+    max_probes: u64,
+) -> Result<(Placement, usize), SidecarErrorKind> {
+    let origin: [f32; 3] = parse_triple(attrs, names.origin)?;
+    let spacing: [f32; 3] = parse_triple(attrs, names.spacing)?;
+    let counts: [u32; 3] = parse_triple(attrs, names.counts)?;
+    if !origin.iter().all(|v| v.is_finite()) || !spacing.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return Err(SidecarErrorKind::BadAttribute {
+            name: names.spacing.into(),
+            detail: "origin must be finite and spacing positive".into(),
+        });
+    }
+    let n = counts.iter().map(|&c| u64::from(c)).product::<u64>();
+    if n == 0 || n > max_probes {
+        return Err(SidecarErrorKind::TooLarge { what, size: n, limit: max_probes });
+    }
+    Ok(((origin, spacing, counts), n as usize))
+}
+
+/// The values of channel `c` (named `full` in errors) of a layer `width` pixels wide, as `f32`;
+/// refuses integer channels and NaN or infinity.
+pub(crate) fn finite_values(
+    full: &str,
+    c: &AnyChannel<FlatSamples>,
+    width: usize,
+) -> Result<Vec<f32>, SidecarErrorKind> {
+    let values = match &c.sample_data {
+        FlatSamples::F32(v) => v.clone(),
+        FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+        FlatSamples::U32(_) => {
+            return Err(SidecarErrorKind::BadAttribute {
+                name: c.name.to_string(),
+                detail: "channel holds integers".into(),
+            });
+        }
+    };
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        let w = width.max(1);
+        return Err(SidecarErrorKind::NonFinite {
+            channel: full.into(),
+            x: (i % w) as u32,
+            y: (i / w) as u32,
+            value: values[i],
+        });
+    }
+    Ok(values)
+}
+
 pub(crate) fn parse_triple<T: std::str::FromStr>(
     attrs: &HashMap<Text, AttributeValue>,
     name: &str,
@@ -141,19 +217,7 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
     {
         return Err(SidecarErrorKind::Stale { expected, found: fingerprint });
     }
-    let origin: [f32; 3] = parse_triple(attrs, ATTR_ORIGIN)?;
-    let spacing: [f32; 3] = parse_triple(attrs, ATTR_SPACING)?;
-    let counts: [u32; 3] = parse_triple(attrs, ATTR_COUNTS)?;
-    if !origin.iter().all(|v| v.is_finite()) || !spacing.iter().all(|v| v.is_finite() && *v > 0.0) {
-        return Err(SidecarErrorKind::BadAttribute {
-            name: ATTR_SPACING.into(),
-            detail: "origin must be finite and spacing positive".into(),
-        });
-    }
-    let n = counts.iter().map(|&c| u64::from(c)).product::<u64>();
-    if n == 0 || n > MAX_PROBES {
-        return Err(SidecarErrorKind::TooLarge { what: "probe count", size: n, limit: MAX_PROBES });
-    }
+    let ((origin, spacing, counts), n) = read_grid(attrs, &GRID_NAMES, "probe count", MAX_PROBES)?;
     match attrs.get(&Text::from(ATTR_TEXELS)) {
         Some(AttributeValue::I32(t)) if *t as usize == VISIBILITY_TEXELS => {}
         _ => {
@@ -163,7 +227,6 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
             });
         }
     }
-    let n = n as usize;
     let texels = VISIBILITY_TEXELS * VISIBILITY_TEXELS;
     let image = read()
         .no_deep_data()
@@ -184,26 +247,8 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
             });
         }
         for c in &layer.channel_data.list {
-            let values = match &c.sample_data {
-                FlatSamples::F32(v) => v.clone(),
-                FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
-                FlatSamples::U32(_) => {
-                    return Err(SidecarErrorKind::BadAttribute {
-                        name: c.name.to_string(),
-                        detail: "channel holds integers".into(),
-                    });
-                }
-            };
             let full = format!("{name}.{}", c.name);
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                let w = layer.size.0.max(1);
-                return Err(SidecarErrorKind::NonFinite {
-                    channel: full,
-                    x: (i % w) as u32,
-                    y: (i / w) as u32,
-                    value: values[i],
-                });
-            }
+            let values = finite_values(&full, c, layer.size.0)?;
             channels.insert(full, values);
         }
     }

@@ -4,10 +4,8 @@
 //! and the level layout in the header (docs/sidecar.md).
 
 use crate::error::{SidecarError, SidecarErrorKind};
-use crate::layers_io::{
-    ATTR_FINGERPRINT, ATTR_KIND, ATTR_VERSION, ReadLimits, exr_error, fingerprint_attribute, read_header,
-};
-use crate::probes_io::parse_triple;
+use crate::layers_io::{ReadLimits, exr_error, fingerprint_attribute, read_header};
+use crate::probes_io::{GridNames, finite_values, grid_attributes, read_grid};
 use crate::reflections::{
     REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, reflection_level_roughness,
     reflection_level_texels,
@@ -19,9 +17,11 @@ use std::path::Path;
 use std::result::Result;
 
 const KIND_REFLECTIONS: &str = "reflections";
-const ATTR_ORIGIN: &str = "lrt.reflections.origin";
-const ATTR_SPACING: &str = "lrt.reflections.spacing";
-const ATTR_COUNTS: &str = "lrt.reflections.counts";
+const GRID_NAMES: GridNames = GridNames {
+    origin: "lrt.reflections.origin",
+    spacing: "lrt.reflections.spacing",
+    counts: "lrt.reflections.counts",
+};
 const ATTR_TEXELS: &str = "lrt.reflections.texels";
 const ATTR_LEVELS: &str = "lrt.reflections.levels";
 const ATTR_ROUGHNESS: &str = "lrt.reflections.roughness";
@@ -77,18 +77,9 @@ pub fn write_reflections(probes: &ReflectionProbes, path: &Path) -> Result<(), S
         return Err(fail(non_finite("distance.Z".into(), i, REFLECTION_TEXELS.pow(2), probes.distance[i])));
     }
     let attributes = |name: &str| {
-        let mut a = LayerAttributes::named(name);
+        let placement = (probes.origin, probes.spacing, probes.counts);
+        let mut a = grid_attributes(name, KIND_REFLECTIONS, probes.depth_fingerprint, &GRID_NAMES, placement);
         let o = &mut a.other;
-        o.insert(Text::from(ATTR_VERSION), AttributeValue::I32(crate::FORMAT_VERSION));
-        o.insert(Text::from(ATTR_KIND), AttributeValue::Text(Text::from(KIND_REFLECTIONS)));
-        o.insert(
-            Text::from(ATTR_FINGERPRINT),
-            AttributeValue::Text(Text::from(format!("{:016x}", probes.depth_fingerprint).as_str())),
-        );
-        let triple = |v: [String; 3]| AttributeValue::Text(Text::from(v.join(" ").as_str()));
-        o.insert(Text::from(ATTR_ORIGIN), triple(probes.origin.map(|v| v.to_string())));
-        o.insert(Text::from(ATTR_SPACING), triple(probes.spacing.map(|v| v.to_string())));
-        o.insert(Text::from(ATTR_COUNTS), triple(probes.counts.map(|v| v.to_string())));
         o.insert(Text::from(ATTR_TEXELS), AttributeValue::I32(REFLECTION_TEXELS as i32));
         o.insert(Text::from(ATTR_LEVELS), AttributeValue::I32(REFLECTION_LEVELS as i32));
         o.insert(Text::from(ATTR_ROUGHNESS), AttributeValue::Text(Text::from(roughness_text().as_str())));
@@ -197,24 +188,8 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ReflectionProbes, Si
         }
         None => return Err(SidecarErrorKind::MissingAttribute { name: ATTR_ROUGHNESS.into() }),
     }
-    let origin: [f32; 3] = parse_triple(attrs, ATTR_ORIGIN)?;
-    let spacing: [f32; 3] = parse_triple(attrs, ATTR_SPACING)?;
-    let counts: [u32; 3] = parse_triple(attrs, ATTR_COUNTS)?;
-    if !origin.iter().all(|v| v.is_finite()) || !spacing.iter().all(|v| v.is_finite() && *v > 0.0) {
-        return Err(SidecarErrorKind::BadAttribute {
-            name: ATTR_SPACING.into(),
-            detail: "origin must be finite and spacing positive".into(),
-        });
-    }
-    let n = counts.iter().map(|&c| u64::from(c)).product::<u64>();
-    if n == 0 || n > MAX_REFLECTION_PROBES {
-        return Err(SidecarErrorKind::TooLarge {
-            what: "reflection probe count",
-            size: n,
-            limit: MAX_REFLECTION_PROBES,
-        });
-    }
-    let n = n as usize;
+    let ((origin, spacing, counts), n) =
+        read_grid(attrs, &GRID_NAMES, "reflection probe count", MAX_REFLECTION_PROBES)?;
     let sizes: HashMap<String, (usize, usize)> = layer_sizes(n).into_iter().collect();
     let image = read()
         .no_deep_data()
@@ -242,19 +217,7 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ReflectionProbes, Si
             if !allowed {
                 return Err(SidecarErrorKind::UnexpectedChannel { name: full });
             }
-            let values = match &c.sample_data {
-                FlatSamples::F32(v) => v.clone(),
-                FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
-                FlatSamples::U32(_) => {
-                    return Err(SidecarErrorKind::BadAttribute {
-                        name: full,
-                        detail: "channel holds integers".into(),
-                    });
-                }
-            };
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                return Err(non_finite(full, i, layer.size.0.max(1), values[i]));
-            }
+            let values = finite_values(&full, c, layer.size.0)?;
             channels.insert(full, values);
         }
     }
