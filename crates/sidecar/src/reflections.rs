@@ -70,6 +70,44 @@ pub fn reflection_lobe(r: [f32; 3], l: [f32; 3], exponent: f32) -> f32 {
     d * g * 0.25
 }
 
+/// The split sum's second factor (Karis 2013): the directional albedo of the ray tracer's Blinn
+/// lobe for `ks = 1`, `A(e, cos_o) = integral of f(o, l) cos(theta_l) dl` over the upper
+/// hemisphere, with `f = D(h) G / (4 cos_o cos_l)` exactly as `raytracer::bsdf` evaluates it
+/// (no Fresnel: `ks` plays its part). A glossy live surface reflects
+/// `ks * blinn_albedo(e, n.v) * ReflectionProbes::sample(probe, r, roughness)`. Integrated over
+/// the half vector with the lobe's own importance sampling (`cos_h = u^(1/(e+1))`) on a 64 x 64
+/// midpoint grid, which makes the integrand smooth: `(e + 2) / (e + 1) G (o.h) / cos_o`.
+/// `cos_o` is clamped to `[1e-3, 1]`.
+pub fn blinn_albedo(exponent: f32, cos_o: f32) -> f32 {
+    const STEPS: usize = 64;
+    let e = f64::from(exponent.max(0.0));
+    let cos_o = f64::from(cos_o).clamp(1e-3, 1.0);
+    let o = [(1.0 - cos_o * cos_o).max(0.0).sqrt(), 0.0, cos_o];
+    let mut sum = 0.0f64;
+    for a in 0..STEPS {
+        let u = (a as f64 + 0.5) / STEPS as f64;
+        let cos_h = u.powf(1.0 / (e + 1.0));
+        let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
+        for b in 0..STEPS {
+            let phi = 2.0 * std::f64::consts::PI * (b as f64 + 0.5) / STEPS as f64;
+            let h = [sin_h * phi.cos(), sin_h * phi.sin(), cos_h];
+            let o_dot_h = o[0] * h[0] + o[2] * h[2];
+            if o_dot_h <= 0.0 {
+                continue;
+            }
+            // The reflected direction must stay above the surface.
+            let cos_l = 2.0 * o_dot_h * h[2] - cos_o;
+            if cos_l <= 0.0 {
+                continue;
+            }
+            // V-cavity shadowing-masking (Torrance-Sparrow, as raytracer::bsdf).
+            let g = (2.0 * cos_h * cos_o / o_dot_h).min(2.0 * cos_h * cos_l / o_dot_h).min(1.0);
+            sum += (e + 2.0) / (e + 1.0) * g * o_dot_h / cos_o;
+        }
+    }
+    (sum / (STEPS * STEPS) as f64) as f32
+}
+
 /// The direction through the centre of texel `texel` (row-major, `v` as the row) of an
 /// octahedral map of `texels` per side.
 pub fn octahedral_texel_center(texels: usize, texel: usize) -> [f32; 3] {
@@ -326,6 +364,37 @@ mod tests {
             let sum: f64 = source.iter().map(|(l, w)| f64::from(reflection_lobe(r, *l, e) * w)).sum();
             let exact = lobe_albedo(f64::from(e));
             assert!((sum - exact).abs() < 0.01 * exact, "e {e}: {sum} vs {exact}");
+        }
+    }
+
+    /// `blinn_albedo` against a brute-force sum of `f cos` over fine octahedral texels.
+    #[test]
+    fn the_split_sum_albedo_is_the_lobes_directional_albedo() {
+        let n = 256;
+        let texels: Vec<([f32; 3], f32)> =
+            (0..n * n).map(|t| (octahedral_texel_center(n, t), octahedral_texel_solid_angle(n, t))).collect();
+        for e in [1.0f32, 4.0, 16.0] {
+            assert!((blinn_albedo(e, 1.0) - lobe_albedo(f64::from(e)) as f32).abs() < 5e-3, "e {e}");
+            for cos_o in [1.0f32, 0.7, 0.3] {
+                let o = [(1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o];
+                let brute: f32 = texels
+                    .iter()
+                    .filter(|(l, _)| l[2] > 0.0)
+                    .map(|(l, w)| {
+                        let h = {
+                            let s = [o[0] + l[0], o[1] + l[1], o[2] + l[2]];
+                            let len = dot(s, s).sqrt();
+                            s.map(|v| v / len)
+                        };
+                        let d = (e + 2.0) / (2.0 * PI) * h[2].powf(e);
+                        let o_h = dot(o, h);
+                        let g = (2.0 * h[2] * cos_o / o_h).min(2.0 * h[2] * l[2] / o_h).min(1.0);
+                        d * g / (4.0 * cos_o * l[2]) * l[2] * w
+                    })
+                    .sum();
+                let a = blinn_albedo(e, cos_o);
+                assert!((a - brute).abs() < 0.01 * brute, "e {e} cos_o {cos_o}: {a} vs {brute}");
+            }
         }
     }
 
