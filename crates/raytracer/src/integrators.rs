@@ -10,7 +10,7 @@
 //! [`RayCounters`] counts rays for `--stats`.
 
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
-use crate::lights::LightSampleContext;
+use crate::lights::{Light, LightSampleContext};
 use crate::materials::Material;
 use crate::math::average;
 use crate::photon::{PhotonMapSettings, PhotonMapper, PhotonStats};
@@ -222,19 +222,30 @@ pub fn direct_from_light(
             if f != Vec3::ZERO && bs.pdf > 0.0 {
                 let ray = si.spawn_ray(bs.wi);
                 counters.shadow += 1;
-                if let Some(hit) = world.intersect(&ray) {
-                    let li_si = world.interaction(&ray, &hit);
-                    if li_si.emitter == Some(light_index) {
-                        let le = light.emitted(li_si.ng, li_si.wo);
-                        if le != Vec3::ZERO {
-                            let light_pdf =
-                                pick_probability * light.pdf_li(si.p64, bs.wi, li_si.p64, li_si.ng);
-                            let w = power_heuristic(bs.pdf, light_pdf);
-                            // Partially transparent occluders between are ignored here; they
-                            // are rare and the light-sampling half accounts for them.
-                            total += f * le * (w / bs.pdf);
+                match world.intersect(&ray) {
+                    Some(hit) => {
+                        let li_si = world.interaction(&ray, &hit);
+                        if li_si.emitter == Some(light_index) {
+                            let le = light.emitted(li_si.ng, li_si.wo);
+                            if le != Vec3::ZERO {
+                                let light_pdf =
+                                    pick_probability * light.pdf_li(si.p64, bs.wi, li_si.p64, li_si.ng);
+                                let w = power_heuristic(bs.pdf, light_pdf);
+                                // Partially transparent occluders between are ignored here; they
+                                // are rare and the light-sampling half accounts for them.
+                                total += f * le * (w / bs.pdf);
+                            }
                         }
                     }
+                    // The ray leaves the scene: an environment light is what it sees.
+                    None if matches!(light, Light::Environment(_)) => {
+                        let le = light.escaped(bs.wi);
+                        if le != Vec3::ZERO {
+                            let light_pdf = pick_probability * light.pdf_escaped(bs.wi);
+                            total += f * le * (power_heuristic(bs.pdf, light_pdf) / bs.pdf);
+                        }
+                    }
+                    None => {}
                 }
             }
         }
@@ -270,6 +281,24 @@ pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material
     material.self_emission(si.ns, si.wo, si.st, si.st_width)
         + material.ambient_reflectance(si.st, si.st_width) * set.ambient
         + material.environment_reflection(si.ns, si.wo)
+}
+
+/// Radiance of the environment lights seen along a ray that leaves the scene in direction
+/// `dir`.
+pub fn escaped(world: &World, dir: Vec3) -> Vec3 {
+    let dir = dir.normalize_or_zero();
+    if world.environment_lights.is_empty() || dir == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    world.environment_lights.iter().map(|&e| world.lights[e as usize].escaped(dir)).sum()
+}
+
+/// A camera ray that leaves the scene: the environment it sees (no coverage), recorded as
+/// emission seen by the camera for the light layers.
+pub fn camera_escaped(world: &World, dir: Vec3) -> Radiance {
+    let le = sanitize(escaped(world, dir));
+    crate::light_layers::camera_escaped(le);
+    Radiance { rgb: le, alpha: 0.0 }
 }
 
 /// A surface integrator ready to render: made from an [`IntegratorKind`] and the world by
@@ -375,7 +404,12 @@ fn whitted(
     counters: &mut RayCounters,
     rays: &mut u64,
 ) -> Radiance {
-    let Some((si, weight)) = find_surface(world, ray, sampler, rays) else { return Radiance::default() };
+    let Some((si, weight)) = find_surface(world, ray, sampler, rays) else {
+        if depth == 0 {
+            return camera_escaped(world, ray.direction);
+        }
+        return Radiance { rgb: sanitize(escaped(world, ray.direction)), alpha: 0.0 };
+    };
     let material = world.material(si.attributes);
     if material.holdout {
         return Radiance { rgb: Vec3::ZERO, alpha: 0.0 };
@@ -428,6 +462,45 @@ pub fn sanitize(c: Vec3) -> Vec3 {
     Vec3::new(f(c.x), f(c.y), f(c.z))
 }
 
+/// What the path tracer's ray leaving the scene sees of the environment lights, with path
+/// weight `beta`: all of it for camera rays and after specular bounces, else weighted by the
+/// power heuristic against the light sample taken at the previous vertex `prev`.
+fn escaped_with_mis(
+    world: &World,
+    dir: Vec3,
+    beta: Vec3,
+    depth: u32,
+    specular_bounce: bool,
+    prev: Option<(glam::DVec3, f32, rib_parser::scene::AttributesId)>,
+) -> Vec3 {
+    if depth == 0 {
+        return beta * camera_escaped(world, dir).rgb;
+    }
+    let dir = dir.normalize_or_zero();
+    let mut l = Vec3::ZERO;
+    for &e in &world.environment_lights {
+        let light = &world.lights[e as usize];
+        let le = light.escaped(dir);
+        if le == Vec3::ZERO {
+            continue;
+        }
+        match prev {
+            Some((_, pdf_bsdf, attrs)) if !specular_bounce => {
+                let pick = world.light_set(attrs).pmf(e);
+                if pick > 0.0 {
+                    let c = beta * le * power_heuristic(pdf_bsdf, pick * light.pdf_escaped(dir));
+                    l += c;
+                    if depth == 1 {
+                        crate::light_layers::direct_via_bsdf(e, c);
+                    }
+                }
+            }
+            _ => l += beta * le,
+        }
+    }
+    l
+}
+
 fn path(
     world: &World,
     mut ray: Ray,
@@ -452,7 +525,10 @@ fn path(
         } else {
             counters.bounce += rays;
         }
-        let Some((si, weight)) = found else { break };
+        let Some((si, weight)) = found else {
+            l += escaped_with_mis(world, ray.direction, beta, depth, specular_bounce, prev);
+            break;
+        };
         beta *= weight;
         let material = world.material(si.attributes);
         if material.holdout {

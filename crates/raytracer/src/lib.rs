@@ -50,6 +50,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod diagnostics;
+pub mod environment_light;
 pub mod film;
 pub mod integrators;
 mod layered_render;

@@ -107,6 +107,15 @@ pub fn direct(light: u32, value: Vec3) {
     }
 }
 
+/// `value`: the environment seen by a camera ray that leaves the scene (emission seen by the
+/// camera, as the background is).
+#[inline]
+pub fn camera_escaped(value: Vec3) {
+    if ARMED.get() {
+        TALLY.with_borrow_mut(|t| t.emission += value);
+    }
+}
+
 /// `value` (path weight included): emitter `light` reached by the BSDF sample taken at the
 /// primary vertex, the MIS partner of its light sample.
 #[inline]

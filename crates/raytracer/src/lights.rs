@@ -12,6 +12,7 @@
 //! sampling), and sampled as an emitter of rays (`sample_le`, for photon tracing), with its total
 //! power (`power`) for choosing among lights.
 
+use crate::environment_light::EnvironmentLight;
 use crate::math::{Frame, offset_ray_origin, round_point, transform_normal};
 use crate::sampling::{
     Distribution1D, UNIFORM_SPHERE_PDF, sample_concentric_disk, sample_cosine_hemisphere,
@@ -20,6 +21,7 @@ use crate::sampling::{
 use crate::shapes::Quadric;
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// The factor between RenderMan's `Cl` of the standard point, spot and distant lights and
 /// physical radiant intensity or irradiance (see the module documentation).
@@ -74,6 +76,9 @@ pub enum Light {
     Ambient {
         color: Vec3,
     },
+    /// Light from every direction at infinity (see [`EnvironmentLight`]); rays that leave the
+    /// scene see it.
+    Environment(Arc<EnvironmentLight>),
 }
 
 /// The point lights are sampled from.
@@ -165,7 +170,26 @@ impl Light {
 
     /// True for lights that cannot be hit by a ray (point, spot, distant, ambient).
     pub fn is_delta(&self) -> bool {
-        !matches!(self, Light::Area { .. })
+        !matches!(self, Light::Area { .. } | Light::Environment(_))
+    }
+
+    /// Radiance an environment light sends along a ray leaving the scene in direction `dir`
+    /// (zero for other lights).
+    #[inline]
+    pub fn escaped(&self, dir: Vec3) -> Vec3 {
+        match self {
+            Light::Environment(env) => env.radiance(dir),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Solid-angle density with which [`Light::sample_li`] of an environment light returns
+    /// direction `dir` (zero for other lights).
+    pub fn pdf_escaped(&self, dir: Vec3) -> f32 {
+        match self {
+            Light::Environment(env) => env.pdf(dir),
+            _ => 0.0,
+        }
     }
 
     /// Total emitted power (per channel). `scene_radius` bounds the scene for distant lights.
@@ -182,6 +206,7 @@ impl Light {
                 *radiance * (PI * area * if *two_sided { 2.0 } else { 1.0 })
             }
             Light::Ambient { .. } => Vec3::ZERO,
+            Light::Environment(env) => env.power(scene_radius),
         }
     }
 
@@ -244,6 +269,10 @@ impl Light {
                 p_light: None,
             }),
             Light::Ambient { .. } => None,
+            Light::Environment(env) => {
+                let (wi, pdf, li) = env.sample(u)?;
+                Some(LightLiSample { li, wi, pdf, is_delta: false, p_light: None })
+            }
             Light::Area { shape, .. } => {
                 let (p, p_err, n, pdf) = match shape {
                     EmitterShape::Quadric { sphere: Some((centre, radius)), flip, .. }
@@ -437,6 +466,18 @@ impl Light {
                 })
             }
             Light::Ambient { .. } => None,
+            Light::Environment(env) => {
+                let (origin, direction, le, pdf_pos, pdf_dir) = env.sample_emission(u_pos, u_dir, scene)?;
+                Some(LightLeSample {
+                    origin,
+                    origin_error: Vec3::ZERO,
+                    n: Vec3::ZERO,
+                    direction,
+                    le,
+                    pdf_pos,
+                    pdf_dir,
+                })
+            }
             Light::Area { two_sided, .. } => {
                 let (p, p_err, n, pdf_pos) = self.sample_area(u_pos)?;
                 let mut local = sample_cosine_hemisphere(u_dir);
@@ -669,6 +710,24 @@ mod tests {
             quad_light(false),
             quad_light(true),
             ellipsoid,
+            Light::Environment(Arc::new(
+                EnvironmentLight::new(Vec3::new(0.5, 1.0, 2.0), None, glam::DMat3::IDENTITY).unwrap(),
+            )),
+            Light::Environment(Arc::new(
+                EnvironmentLight::new(
+                    Vec3::ONE,
+                    Some(Arc::new(
+                        crate::texture::Texture::from_rgb(
+                            32,
+                            16,
+                            (0..512).map(|i| Vec3::new((i % 7) as f32, 1.0, 0.1 * (i % 3) as f32)).collect(),
+                        )
+                        .unwrap(),
+                    )),
+                    glam::DMat3::from_rotation_y(0.7),
+                )
+                .unwrap(),
+            )),
         ];
         let mut rng = Rng::new(8, 8);
         for light in &lights {

@@ -226,6 +226,55 @@ impl Distribution1D {
     }
 }
 
+/// A piecewise-constant density over `[0, 1)^2` on a `width x height` grid of cells (pbrt's
+/// `PiecewiseConstant2D`): a marginal distribution over rows and one conditional distribution
+/// per row, built on [`Distribution1D`].
+#[derive(Clone, Debug, Default)]
+pub struct Distribution2D {
+    conditional: Vec<Distribution1D>,
+    marginal: Distribution1D,
+    width: usize,
+    height: usize,
+}
+
+impl Distribution2D {
+    /// Builds from row-major cell weights (`width * height` of them; negative or non-finite
+    /// weights count as zero). `None` when the sizes do not match.
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Option<Distribution2D> {
+        if width == 0 || height == 0 || weights.len() != width * height {
+            return None;
+        }
+        let conditional: Vec<Distribution1D> = weights.chunks_exact(width).map(Distribution1D::new).collect();
+        let row_totals: Vec<f32> = conditional.iter().map(|d| d.total() as f32).collect();
+        Some(Distribution2D { marginal: Distribution1D::new(&row_totals), conditional, width, height })
+    }
+
+    /// Sum of the weights.
+    pub fn total(&self) -> f64 {
+        self.conditional.iter().map(Distribution1D::total).sum()
+    }
+
+    /// A point of `[0, 1)^2` with its density (with respect to area in `[0, 1)^2`); `None` when
+    /// every weight is zero.
+    pub fn sample(&self, u: Vec2) -> Option<(Vec2, f32)> {
+        let (row, p_row, v) = self.marginal.sample(u.y)?;
+        let (col, p_col, w) = self.conditional[row].sample(u.x)?;
+        let point = Vec2::new((col as f32 + w) / self.width as f32, (row as f32 + v) / self.height as f32);
+        let pdf = p_row * self.height as f32 * p_col * self.width as f32;
+        Some((point.min(Vec2::splat(1.0 - f32::EPSILON / 2.0)), pdf))
+    }
+
+    /// The density [`Distribution2D::sample`] has at `point`.
+    pub fn pdf(&self, point: Vec2) -> f32 {
+        if !point.is_finite() {
+            return 0.0;
+        }
+        let col = ((point.x * self.width as f32) as usize).min(self.width - 1);
+        let row = ((point.y * self.height as f32) as usize).min(self.height - 1);
+        self.marginal.pmf(row) * self.height as f32 * self.conditional[row].pmf(col) * self.width as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -260,6 +309,31 @@ mod tests {
         assert_eq!(counts[1], 0);
         assert!((f64::from(counts[2]) / 40_000.0 - 0.75).abs() < 0.02);
         assert!(Distribution1D::new(&[0.0, f32::NAN]).sample(0.3).is_none());
+    }
+
+    /// The 2D density integrates to 1, is proportional to the weights, and samples land where
+    /// the weight is.
+    #[test]
+    fn distribution_2d_density_matches_weights() {
+        let weights = [0.0, 1.0, 2.0, 0.0, 0.0, 5.0];
+        let d = Distribution2D::new(&weights, 3, 2).unwrap();
+        let area = 1.0 / 6.0;
+        let integral: f32 = (0..6)
+            .map(|i| d.pdf(Vec2::new(((i % 3) as f32 + 0.5) / 3.0, ((i / 3) as f32 + 0.5) / 2.0)) * area)
+            .sum();
+        assert!((integral - 1.0).abs() < 1e-5, "{integral}");
+        assert!((d.pdf(Vec2::new(0.9, 0.9)) - 5.0 / 8.0 * 6.0).abs() < 1e-5);
+        let mut r = Rng::new(4, 4);
+        let mut hits = [0u32; 6];
+        for _ in 0..20_000 {
+            let (p, pdf) = d.sample(r.uniform2()).unwrap();
+            assert!((pdf - d.pdf(p)).abs() < 1e-4 * pdf, "{p} {pdf}");
+            hits[((p.y * 2.0) as usize) * 3 + (p.x * 3.0) as usize] += 1;
+        }
+        assert_eq!(hits[0] + hits[3] + hits[4], 0);
+        assert!((f64::from(hits[5]) / 20_000.0 - 5.0 / 8.0).abs() < 0.02);
+        assert!(Distribution2D::new(&weights, 4, 2).is_none());
+        assert!(Distribution2D::new(&[0.0; 4], 2, 2).unwrap().sample(Vec2::splat(0.5)).is_none());
     }
 
     #[test]

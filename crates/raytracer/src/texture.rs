@@ -144,6 +144,27 @@ impl Texture {
         self.lookup_filtered(st, 0.0)
     }
 
+    /// Bilinear lookup of the finest level read as a lat-long environment map: periodic in
+    /// `s` (longitude), clamped in `t` (the poles), whatever the texture's own wrap modes.
+    pub fn lookup_lat_long(&self, st: Vec2) -> Vec3 {
+        let finest = &self.levels[0];
+        if !st.is_finite() {
+            return finest.texels[0];
+        }
+        finest.bilinear(st, (Wrap::Periodic, Wrap::Clamp))
+    }
+
+    /// The finest level of the pyramid with at most `max_texels` texels (the coarsest, 1x1,
+    /// when none is that small): `(width, height, texels)`, row 0 at the top.
+    pub fn level_within(&self, max_texels: usize) -> (u32, u32, &[Vec3]) {
+        let level = self
+            .levels
+            .iter()
+            .find(|l| l.texels.len() <= max_texels)
+            .unwrap_or_else(|| &self.levels[self.levels.len() - 1]);
+        (level.width, level.height, &level.texels)
+    }
+
     /// Lookup filtered over a footprint `width` wide in `(s, t)` units: bilinear in the two
     /// pyramid levels whose texels are about that size, blended by the level in between.
     pub fn lookup_filtered(&self, st: Vec2, width: f32) -> Vec3 {

@@ -497,7 +497,9 @@ pub enum LightKind {
     /// [`Attributes::area_light`] is this light emit radiance `intensity * color` from their
     /// front side (both sides when their attributes say `Sides 2`).
     Area { intensity: f32, color: Vec3 },
-    /// Any other light shader: kept as given, consumers warn and skip it.
+    /// Any other light shader: kept as given, consumers warn and skip it. The environment
+    /// lights (`envlight`, `environmentlight`, `infinite`) are kept so too; a consumer that
+    /// renders them reads them with [`crate::builder::environment_light`].
     Other,
 }
 

@@ -90,7 +90,7 @@ impl LightBounds {
                 LightBounds::Spot { position: *position, axis: frame.z, cos_outside: *cos_outside }
             }
             Light::Distant { direction, .. } => LightBounds::Distant { direction: *direction },
-            Light::Ambient { .. } => LightBounds::Unknown,
+            Light::Ambient { .. } | Light::Environment(_) => LightBounds::Unknown,
             Light::Area { shape, two_sided, .. } => match shape {
                 EmitterShape::Triangles { triangles, normals, .. } => {
                     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));

@@ -5,7 +5,8 @@ use super::kdtree::KnnHeap;
 use super::{GatherSampling, PhotonMapper, unpack_unit};
 use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
 use crate::integrators::{
-    DirectStrategy, Radiance, RayCounters, direct_from_light, find_surface, sanitize, surface_terms,
+    DirectStrategy, Radiance, RayCounters, camera_escaped, direct_from_light, escaped, find_surface,
+    sanitize, surface_terms,
 };
 use crate::math::Frame;
 use crate::sampler::Sampler;
@@ -125,7 +126,12 @@ impl PhotonMapper {
         } else {
             counters.bounce += rays;
         }
-        let Some((si, weight)) = found else { return Radiance::default() };
+        let Some((si, weight)) = found else {
+            if depth == 0 {
+                return camera_escaped(world, ray.direction);
+            }
+            return Radiance { rgb: sanitize(escaped(world, ray.direction)), alpha: 0.0 };
+        };
         let material = world.material(si.attributes);
         if material.holdout {
             return Radiance { rgb: Vec3::ZERO, alpha: 0.0 };

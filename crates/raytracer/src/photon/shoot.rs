@@ -553,7 +553,9 @@ fn trace_path(
         }
         if bsdf.has_non_specular() {
             // A light linked away from this surface (RenderMan's Illuminate) does not light it.
-            if depth == 0 && light.is_delta() && !world.light_set(si.attributes).member[light_index as usize]
+            if depth == 0
+                && !matches!(light, Light::Area { .. })
+                && !world.light_set(si.attributes).member[light_index as usize]
             {
                 break;
             }

@@ -145,8 +145,14 @@ impl World {
             }
         };
 
-        let (mut lights, mut light_sources, light_index) =
-            lighting::scene_lights(scene, &render_from_world, diagnostics);
+        let (mut lights, mut light_sources, light_index) = lighting::scene_lights(
+            scene,
+            &render_from_world,
+            &mut |path: &str| {
+                texture_cache.entry(path.to_string()).or_insert_with(|| load_texture(scene, path)).clone()
+            },
+            diagnostics,
+        );
 
         // Emitters collected while placing shapes: (scene light id, render-space emitter shape).
         let mut emitters: Vec<(u32, EmitterShape)> = Vec::new();
@@ -423,13 +429,13 @@ impl World {
 
         // Light sets, one per distinct list of illuminating lights. Area lights illuminate
         // every surface (they are physical emitters, found by BSDF sampling too); the
-        // attribute's light list links the other lights.
+        // attribute's light list links the other lights, environment lights included.
         let scene_radius = {
             let ext = (bounds.1 - bounds.0).max(Vec3::ZERO);
             if ext.is_finite() { (ext.length() * 0.5).max(f32::MIN_POSITIVE) } else { 1.0 }
         };
         let area_members: Vec<u32> =
-            (0..lights.len() as u32).filter(|&i| !lights[i as usize].is_delta()).collect();
+            (0..lights.len() as u32).filter(|&i| matches!(lights[i as usize], Light::Area { .. })).collect();
         let mut set_index: HashMap<Vec<u32>, u32> = HashMap::new();
         let mut light_sets = Vec::new();
         let mut attributes_light_set = Vec::with_capacity(scene.attributes.len());
@@ -472,6 +478,9 @@ impl World {
             instances,
             tlas,
             materials,
+            environment_lights: (0..lights.len() as u32)
+                .filter(|&i| matches!(lights[i as usize], Light::Environment(_)))
+                .collect(),
             lights,
             light_sources,
             light_sets,

@@ -4,16 +4,20 @@
 use super::placement::Geometry;
 use super::*;
 use crate::diagnostics::Diagnostics;
+use crate::environment_light::EnvironmentLight;
 use crate::lights::{EmitterShape, RENDERMAN_LIGHT_SCALE, quadric_area};
 use crate::sampling::Distribution1D;
+use crate::texture::Texture;
 use rib_parser::scene::{LightKind, Scene};
 use std::collections::HashMap;
 
 /// The world's lights converted from the scene's non-area light sources: the lights, the
-/// scene light id of each, and the map from scene light id to light index.
+/// scene light id of each, and the map from scene light id to light index. `load` reads the
+/// texture an environment light names.
 pub(super) fn scene_lights(
     scene: &Scene,
     render_from_world: &DMat4,
+    load: &mut dyn FnMut(&str) -> Result<Arc<Texture>, String>,
     diagnostics: &mut Diagnostics,
 ) -> (Vec<Light>, Vec<u32>, HashMap<u32, u32>) {
     let mut lights: Vec<Light> = Vec::new();
@@ -49,6 +53,9 @@ pub(super) fn scene_lights(
                 *beam_distribution,
             )),
             LightKind::Area { .. } => None,
+            LightKind::Other if rib_parser::builder::environment_light(&l.shader).is_some() => {
+                environment_light(l, render_from_world, load, diagnostics)
+            }
             LightKind::Other => {
                 diagnostics.warn_once(
                     Some(&l.shader.loc),
@@ -64,7 +71,7 @@ pub(super) fn scene_lights(
                 Light::Spot { position, intensity, .. } => position.is_finite() && intensity.is_finite(),
                 Light::Distant { direction, irradiance } => direction.is_finite() && irradiance.is_finite(),
                 Light::Ambient { color } => color.is_finite(),
-                Light::Area { .. } => true,
+                Light::Area { .. } | Light::Environment(_) => true,
             };
             if valid {
                 light_index.insert(i as u32, lights.len() as u32);
@@ -78,6 +85,47 @@ pub(super) fn scene_lights(
     }
 
     (lights, light_sources, light_index)
+}
+
+/// An environment light (`rib_parser::builder::ENVIRONMENT_LIGHTS`) with its map, oriented by
+/// the light's transformation; `None`, with a warning, when its map cannot be read or its
+/// values are not finite.
+fn environment_light(
+    light: &rib_parser::scene::Light,
+    render_from_world: &DMat4,
+    load: &mut dyn FnMut(&str) -> Result<Arc<Texture>, String>,
+    diagnostics: &mut Diagnostics,
+) -> Option<Light> {
+    let params = rib_parser::builder::environment_light(&light.shader)?;
+    let loc = Some(&light.shader.loc);
+    let name = &light.shader.name;
+    let map = match &params.map {
+        Some(map) => {
+            match load(map) {
+                Ok(texture) => Some(texture),
+                Err(reason) => {
+                    diagnostics.warn_once(
+                    loc,
+                    format!("light \"{name}\": environment map \"{map}\" cannot be read ({reason}): light skipped"),
+                );
+                    diagnostics.skip("light sources (unreadable environment map)");
+                    return None;
+                }
+            }
+        }
+        None => None,
+    };
+    let render_from_light = glam::DMat3::from_mat4(*render_from_world * light.world_from_light);
+    match EnvironmentLight::new(params.color * params.intensity, map, render_from_light) {
+        Some(env) => Some(Light::Environment(Arc::new(env))),
+        None => {
+            diagnostics.warn_once(
+                loc,
+                format!("light \"{name}\": non-finite radiance or a singular orientation: light skipped"),
+            );
+            None
+        }
+    }
 }
 
 /// Emission parameters of an area light: radiance and two-sidedness.

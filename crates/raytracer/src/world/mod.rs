@@ -212,6 +212,8 @@ pub struct World {
     tlas: Option<Bvh>,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
+    /// The indices in `lights` of the environment lights, which rays leaving the scene see.
+    pub environment_lights: Vec<u32>,
     /// For each of `lights`, the index of the scene light it comes from (`Scene::lights`).
     pub light_sources: Vec<u32>,
     pub light_sets: Vec<LightSet>,

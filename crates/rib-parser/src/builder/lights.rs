@@ -26,6 +26,43 @@ pub(crate) const SHADOW_MAP_LIGHTS: &[(&str, &str)] =
 const SHADOW_MAP_PARAMS: &[&str] =
     &["shadowname", "blur", "bias", "samples", "width", "sfpx", "sfnx", "sfpy", "sfny", "sfpz", "sfnz"];
 
+/// Light shaders that light the scene from an environment at infinity: PRMan-style
+/// environment lights and pbrt's `infinite` light.
+pub const ENVIRONMENT_LIGHTS: &[&str] = &["envlight", "environmentlight", "infinite"];
+
+/// The parameters that may name an environment light's lat-long map, in the order tried:
+/// PRMan-style `envmap`/`envname`/`mapname`/`texturename`, pbrt-v3's `mapname`, pbrt-v4's
+/// `filename`.
+pub const ENVIRONMENT_MAP_PARAMS: &[&str] =
+    &["envmap", "envname", "environmentmap", "mapname", "texturename", "filename"];
+
+/// An environment light: radiance `intensity * color * map(direction)`, or a constant
+/// `intensity * color` from every direction without a map. The map is lat-long in the light's
+/// space (+z up, `s = atan2(y, x) / 2 pi`, `t = acos(z) / pi`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvironmentLight {
+    /// The map's name as given (a `MakeLatLongEnvironment` name or a picture file).
+    pub map: Option<String>,
+    /// `intensity` times pbrt's `scale`.
+    pub intensity: f32,
+    /// `lightcolor` times pbrt's `L`.
+    pub color: Vec3,
+}
+
+/// The environment light `call` describes, when its shader is one of [`ENVIRONMENT_LIGHTS`].
+/// An empty map name means no map.
+pub fn environment_light(call: &ShaderCall) -> Option<EnvironmentLight> {
+    if !ENVIRONMENT_LIGHTS.contains(&call.name.as_str()) {
+        return None;
+    }
+    let p = &call.params;
+    let map =
+        ENVIRONMENT_MAP_PARAMS.iter().find_map(|n| p.string(n)).filter(|m| !m.is_empty()).map(str::to_string);
+    let intensity = p.float("intensity").unwrap_or(1.0) * p.float("scale").unwrap_or(1.0);
+    let color = p.vec3("lightcolor").unwrap_or(Vec3::ONE) * p.vec3("L").unwrap_or(Vec3::ONE);
+    Some(EnvironmentLight { map, intensity, color })
+}
+
 /// The standard light a shader name stands for (itself, or the one a shadow-map light extends).
 pub(crate) fn standard_light(name: &str) -> &str {
     SHADOW_MAP_LIGHTS.iter().find(|(shadowed, _)| *shadowed == name).map_or(name, |(_, standard)| standard)
@@ -110,6 +147,7 @@ impl SceneBuilder {
             }
         } else if !area
             && !matches!(call.name.as_str(), "ambientlight" | "distantlight" | "pointlight" | "spotlight")
+            && !ENVIRONMENT_LIGHTS.contains(&call.name.as_str())
         {
             cx.warn(
                 DiagnosticKind::Unsupported,

@@ -68,6 +68,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 pub(crate) use attributes::AttrState;
+pub use lights::{ENVIRONMENT_LIGHTS, ENVIRONMENT_MAP_PARAMS, EnvironmentLight, environment_light};
 use objects::ObjectDef;
 pub use options::background_color;
 
