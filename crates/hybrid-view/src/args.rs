@@ -22,8 +22,9 @@ pub struct Args {
     /// Render offscreen (no display needed) instead of opening a window.
     #[arg(long)]
     pub headless: bool,
-    /// Write the composited frame (PNG) after the last frame.
-    #[arg(long, value_name = "OUT.png")]
+    /// Write the composited frame after the last frame: OUT.png as the window shows it, OUT.exr
+    /// as linear float RGB in the image's own units, before any display encoding.
+    #[arg(long, value_name = "OUT.png|OUT.exr")]
     pub screenshot: Option<PathBuf>,
     /// Write a black/white PNG, white exactly where a live object is visible.
     #[arg(long, value_name = "OUT.png")]

@@ -7,7 +7,7 @@ use glam::{DVec3, Vec3};
 use std::time::{Duration, Instant};
 use viewer::window::{self, WindowSettings};
 use viewer::{
-    Compositor, CompositorSettings, FrameInfo, Gpu, LiveObjects, LiveUpdate, Material, Rgba8Image,
+    Backdrop, Compositor, CompositorSettings, FrameInfo, Gpu, LiveObjects, LiveUpdate, Material,
     ShadowSettings, Sphere, ViewerError, ViewerScene,
 };
 
@@ -49,8 +49,9 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let camera = Camera::new(rib.camera.clone())
         .map_err(|e| Failure(format!("{}: the camera: {e}", settings.scene.display())))?;
     let tone = convert::tone_map(&rib);
-    // Float images (EXR) from lrt-depth carry the gain already; live objects get gain and gamma.
-    let image = Rgba8Image::read(&settings.image, tone.for_float_image())?;
+    // Float images (EXR) from lrt-depth carry the gain already; live objects get it too, and
+    // both are displayed with one encoding (viewer::display).
+    let image = Backdrop::read(&settings.image, tone.gamma)?;
     let depth = depth_remap::DepthTable::read(&settings.depth).map_err(|e| Failure(e.to_string()))?;
     let mut skipped = Skipped::default();
     let lights = convert::live_lights(&rib, &mut skipped);
@@ -75,7 +76,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
             settings.scene.display()
         )));
     }
-    let scene = ViewerScene::new(camera, image, depth, lights, tone)?;
+    let scene = ViewerScene::with_backdrop(camera, image, depth, lights, tone)?;
     let mut live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
     if let Some(path) = &settings.live {
         let objects = crate::live_rib::read_live_rib(path).map_err(Failure)?;
@@ -156,7 +157,11 @@ pub fn headless(
     if settings.screenshot.is_some() || settings.mask.is_some() {
         let frame = compositor.read_back()?;
         if let Some(path) = &settings.screenshot {
-            frame.colour.write_png(path)?;
+            if viewer::compositor::is_exr_path(path) {
+                compositor.read_back_linear()?.write_exr(path)?;
+            } else {
+                frame.colour.write_png(path)?;
+            }
         }
         if let Some(path) = &settings.mask {
             frame.write_mask_png(path)?;

@@ -205,31 +205,42 @@ fn bad_command_lines_exit_with_2() {
     assert_eq!(out.status.code(), Some(0));
 }
 
-/// An OpenEXR image is tone-mapped with the RIB's Exposure exactly as the 8-bit writer does.
+/// An OpenEXR image is shown with the one display encoding (the RIB's Exposure 1 1: sRGB, with
+/// Quantize's dither), and `--screenshot OUT.exr` gives its linear values back bit for bit.
 #[test]
-fn exr_input_is_tone_mapped() {
+fn exr_input_is_displayed_with_srgb_and_written_back_linear() {
     let scratch_dir = scratch("exr");
     let dir = scratch_dir.path();
     let exr = cornell().join("reference-path-11520spp.exr");
-    let shot = dir.join("shot.png");
-    let out = hybrid_view(&[
-        s(&exr),
-        s(&cornell().join("depth-analytic.exr")),
-        s(&cornell().join("cornell.rib")),
-        "--headless",
-        "--screenshot",
-        s(&shot),
-    ]);
-    assert_eq!(out.status.code(), Some(0));
+    let (shot, linear_shot) = (dir.join("shot.png"), dir.join("shot.exr"));
+    for out in [&shot, &linear_shot] {
+        let out = hybrid_view(&[
+            s(&exr),
+            s(&cornell().join("depth-analytic.exr")),
+            s(&cornell().join("cornell.rib")),
+            "--headless",
+            "--screenshot",
+            s(out),
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    }
     let got = image::open(&shot).unwrap().to_rgba8();
     let linear = image::open(&exr).unwrap().to_rgba32f();
-    for (g, l) in got.pixels().zip(linear.pixels()) {
+    let encoding = viewer::DisplayEncoding::for_float_image(1.0);
+    assert_eq!(encoding.transfer, viewer::DisplayTransfer::Srgb);
+    let width = linear.width();
+    for ((x, y, g), l) in got.enumerate_pixels().zip(linear.pixels()) {
         for c in 0..3 {
-            // Exposure 1 1: byte = round(255 * clamp(v, 0, 1)).
-            let expected = (l.0[c].clamp(0.0, 1.0) * 255.0).round() as u8;
-            assert_eq!(g.0[c], expected);
+            assert_eq!(g.0[c], encoding.encode(l.0[c], x, y, width, c as u32), "pixel ({x}, {y})");
         }
         assert_eq!(g.0[3], 255);
+    }
+    let back = image::open(&linear_shot).unwrap().to_rgb32f();
+    assert_eq!(back.dimensions(), linear.dimensions());
+    for (b, l) in back.pixels().zip(linear.pixels()) {
+        for c in 0..3 {
+            assert_eq!(b.0[c].to_bits(), l.0[c].to_bits());
+        }
     }
 }
 

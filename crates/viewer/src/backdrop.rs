@@ -1,17 +1,22 @@
-//! The pre-rendered image: 8-bit RGBA, shown pixel for pixel (the depth table is
-//! `depth_remap::DepthTable`).
+//! The pre-rendered image (the depth table is `depth_remap::DepthTable`).
 //!
-//! Image files: PNG, JPEG and TIFF are decoded to 8-bit RGBA and their values copied through
-//! untouched (16-bit files are reduced to 8 bits by `image`'s rounding, `round(v / 257)`;
-//! 32-bit float TIFFs are tone-mapped like EXRs).
-//! OpenEXR images hold linear values and are tone-mapped the way `lrt-depth` writes its 8-bit
-//! outputs: `byte = round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` per channel with the
-//! given [`ToneMap`]; alpha is 255. `lrt-depth` writes float outputs with `Exposure`'s gain
-//! already applied, so for its EXRs the caller passes `gain = 1` and the RIB's gamma
-//! ([`ToneMap::for_float_image`]). The one difference from `lrt-depth`'s own 8-bit files is
-//! `Quantize`'s dither (default amplitude 0.5), which it adds before rounding and the viewer
-//! does not: a value may differ by one step where the dither crossed a rounding boundary.
+//! The compositor works in linear values in the image's own units ([`Backdrop`]) and encodes
+//! the frame for display once, the same way for pre-rendered and live pixels
+//! ([`crate::display`]).
+//!
+//! - OpenEXR images and 32-bit float TIFFs hold linear values and are taken as they are:
+//!   `lrt-depth` writes float outputs with `Exposure`'s gain already applied. They are shown
+//!   with the sRGB transfer when the RIB's gamma is 1 (as EXR viewers show them), else with the
+//!   RIB's gamma, and dithered ([`DisplayEncoding::for_float_image`]).
+//! - PNG, JPEG and integer TIFF images are display values already: their bytes are shown
+//!   untouched (16-bit values are reduced to 8 bits by `image`'s rounding, `round(v / 257)`),
+//!   and their linear values are the bytes decoded with the RIB's gamma, `(b / 255)^gamma`, the
+//!   exact inverse of how `lrt-depth` writes 8-bit files (`Quantize`'s dither aside).
+//!
+//! [`Rgba8Image::read`] keeps the older 8-bit view of any of these files: float values become
+//! `round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` with the given [`ToneMap`].
 
+use crate::display::DisplayEncoding;
 use crate::error::ViewerError;
 use std::path::Path;
 
@@ -83,6 +88,109 @@ impl Rgba8Image {
     }
 }
 
+/// The pre-rendered image as the compositor draws it: linear values in the image's own units,
+/// the display values of its unchanged pixels, and the encoding from the first to the second.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Backdrop {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGBA, 4 floats per pixel, rows top to bottom; finite.
+    pub linear: Vec<f32>,
+    /// What the window shows where nothing live changes a pixel: the input bytes of an 8-bit
+    /// image, the encoded values of a float image.
+    pub display: Rgba8Image,
+    pub encoding: DisplayEncoding,
+    /// Whether the input held float values (an EXR or float TIFF), not display bytes.
+    pub is_float: bool,
+}
+
+impl Backdrop {
+    /// An 8-bit image whose bytes are display values under `gamma`: linear values are
+    /// `(b / 255)^gamma` (alpha `b / 255`), and the display is the bytes themselves.
+    pub fn from_rgba8(image: Rgba8Image, gamma: f32) -> Backdrop {
+        let encoding = DisplayEncoding::for_8bit_image(gamma);
+        let gamma = match encoding.transfer {
+            crate::display::DisplayTransfer::Gamma(g) => f64::from(g),
+            crate::display::DisplayTransfer::Srgb => 1.0,
+        };
+        let table: Vec<f32> = (0..=255u8).map(|b| (f64::from(b) / 255.0).powf(gamma) as f32).collect();
+        let linear = image
+            .pixels
+            .chunks_exact(4)
+            .flat_map(|p| {
+                [table[p[0] as usize], table[p[1] as usize], table[p[2] as usize], f32::from(p[3]) / 255.0]
+            })
+            .collect();
+        Backdrop {
+            width: image.width,
+            height: image.height,
+            linear,
+            display: image,
+            encoding,
+            is_float: false,
+        }
+    }
+
+    /// A float image (linear RGBA, 4 values per pixel) shown with the float encoding for the
+    /// RIB's `gamma`. Values must be finite.
+    pub fn from_linear(
+        width: u32,
+        height: u32,
+        linear: Vec<f32>,
+        gamma: f32,
+    ) -> Result<Backdrop, ViewerError> {
+        if linear.len() != width as usize * height as usize * 4 {
+            return Err(ViewerError::Invalid("the image's pixel buffer does not match its size".into()));
+        }
+        if let Some(k) = linear.iter().position(|v| !v.is_finite()) {
+            let pixel = k / 4;
+            return Err(ViewerError::Invalid(format!(
+                "the image holds {} at pixel ({}, {}); values must be finite",
+                linear[k],
+                pixel % width as usize,
+                pixel / width as usize
+            )));
+        }
+        let encoding = DisplayEncoding::for_float_image(gamma);
+        let pixels = linear
+            .chunks_exact(4)
+            .enumerate()
+            .flat_map(|(k, p)| {
+                let (x, y) = ((k % width as usize) as u32, (k / width as usize) as u32);
+                [
+                    encoding.encode(p[0], x, y, width, 0),
+                    encoding.encode(p[1], x, y, width, 1),
+                    encoding.encode(p[2], x, y, width, 2),
+                    (p[3].clamp(0.0, 1.0) * 255.0).round() as u8,
+                ]
+            })
+            .collect();
+        let display = Rgba8Image { width, height, pixels };
+        Ok(Backdrop { width, height, linear, display, encoding, is_float: true })
+    }
+
+    /// Reads a PNG, JPEG, TIFF or OpenEXR file (by content for the first three, by the `.exr`
+    /// extension for the last); `gamma` is the RIB's `Exposure` gamma.
+    pub fn read(path: &Path, gamma: f32) -> Result<Backdrop, ViewerError> {
+        let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        let bad = |e: ViewerError| match e {
+            ViewerError::Invalid(message) => ViewerError::BadInput { path: path.to_path_buf(), message },
+            other => other,
+        };
+        if is_exr {
+            let (w, h, linear) = read_exr_linear(path)?;
+            return Backdrop::from_linear(w, h, linear, gamma).map_err(bad);
+        }
+        match decode_integer_or_float(path)? {
+            Decoded::Float(rgba) => {
+                let (w, h) = (rgba.width(), rgba.height());
+                Backdrop::from_linear(w, h, rgba.into_raw(), gamma).map_err(bad)
+            }
+            Decoded::Bytes(image) => Ok(Backdrop::from_rgba8(image, gamma)),
+        }
+    }
+}
+
 fn check_size(path: &Path, width: u32, height: u32) -> Result<(), ViewerError> {
     if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
         return Err(ViewerError::BadInput {
@@ -93,7 +201,13 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<(), ViewerError> {
     Ok(())
 }
 
-fn read_integer_or_float(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
+/// A decoded non-EXR file: float values (a float TIFF) or display bytes.
+enum Decoded {
+    Float(image::Rgba32FImage),
+    Bytes(Rgba8Image),
+}
+
+fn decode_integer_or_float(path: &Path) -> Result<Decoded, ViewerError> {
     let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
     let reader = image::ImageReader::open(path)
         .map_err(|e| ViewerError::Io { path: path.to_path_buf(), source: e })?
@@ -107,17 +221,58 @@ fn read_integer_or_float(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, V
     limits.max_alloc = Some(u64::from(MAX_IMAGE_SIDE) * u64::from(MAX_IMAGE_SIDE) * 8);
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| bad(format!("cannot decode the image: {e}")))?;
+    check_size(path, decoded.width(), decoded.height())?;
     if matches!(decoded, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)) {
         // A float TIFF holds linear values, like an EXR.
-        let linear = decoded.to_rgba32f();
-        let pixels = linear
-            .pixels()
-            .flat_map(|p| [tone_map.to_byte(p.0[0]), tone_map.to_byte(p.0[1]), tone_map.to_byte(p.0[2]), 255])
-            .collect();
-        return Ok(Rgba8Image { width: linear.width(), height: linear.height(), pixels });
+        return Ok(Decoded::Float(decoded.to_rgba32f()));
     }
     let rgba = decoded.to_rgba8();
-    Ok(Rgba8Image { width: rgba.width(), height: rgba.height(), pixels: rgba.into_raw() })
+    Ok(Decoded::Bytes(Rgba8Image { width: rgba.width(), height: rgba.height(), pixels: rgba.into_raw() }))
+}
+
+fn read_integer_or_float(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
+    match decode_integer_or_float(path)? {
+        Decoded::Float(linear) => {
+            let pixels = linear
+                .pixels()
+                .flat_map(|p| {
+                    [tone_map.to_byte(p.0[0]), tone_map.to_byte(p.0[1]), tone_map.to_byte(p.0[2]), 255]
+                })
+                .collect();
+            Ok(Rgba8Image { width: linear.width(), height: linear.height(), pixels })
+        }
+        Decoded::Bytes(image) => Ok(image),
+    }
+}
+
+/// Reads an OpenEXR file's RGB channels as linear RGBA (alpha 1).
+fn read_exr_linear(path: &Path) -> Result<(u32, u32, Vec<f32>), ViewerError> {
+    use exr::prelude::*;
+    let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgb_channels(
+            |resolution, _| {
+                let (w, h) = (resolution.width(), resolution.height());
+                // An impossible size yields an empty buffer; the size check below rejects it.
+                let ok = w > 0 && h > 0 && w <= MAX_IMAGE_SIDE as usize && h <= MAX_IMAGE_SIDE as usize;
+                (w, h, if ok { vec![0f32; w * h * 4] } else { Vec::new() })
+            },
+            move |(w, _, pixels): &mut (usize, usize, Vec<f32>), position, (r, g, b): (f32, f32, f32)| {
+                let k = (position.y() * *w + position.x()) * 4;
+                if let Some(px) = pixels.get_mut(k..k + 4) {
+                    px.copy_from_slice(&[r, g, b, 1.0]);
+                }
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| bad(format!("cannot read the OpenEXR image: {e}")))?;
+    let (w, h, pixels) = image.layer_data.channel_data.pixels;
+    check_size(path, w as u32, h as u32)?;
+    Ok((w as u32, h as u32, pixels))
 }
 
 fn read_exr_rgba(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {

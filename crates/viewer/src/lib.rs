@@ -51,6 +51,7 @@
 
 pub mod backdrop;
 pub mod compositor;
+pub mod display;
 pub mod error;
 pub mod gpu;
 pub mod live;
@@ -59,11 +60,13 @@ pub mod projection;
 pub mod scene;
 pub mod window;
 
-pub use backdrop::{Rgba8Image, ToneMap};
+pub use backdrop::{Backdrop, Rgba8Image, ToneMap};
 pub use compositor::{
-    CompositeMode, Compositor, CompositorSettings, DepthSettings, FrameReadback, ShadowSettings,
+    CompositeMode, Compositor, CompositorSettings, DepthSettings, FrameReadback, LINEAR_FORMAT,
+    LINEAR_FORMAT_FALLBACK, LinearFrame, ShadowSettings,
 };
 pub use depth_remap::{DepthConvention, DepthTable, NearFar};
+pub use display::{DisplayEncoding, DisplayTransfer};
 pub use error::ViewerError;
 pub use gpu::{Backends, Gpu};
 pub use live::{FrameInfo, LiveLight, LiveObjects, LiveUpdate, Material, Mesh, MeshInstance, Sphere};

@@ -1,6 +1,6 @@
 //! The viewer's input: the camera, the pre-rendered image and depth table, and the lights.
 
-use crate::backdrop::{Rgba8Image, ToneMap};
+use crate::backdrop::{Backdrop, Rgba8Image, ToneMap};
 use crate::error::ViewerError;
 use crate::live::LiveLight;
 use depth_remap::{Camera, DepthTable};
@@ -10,7 +10,7 @@ use glam::DVec3;
 #[derive(Clone, Debug)]
 pub struct ViewerScene {
     camera: Camera,
-    image: Rgba8Image,
+    backdrop: Backdrop,
     depth: DepthTable,
     lights: Vec<LiveLight>,
     tone_map: ToneMap,
@@ -18,7 +18,8 @@ pub struct ViewerScene {
 
 impl ViewerScene {
     /// Checks that the image, the depth table and the camera's `Format` have the same size, and
-    /// that the camera's crop window is the whole image (the viewer shows whole frames).
+    /// that the camera's crop window is the whole image (the viewer shows whole frames). The
+    /// image's bytes are display values under `tone_map`'s gamma ([`Backdrop::from_rgba8`]).
     pub fn new(
         camera: Camera,
         image: Rgba8Image,
@@ -26,7 +27,24 @@ impl ViewerScene {
         lights: Vec<LiveLight>,
         tone_map: ToneMap,
     ) -> Result<ViewerScene, ViewerError> {
-        let image_size = (image.width, image.height);
+        if image.pixels.len() != image.width as usize * image.height as usize * 4 {
+            return Err(ViewerError::Invalid("the image's pixel buffer does not match its size".into()));
+        }
+        let backdrop = Backdrop::from_rgba8(image, tone_map.gamma);
+        ViewerScene::with_backdrop(camera, backdrop, depth, lights, tone_map)
+    }
+
+    /// As [`ViewerScene::new`], for an image already in linear form (e.g. a float image read
+    /// with [`Backdrop::read`]). `tone_map.gain` scales live objects' radiance into the image's
+    /// units (`lrt-depth` applies `Exposure`'s gain to everything it writes).
+    pub fn with_backdrop(
+        camera: Camera,
+        backdrop: Backdrop,
+        depth: DepthTable,
+        lights: Vec<LiveLight>,
+        tone_map: ToneMap,
+    ) -> Result<ViewerScene, ViewerError> {
+        let image_size = (backdrop.width, backdrop.height);
         let depth_size = (depth.width(), depth.height());
         if image_size != depth_size {
             return Err(ViewerError::SizeMismatch {
@@ -36,7 +54,8 @@ impl ViewerScene {
                 second: depth_size,
             });
         }
-        if image.pixels.len() != image.width as usize * image.height as usize * 4 {
+        let pixels = backdrop.width as usize * backdrop.height as usize;
+        if backdrop.linear.len() != pixels * 4 || backdrop.display.pixels.len() != pixels * 4 {
             return Err(ViewerError::Invalid("the image's pixel buffer does not match its size".into()));
         }
         if camera.resolution() != image_size {
@@ -47,15 +66,21 @@ impl ViewerScene {
                 second: camera.resolution(),
             });
         }
-        Ok(ViewerScene { camera, image, depth, lights, tone_map })
+        Ok(ViewerScene { camera, backdrop, depth, lights, tone_map })
     }
 
     pub fn camera(&self) -> &Camera {
         &self.camera
     }
 
+    /// The image as the window shows it where nothing live changes it.
     pub fn image(&self) -> &Rgba8Image {
-        &self.image
+        &self.backdrop.display
+    }
+
+    /// The image in linear form, with its display encoding.
+    pub fn backdrop(&self) -> &Backdrop {
+        &self.backdrop
     }
 
     pub fn depth(&self) -> &DepthTable {
@@ -71,7 +96,7 @@ impl ViewerScene {
     }
 
     pub fn size(&self) -> (u32, u32) {
-        (self.image.width, self.image.height)
+        (self.backdrop.width, self.backdrop.height)
     }
 
     /// The world-space point of pixel `(i, j)`'s surface, `None` for a miss.

@@ -320,8 +320,12 @@ impl App {
         }
         let frame: FrameReadback = p.compositor.read_back()?;
         if let Some(path) = &self.settings.screenshot {
-            // What the window showed when it was read back, else the frame it was given.
-            self.presented.as_ref().unwrap_or(&frame.colour).write_png(path)?;
+            if crate::compositor::is_exr_path(path) {
+                p.compositor.read_back_linear()?.write_exr(path)?;
+            } else {
+                // What the window showed when it was read back, else the frame it was given.
+                self.presented.as_ref().unwrap_or(&frame.colour).write_png(path)?;
+            }
         }
         if let Some(path) = &self.settings.mask {
             frame.write_mask_png(path)?;

@@ -8,7 +8,8 @@ use bytemuck::{Pod, Zeroable};
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(super) struct PointVertex {
     pub(super) raster_depth: [f32; 3],
-    pub(super) colour: [u8; 4],
+    /// Linear RGBA in the image's units.
+    pub(super) colour: [f32; 4],
 }
 
 impl Compositor {
@@ -28,7 +29,7 @@ impl Compositor {
         let vertices: Vec<PointVertex> = self
             .window_depths
             .iter()
-            .zip(self.image.pixels.chunks_exact(4))
+            .zip(self.linear_image.chunks_exact(4))
             .enumerate()
             .map(|(k, (&depth, rgba))| {
                 let (i, j) = (k as u32 % w, k as u32 / w);

@@ -2,18 +2,19 @@
 //! offscreen frame (colour, live-object mask and depth) that can be read back or presented.
 
 mod backdrop_points;
+mod encode;
 mod lighting;
 mod live_objects;
 mod readback;
 mod settings;
 mod shadows;
 
-pub use readback::FrameReadback;
+pub use readback::{FrameReadback, LinearFrame, is_exr_path};
 pub use settings::{
-    CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, MASK_FORMAT, MAX_LIGHTS, ShadowSettings,
+    CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
+    MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
 };
 
-use crate::backdrop::Rgba8Image;
 use crate::error::ViewerError;
 use crate::gpu::Gpu;
 use crate::live::{LiveLight, LiveObjects};
@@ -41,9 +42,16 @@ pub struct Compositor {
     window_depths: Vec<f32>,
     /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
     surface_bounds: Option<(DVec3, DVec3)>,
-    image: Rgba8Image,
+    /// The pre-rendered image's linear RGBA (kept to build the point cloud on demand).
+    linear_image: Vec<f32>,
+    /// The displayed frame (8-bit), written by the encode pass.
     frame_texture: wgpu::Texture,
     frame_view: wgpu::TextureView,
+    /// The composited frame in linear values, before display encoding.
+    linear_texture: wgpu::Texture,
+    linear_view: wgpu::TextureView,
+    linear_format: wgpu::TextureFormat,
+    encode: encode::EncodePass,
     mask_texture: wgpu::Texture,
     mask_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
@@ -103,6 +111,21 @@ impl Compositor {
         let window_depths = projection.window_depths(scene.depth())?;
         let surface_bounds = camera_space_bounds(&projection, scene.depth().values());
         let device = &gpu.device;
+        let linear_format = linear_format(&gpu.adapter).ok_or_else(|| {
+            ViewerError::Unsupported("neither Rgba32Float nor Rgba16Float can be rendered to".into())
+        })?;
+        // With half-float targets, the backdrop is rounded to half precision up front so that
+        // writing it into the frame changes nothing and unchanged pixels still compare equal.
+        let linear_image: Vec<f32> = if linear_format == LINEAR_FORMAT {
+            scene.backdrop().linear.clone()
+        } else {
+            scene
+                .backdrop()
+                .linear
+                .iter()
+                .map(|&v| half::f16::from_f32(v.clamp(-65504.0, 65504.0)).to_f32())
+                .collect()
+        };
 
         // Error scopes catch validation and memory errors of resource creation as values.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -126,7 +149,10 @@ impl Compositor {
             texture("frame", FRAME_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING);
         let mask_texture = texture("mask", MASK_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
         let depth_texture = texture("depth", depth_format, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
-        let colour_texture = texture("backdrop colour", FRAME_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
+        let linear_texture =
+            texture("linear frame", linear_format, U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING);
+        let colour_texture = texture("backdrop colour", LINEAR_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
+        let display_texture = texture("backdrop display", FRAME_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
         let window_depth_texture =
             texture("backdrop window depth", wgpu::TextureFormat::R32Float, U::TEXTURE_BINDING | U::COPY_DST);
         let radial_texture =
@@ -148,7 +174,8 @@ impl Compositor {
                 size,
             )
         };
-        upload(&colour_texture, &scene.image().pixels, 4);
+        upload(&colour_texture, bytemuck::cast_slice(&linear_image), 16);
+        upload(&display_texture, &scene.backdrop().display.pixels, 4);
         upload(&window_depth_texture, bytemuck::cast_slice(&window_depths), 4);
         // The GPU sees `inf` as a huge finite number on some backends; store misses as f32::MAX.
         let radial: Vec<f32> =
@@ -255,7 +282,7 @@ impl Compositor {
         };
         let write_all = [
             Some(wgpu::ColorTargetState {
-                format: FRAME_FORMAT,
+                format: linear_format,
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             }),
@@ -265,7 +292,7 @@ impl Compositor {
                 write_mask: wgpu::ColorWrites::ALL,
             }),
         ];
-        let point_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Unorm8x4];
+        let point_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
         let mesh_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
         let pipeline = |label: &str,
                         layout: &wgpu::PipelineLayout,
@@ -322,18 +349,6 @@ impl Compositor {
             depth_state(wgpu::CompareFunction::Always, true),
             &write_all,
         );
-        let multiply = wgpu::BlendState {
-            color: wgpu::BlendComponent {
-                src_factor: wgpu::BlendFactor::Zero,
-                dst_factor: wgpu::BlendFactor::Src,
-                operation: wgpu::BlendOperation::Add,
-            },
-            alpha: wgpu::BlendComponent {
-                src_factor: wgpu::BlendFactor::Zero,
-                dst_factor: wgpu::BlendFactor::One,
-                operation: wgpu::BlendOperation::Add,
-            },
-        };
         let shadow_pipeline = pipeline(
             "shadow",
             &frame_only,
@@ -343,9 +358,11 @@ impl Compositor {
             triangles,
             depth_state(wgpu::CompareFunction::Always, false),
             &[
+                // The shadow pass writes the darkened backdrop itself: 32-bit float targets
+                // cannot blend everywhere.
                 Some(wgpu::ColorTargetState {
-                    format: FRAME_FORMAT,
-                    blend: Some(multiply),
+                    format: linear_format,
+                    blend: None,
                     write_mask: wgpu::ColorWrites::COLOR,
                 }),
                 Some(wgpu::ColorTargetState {
@@ -452,6 +469,15 @@ impl Compositor {
             cache: None,
         });
 
+        let encode = encode::EncodePass::new(
+            gpu,
+            &scene.backdrop().encoding,
+            width,
+            &view(&linear_texture),
+            &view(&colour_texture),
+            &view(&display_texture),
+        );
+
         if let Some(e) = pollster::block_on(memory_scope.pop()) {
             return Err(ViewerError::Gpu(e.to_string()));
         }
@@ -487,7 +513,9 @@ impl Compositor {
         }
         let shadow_light = shadow_light_value.and_then(|v| lights.iter().position(|l| *l == v));
         let tm = scene.tone_map();
-        let tone = [tm.gain, 1.0 / tm.gamma, 0.0, 0.0];
+        // Live radiance into the image's units: `lrt-depth` applies Exposure's gain to all it
+        // writes (the display transfer is the encode pass's).
+        let tone = [tm.gain, 0.0, 0.0, 0.0];
 
         Ok(Compositor {
             gpu: gpu.clone(),
@@ -500,9 +528,13 @@ impl Compositor {
             tone,
             window_depths,
             surface_bounds,
-            image: scene.image().clone(),
+            linear_image,
             frame_view: view(&frame_texture),
             frame_texture,
+            linear_view: view(&linear_texture),
+            linear_texture,
+            linear_format,
+            encode,
             mask_view: view(&mask_texture),
             mask_texture,
             depth_view,
@@ -554,6 +586,12 @@ impl Compositor {
     /// that casts the sphere's shadow, if shadows are on.
     pub fn shadow_light(&self) -> Option<usize> {
         self.shadow_light
+    }
+
+    /// The linear frame's format: [`LINEAR_FORMAT`], or [`LINEAR_FORMAT_FALLBACK`] where the
+    /// adapter cannot render 32-bit floats (then the linear screenshot has half precision).
+    pub fn linear_format(&self) -> wgpu::TextureFormat {
+        self.linear_format
     }
 
     /// The composited frame's colour texture (for presenting it).
@@ -618,7 +656,7 @@ impl Compositor {
                 label: Some("composite"),
                 color_attachments: &[
                     Some(wgpu::RenderPassColorAttachment {
-                        view: &self.frame_view,
+                        view: &self.linear_view,
                         depth_slice: None,
                         resolve_target: None,
                         ops: wgpu::Operations {
@@ -684,6 +722,7 @@ impl Compositor {
                 pass.draw(0..36, 0..1);
             }
         }
+        self.encode.record(&mut encoder, &self.frame_view);
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.take_errors()
     }

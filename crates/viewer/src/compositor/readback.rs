@@ -28,7 +28,118 @@ impl FrameReadback {
     }
 }
 
+/// Whether a screenshot path asks for the linear OpenEXR frame (by its `.exr` extension,
+/// CONTRACTS §6) rather than the displayed PNG.
+pub fn is_exr_path(path: &std::path::Path) -> bool {
+    path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// The composited frame in linear values (the image's own units), before display encoding.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearFrame {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA, 4 floats per pixel, rows top to bottom.
+    pub rgba: Vec<f32>,
+}
+
+impl LinearFrame {
+    /// Writes the RGB channels as a 32-bit float OpenEXR file (ZIP-compressed), atomically:
+    /// CONTRACTS §6's `--screenshot OUT.exr`.
+    pub fn write_exr(&self, path: &std::path::Path) -> Result<(), ViewerError> {
+        use exr::prelude::*;
+        let io = |e: std::io::Error| ViewerError::Io { path: path.to_path_buf(), source: e };
+        let file_name =
+            path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+        let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
+        let w = self.width as usize;
+        let rgba = &self.rgba;
+        let pixel = |x: usize, y: usize| {
+            let k = (y * w + x) * 4;
+            (rgba[k], rgba[k + 1], rgba[k + 2])
+        };
+        let channels = SpecificChannels::rgb(|p: Vec2<usize>| pixel(p.x(), p.y()));
+        let layer = Layer::new(
+            (w, self.height as usize),
+            LayerAttributes::default(),
+            Encoding { compression: Compression::ZIP16, ..Encoding::FAST_LOSSLESS },
+            channels,
+        );
+        let result = (|| {
+            Image::from_layer(layer).write().to_file(&tmp).map_err(|e| match e {
+                exr::error::Error::Io(e) => io(e),
+                other => ViewerError::BadInput {
+                    path: path.to_path_buf(),
+                    message: format!("cannot encode OpenEXR: {other}"),
+                },
+            })?;
+            std::fs::File::open(&tmp).and_then(|f| f.sync_all()).map_err(io)?;
+            std::fs::rename(&tmp, path).map_err(io)
+        })();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result
+    }
+}
+
 impl Compositor {
+    /// Reads the last rendered frame's linear values back.
+    pub fn read_back_linear(&self) -> Result<LinearFrame, ViewerError> {
+        let device = &self.gpu.device;
+        let (w, h) = (self.width, self.height);
+        let half = self.linear_format != super::LINEAR_FORMAT;
+        let texel_bytes: u64 = if half { 8 } else { 16 };
+        let padded_row = align_up(u64::from(w) * texel_bytes, 256);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("linear readback"),
+            size: padded_row * u64::from(h),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("linear readback") });
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.linear_texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_row as u32),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.gpu.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait_idle()?;
+        rx.recv()
+            .map_err(|e| ViewerError::Gpu(e.to_string()))?
+            .map_err(|e| ViewerError::Gpu(format!("mapping the linear readback buffer: {e}")))?;
+        self.gpu.take_errors()?;
+        let view = buffer.get_mapped_range(..).map_err(|e| ViewerError::Gpu(e.to_string()))?;
+        let row_bytes = w as usize * texel_bytes as usize;
+        let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
+        for r in 0..h as usize {
+            let row = &view[r * padded_row as usize..][..row_bytes];
+            if half {
+                rgba.extend(row.chunks_exact(2).map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32()));
+            } else {
+                rgba.extend(row.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+            }
+        }
+        Ok(LinearFrame { width: w, height: h, rgba })
+    }
+
     /// Waits until the GPU has finished everything submitted so far.
     pub fn wait_idle(&self) -> Result<(), ViewerError> {
         self.gpu

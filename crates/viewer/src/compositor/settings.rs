@@ -2,8 +2,24 @@
 
 use depth_remap::{DepthConvention, NearFar};
 
-/// Format of the composited frame: 8-bit unorm, not sRGB, so input bytes pass through untouched.
+/// Format of the displayed frame: 8-bit unorm, not sRGB, so display bytes pass through untouched
+/// (the encode pass applies the display transfer itself, `crate::display`).
 pub const FRAME_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Format of the composited frame before display encoding: linear values in the image's own
+/// units, 32-bit float so an unchanged pre-rendered pixel keeps its input value bit for bit.
+/// Adapters that cannot render to it (GL's downlevel rules) get [`LINEAR_FORMAT_FALLBACK`].
+pub const LINEAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The linear frame's format where 32-bit float is not renderable: half floats, with the
+/// backdrop rounded to half precision first so unchanged pixels still compare equal.
+pub const LINEAR_FORMAT_FALLBACK: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// The linear frame's format on `adapter`: [`LINEAR_FORMAT`] where it can be rendered to, else
+/// [`LINEAR_FORMAT_FALLBACK`], else none.
+pub fn linear_format(adapter: &wgpu::Adapter) -> Option<wgpu::TextureFormat> {
+    [LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK].into_iter().find(|&f| {
+        adapter.get_texture_format_features(f).allowed_usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+    })
+}
 /// Format of the live-object mask.
 pub const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
 /// Most lights passed to the shaders; further lights are dropped (the brightest are kept).

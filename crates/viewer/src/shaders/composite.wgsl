@@ -40,7 +40,7 @@ struct Frame {
     screen_window: vec4<f32>,
     // width, height, tan(fov / 2) (0 when orthographic), 1 when perspective.
     raster: vec4<f32>,
-    // Exposure gain, 1 / gamma.
+    // x: scale from radiance to the image's units (Exposure's gain, which lrt-depth applies).
     tone: vec4<f32>,
     // light count, shadow on, sphere on.
     counts: vec4<u32>,
@@ -213,10 +213,9 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
         + material.specular_colour.rgb * ks * (exponent + 8.0) / (8.0 * PI) * specular;
 }
 
-// Exposure as lrt-depth applies it to 8-bit outputs; the unorm target rounds.
-fn tone_map(radiance: vec3<f32>) -> vec4<f32> {
-    let scaled = max(radiance * frame.tone.x, vec3<f32>(0.0));
-    return vec4<f32>(clamp(pow(scaled, vec3<f32>(frame.tone.y)), vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+// Radiance in the image's own units, into the linear frame (the encode pass displays it).
+fn to_image_units(radiance: vec3<f32>) -> vec4<f32> {
+    return vec4<f32>(max(radiance * frame.tone.x, vec3<f32>(0.0)), 1.0);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -290,7 +289,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     }
     let n = (p - c) / r;
     var out: LiveOut;
-    out.colour = tone_map(shade(frame.sphere_material, p, n, ray.direction));
+    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray.direction));
     out.mask = vec4<f32>(1.0);
     out.depth = depth;
     return out;
@@ -324,7 +323,7 @@ struct MeshFragmentOut {
 fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
-    return MeshFragmentOut(tone_map(shade(mesh.material, in.p_camera, n, ray.direction)), vec4<f32>(1.0));
+    return MeshFragmentOut(to_image_units(shade(mesh.material, in.p_camera, n, ray.direction)), vec4<f32>(1.0));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -427,5 +426,6 @@ fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         }
     }
     let keep = 1.0 - frame.shadow_params.y * hidden;
-    return vec4<f32>(keep, keep, keep, 1.0);
+    let backdrop = textureLoad(backdrop_colour, pixel, 0);
+    return vec4<f32>(backdrop.rgb * keep, backdrop.a);
 }
