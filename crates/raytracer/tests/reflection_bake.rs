@@ -71,6 +71,13 @@ fn a_probe_in_a_box_sees_the_emissive_wall_where_it_is_and_how_far() {
         assert!((toward[0] - wall[0]).abs() < 0.02 * wall[0], "{roughness}: {toward:?}");
         assert!(probes.sample(centre, [-1.0, 0.0, 0.0], roughness)[0] < 1e-3);
     }
+    // Blended and parallax-corrected from anywhere in the box: toward the wall its radiance,
+    // away from it none.
+    for p in [[0.5, 0.1, 0.2], [-0.7, -0.6, 0.3], [0.1, 0.8, -0.8]] {
+        let toward = probes.radiance(p, [1.0, 0.0, 0.0], 0.0);
+        assert!((toward[0] - wall[0]).abs() < 0.02 * wall[0], "{p:?}: {toward:?}");
+        assert!(probes.radiance(p, [-1.0, 0.0, 0.0], 0.0)[0] < 1e-3, "{p:?}");
+    }
     let broad = probes.sample(centre, [1.0, 0.0, 0.0], 1.0)[0];
     assert!(broad > 0.2 * wall[0] && broad < 0.9 * wall[0], "{broad}");
 }

@@ -3,7 +3,8 @@
 //! glossy (Blinn) lobe (split-sum prefiltered radiance, Karis 2013), and the distance to the
 //! first surface per texel so that a viewer can parallax-correct and choose probes
 //! (docs/sidecar.md). [`ReflectionProbes::sample`] and [`ReflectionProbes::radiance`] are the
-//! reference lookups the viewer ports to WGSL.
+//! reference lookups the viewer ports to WGSL ([`ReflectionProbes::radiance`] blends the probes
+//! around a point, parallax-corrected, leaving out those a wall hides).
 
 use crate::probes::{octahedral_direction, octahedral_uv};
 use std::f32::consts::PI;
@@ -270,13 +271,64 @@ impl ReflectionProbes {
         self.distance[probe * n * n + j * n + i]
     }
 
-    /// Parallax-corrected glossy reflection at world point `p` for the unit reflected direction
-    /// `r`: the probe nearest to `p` is looked up toward the point where the ray `p + t r`
-    /// meets the surface the probe's distance map describes, found by three fixed-point steps
+    /// Glossy reflection at world point `p` for the unit reflected direction `r`: the 8 probes
+    /// of the grid cell around `p` (fewer at the grid's edges), each looked up parallax-corrected
+    /// ([`ReflectionProbes::radiance_from`]), weighted trilinearly, and a probe whose distance
+    /// map does not reach `p` (a wall between them) only by `1e-3` of that, so light does not
+    /// leak through walls; with no probe seeing `p`, the trilinear mean.
+    pub fn radiance(&self, p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
+        let mut base = [0u32; 3];
+        let mut alpha = [0.0f32; 3];
+        for a in 0..3 {
+            let last = self.counts[a].saturating_sub(1);
+            let t = (p[a] - self.origin[a]) / self.spacing[a];
+            let t = if t.is_finite() { t.clamp(0.0, last as f32) } else { 0.0 };
+            let b = (t.floor() as u32).min(last.saturating_sub(1));
+            base[a] = b;
+            alpha[a] = if last == 0 { 0.0 } else { t - b as f32 };
+        }
+        let mut sum = [0.0f32; 3];
+        let mut total = 0.0f32;
+        for corner in 0..8u32 {
+            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+            let trilinear: f32 =
+                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
+            if trilinear <= 0.0 {
+                continue;
+            }
+            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
+            let w = if self.sees(cell, p) { trilinear } else { 1e-3 * trilinear };
+            let l = self.radiance_from(cell, p, r, roughness);
+            for c in 0..3 {
+                sum[c] += w * l[c];
+            }
+            total += w;
+        }
+        if total > 0.0 {
+            sum.map(|v| v / total)
+        } else {
+            self.radiance_from(self.nearest_probe(p), p, r, roughness)
+        }
+    }
+
+    /// Whether the probe of grid cell `cell` sees world point `p`: `p` is no farther from it
+    /// than its distance map reaches toward `p` (5 % slack for the texels' coarseness).
+    pub fn sees(&self, cell: [u32; 3], p: [f32; 3]) -> bool {
+        let c = self.probe_position(cell);
+        let to_p: [f32; 3] = std::array::from_fn(|a| p[a] - c[a]);
+        let d = dot(to_p, to_p).sqrt();
+        if d.is_nan() || d <= 0.0 {
+            return true;
+        }
+        d <= 1.05 * self.distance_toward(self.probe_index(cell), to_p.map(|v| v / d))
+    }
+
+    /// Parallax-corrected reflection from the probe of grid cell `cell` at world point `p` for
+    /// the unit reflected direction `r`: the probe is looked up toward the point where the ray
+    /// `p + t r` meets the surface its distance map describes, found by three fixed-point steps
     /// (start at the probe's distance toward `r`; each step intersects the ray with the sphere
     /// around the probe whose radius is the probe's distance toward the current estimate).
-    pub fn radiance(&self, p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
-        let cell = self.nearest_probe(p);
+    pub fn radiance_from(&self, cell: [u32; 3], p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
         let probe = self.probe_index(cell);
         let c = self.probe_position(cell);
         let pc: [f32; 3] = std::array::from_fn(|a| p[a] - c[a]);
@@ -462,6 +514,41 @@ mod tests {
             radiance: reflection_levels(&base),
             distance,
         }
+    }
+
+    /// Probes at x = 0 (seeing red everywhere) and x = 1 (blue), a wall at x = 0.5 between.
+    #[test]
+    fn a_probe_behind_a_wall_does_not_reflect_into_the_other_side() {
+        let n = REFLECTION_TEXELS;
+        let map = |rgb: [f32; 3]| reflection_levels(&vec![rgb; n * n]);
+        let (red, blue) = (map([1.0, 0.0, 0.0]), map([0.0, 0.0, 1.0]));
+        let radiance = (0..REFLECTION_LEVELS).map(|k| [red[k].clone(), blue[k].clone()].concat()).collect();
+        let mut distance = Vec::new();
+        for toward_wall in [1.0f32, -1.0] {
+            for t in 0..n * n {
+                let d = octahedral_texel_center(n, t);
+                // The wall is 0.5 away along x; rays leaving at a slant meet it farther away.
+                distance.push(if d[0] * toward_wall > 0.05 {
+                    (0.5 / (d[0] * toward_wall)).min(10.0)
+                } else {
+                    10.0
+                });
+            }
+        }
+        let probes = ReflectionProbes {
+            depth_fingerprint: 0,
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+            counts: [2, 1, 1],
+            radiance,
+            distance,
+        };
+        let up = [0.0, 1.0, 0.0];
+        assert!(probes.sees([0, 0, 0], [0.4, 0.0, 0.0]) && !probes.sees([1, 0, 0], [0.4, 0.0, 0.0]));
+        let left = probes.radiance([0.4, 0.0, 0.0], up, 0.25);
+        let right = probes.radiance([0.6, 0.0, 0.0], up, 0.25);
+        assert!(left[0] > 0.99 && left[2] < 0.01, "{left:?}");
+        assert!(right[2] > 0.99 && right[0] < 0.01, "{right:?}");
     }
 
     #[test]
