@@ -190,6 +190,21 @@ pub(crate) fn finite_values(
     Ok(values)
 }
 
+/// Removes channel `name` from `channels`, or says it is missing, listing the channels there are.
+pub(crate) fn take_channel(
+    channels: &mut HashMap<String, Vec<f32>>,
+    name: String,
+) -> Result<Vec<f32>, SidecarErrorKind> {
+    match channels.remove(&name) {
+        Some(v) => Ok(v),
+        None => {
+            let mut found: Vec<String> = channels.keys().cloned().collect();
+            found.sort();
+            Err(SidecarErrorKind::MissingChannel { name, found })
+        }
+    }
+}
+
 pub(crate) fn parse_triple<T: std::str::FromStr>(
     attrs: &HashMap<Text, AttributeValue>,
     name: &str,
@@ -252,15 +267,7 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
             channels.insert(full, values);
         }
     }
-    let found = |channels: &HashMap<String, Vec<f32>>| {
-        let mut v: Vec<String> = channels.keys().cloned().collect();
-        v.sort();
-        v
-    };
-    let mut take = |name: String| match channels.remove(&name) {
-        Some(v) => Ok(v),
-        None => Err(SidecarErrorKind::MissingChannel { found: found(&channels), name }),
-    };
+    let mut take = |name: String| take_channel(&mut channels, name);
     let mut radiance_sh = vec![[[0.0f32; 3]; SH_COEFFICIENTS]; n];
     for i in 0..SH_COEFFICIENTS {
         for c in 0..3 {

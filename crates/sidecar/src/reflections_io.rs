@@ -5,7 +5,7 @@
 
 use crate::error::{SidecarError, SidecarErrorKind};
 use crate::layers_io::{ReadLimits, exr_error, fingerprint_attribute, read_header};
-use crate::probes_io::{GridNames, finite_values, grid_attributes, read_grid};
+use crate::probes_io::{GridNames, finite_values, grid_attributes, read_grid, take_channel};
 use crate::reflections::{
     REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, reflection_level_roughness,
     reflection_level_texels,
@@ -221,15 +221,7 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ReflectionProbes, Si
             channels.insert(full, values);
         }
     }
-    let found = |channels: &HashMap<String, Vec<f32>>| {
-        let mut v: Vec<String> = channels.keys().cloned().collect();
-        v.sort();
-        v
-    };
-    let mut take = |name: String| match channels.remove(&name) {
-        Some(v) => Ok(v),
-        None => Err(SidecarErrorKind::MissingChannel { found: found(&channels), name }),
-    };
+    let mut take = |name: String| take_channel(&mut channels, name);
     let mut radiance = Vec::with_capacity(REFLECTION_LEVELS);
     for k in 0..REFLECTION_LEVELS {
         let mut level = vec![[0.0f32; 3]; reflection_level_texels(k).pow(2) * n];
