@@ -12,6 +12,7 @@
 //! - `cargo xtask bench-error`, `cargo xtask image-error`: see `bench_error.rs`.
 //! - `cargo xtask corpus`: the RIB corpus rendered small, a contact sheet and warning table; see `corpus.rs`.
 //! - `cargo xtask reflection-probes`: the reflection probes' bake cost and picture; see `reflections.rs`.
+//! - `cargo xtask env-light`: a generated sky lighting a small scene (docs/environment-light.png); see `env_light.rs`.
 
 mod bench_error;
 mod check;
@@ -19,6 +20,7 @@ mod colocation;
 mod cornell;
 mod corpus;
 mod depth;
+mod env_light;
 mod illusion;
 mod measure;
 mod mitsuba;
@@ -55,9 +57,10 @@ fn main() -> ExitCode {
         Some("scale-out") => scale_out::scale_out(&args[1..]),
         Some("corpus") => corpus::corpus(&workspace_root(), &args[1..]),
         Some("reflection-probes") => reflections::reflection_probes(&args[1..]),
+        Some("env-light") => env_light::env_light(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  bench-check              lrt-depth --check against wc -w on a generated 50 MB mesh\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512\n  illusion                 live objects against ray traces of the scene with them: docs/illusion.md (minutes)\n  bench-error              render time against error for every integrator (docs/performance.md)\n  image-error A.exr B.exr  RMSE and relative MSE of an image against a reference\n  scale-out                the Cornell box as 1, 4 and 16 tiles through a local Slurm (docs/scale-out.md)\n  corpus                   render ../shared/rib-corpus small: docs/corpus.md and its contact sheet (minutes)\n  reflection-probes        the reflection probes' bake cost against the render, and their picture (docs/sidecar.md)"
+                "usage: cargo xtask <command>\n\ncommands:\n  test [cargo test args]   run the whole test suite (installs its system packages first)\n  install-test-deps        only install the system packages the tests need\n  depth-exhaustive         every f32 through the depth-table writer and reader (minutes)\n  depth-study              print the figures of docs/depth-mapping.md\n  update-fixtures          rewrite the expected outputs of fixtures/rib (review the diff)\n  bench-parse              the RIB parse-throughput benchmark (release, one core)\n  bench-check              lrt-depth --check against wc -w on a generated 50 MB mesh\n  cornell-check            the ray tracer against Mitsuba's converged Cornell box (minutes)\n  bench-raytracer          ray-tracing benchmark tables for docs/raytracer.md\n  colocation               hybrid-view's sphere mask against lrt-depth renders at 512x512\n  illusion                 live objects against ray traces of the scene with them: docs/illusion.md (minutes)\n  bench-error              render time against error for every integrator (docs/performance.md)\n  image-error A.exr B.exr  RMSE and relative MSE of an image against a reference\n  scale-out                the Cornell box as 1, 4 and 16 tiles through a local Slurm (docs/scale-out.md)\n  corpus                   render ../shared/rib-corpus small: docs/corpus.md and its contact sheet (minutes)\n  reflection-probes        the reflection probes' bake cost against the render, and their picture (docs/sidecar.md)\n  env-light                a generated lat-long sky lighting spheres: docs/environment-light.png"
             );
             return ExitCode::from(2);
         }

@@ -186,6 +186,45 @@ impl Texture {
     }
 }
 
+/// A lat-long map resampled from `MakeCubeFaceEnvironment`'s six faces (in the order
+/// `px nx py ny pz nz`, each seen from the centre with a field of view of `fov_degrees`), so
+/// that cube-face environments are read by the lat-long code (`shinymetal`, environment
+/// lights). Face coordinates follow RenderMan's (and OpenGL's) cube-map convention: along +x,
+/// `(s, t) = (-z, -y) / |x|`, along -x `(z, -y)`, along +y `(x, z)`, along -y `(x, -z)`, along
+/// +z `(x, -y)`, along -z `(-x, -y)`, scaled by `1 / tan(fov / 2)` from `[-1, 1]` to `[0, 1]`
+/// (`t = 0` at the top row). The map is `4n x 2n` for faces of `n` texels at most (at most
+/// 2048, and within [`MAX_TEXELS`]), read bilinearly from each face.
+pub fn lat_long_from_cube_faces(faces: [&Texture; 6], fov_degrees: f32) -> Option<Texture> {
+    let half = (0.5 * fov_degrees.to_radians()).tan();
+    if !(half.is_finite() && half > 0.0) {
+        return None;
+    }
+    let n = faces.iter().map(|f| f.levels[0].width.max(f.levels[0].height)).max()?.clamp(1, 2048);
+    let n = n.min(((MAX_TEXELS / 8) as f64).sqrt() as u32);
+    let (width, height) = (4 * n, 2 * n);
+    let mut texels = Vec::with_capacity(width as usize * height as usize);
+    for y in 0..height {
+        let theta = (y as f32 + 0.5) / height as f32 * std::f32::consts::PI;
+        for x in 0..width {
+            let phi = (x as f32 + 0.5) / width as f32 * 2.0 * std::f32::consts::PI;
+            let d = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            let a = d.abs();
+            let (face, sc, tc, ma) = if a.x >= a.y && a.x >= a.z {
+                if d.x > 0.0 { (0, -d.z, -d.y, a.x) } else { (1, d.z, -d.y, a.x) }
+            } else if a.y >= a.z {
+                if d.y > 0.0 { (2, d.x, d.z, a.y) } else { (3, d.x, -d.z, a.y) }
+            } else if d.z > 0.0 {
+                (4, d.x, -d.y, a.z)
+            } else {
+                (5, -d.x, -d.y, a.z)
+            };
+            let st = Vec2::new(sc, tc) / (ma * half) * 0.5 + Vec2::splat(0.5);
+            texels.push(faces[face].levels[0].bilinear(st, (Wrap::Clamp, Wrap::Clamp)));
+        }
+    }
+    Texture::from_rgb(width, height, texels).map(|t| t.with_wrap(Wrap::Periodic, Wrap::Clamp))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,6 +237,44 @@ mod tests {
         assert!((t.lookup(Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
         assert_eq!(t.lookup(Vec2::new(1.25, 0.5)), Vec3::ZERO);
         assert!(Texture::load(Path::new("/nonexistent.png")).is_err());
+    }
+
+    /// Six faces of distinct colours become a lat-long map whose directions along each axis
+    /// read that axis's face, and a face's top row is where RenderMan puts it.
+    #[test]
+    fn cube_faces_resample_to_lat_long() {
+        let colours =
+            [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE, Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 1.0)];
+        let faces: Vec<Texture> =
+            colours.iter().map(|&c| Texture::from_rgb(32, 32, vec![c; 1024]).unwrap()).collect();
+        let map = lat_long_from_cube_faces(std::array::from_fn(|i| &faces[i]), 90.0).unwrap();
+        let lat_long = |d: Vec3| {
+            let phi = d.y.atan2(d.x).rem_euclid(2.0 * std::f32::consts::PI);
+            map.lookup_lat_long(Vec2::new(
+                phi / (2.0 * std::f32::consts::PI),
+                d.z.acos() / std::f32::consts::PI,
+            ))
+        };
+        for (axis, colour) in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z].iter().zip(colours) {
+            let d = (*axis + Vec3::new(0.1, 0.13, 0.12)).normalize();
+            assert_eq!(lat_long(d), colour, "{axis}");
+        }
+        // On the +x face, +y (up in RenderMan's camera) is the top row.
+        let mut texels = vec![Vec3::ZERO; 1024];
+        texels[..512].fill(Vec3::ONE);
+        let top = Texture::from_rgb(32, 32, texels).unwrap();
+        let mut with_top: Vec<&Texture> = faces.iter().collect();
+        with_top[0] = &top;
+        let map = lat_long_from_cube_faces(std::array::from_fn(|i| with_top[i]), 90.0).unwrap();
+        let phi_theta = |d: Vec3| {
+            Vec2::new(
+                d.y.atan2(d.x).rem_euclid(2.0 * std::f32::consts::PI) / (2.0 * std::f32::consts::PI),
+                d.z.acos() / std::f32::consts::PI,
+            )
+        };
+        assert_eq!(map.lookup_lat_long(phi_theta(Vec3::new(1.0, 0.5, 0.1).normalize())), Vec3::ONE);
+        assert_eq!(map.lookup_lat_long(phi_theta(Vec3::new(1.0, -0.5, 0.1).normalize())), Vec3::ZERO);
+        assert!(lat_long_from_cube_faces(std::array::from_fn(|i| &faces[i]), 0.0).is_none());
     }
 
     /// A fine checkerboard seen through a footprint of many texels is its mean, and wrap modes

@@ -253,3 +253,26 @@ fn light_layers_hold_the_sky() {
         assert!(layers.indirect[centre][0].abs() < 1e-3, "{integrator}: {:?}", layers.indirect[centre]);
     }
 }
+
+/// A cube-face environment whose +z face alone is white lights an upward plane like a square
+/// emitter of side 2 at height 1: irradiance `4 L * 0.4352` (four corner form factors,
+/// `pi F = (1/sqrt 2) atan(1/sqrt 2)` each), radiance `Kd E / pi`.
+#[test]
+fn a_cube_face_environment_lights_through_its_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    for face in ["px", "nx", "py", "ny", "pz", "nz"] {
+        let value = if face == "pz" { 255 } else { 0 };
+        write_png(&dir.path().join(format!("{face}.png")), 32, 32, |_, _| [value; 3]);
+    }
+    let rib = format!(
+        "MakeCubeFaceEnvironment \"px.png\" \"nx.png\" \"py.png\" \"ny.png\" \"pz.png\" \"nz.png\" \"cube.env\" 90 \"box\" 1 1\n\
+         {}WorldBegin\nLightSource \"envlight\" 1 \"string envmap\" [\"cube.env\"]\n{PLANE}WorldEnd\n",
+        camera(0.9, DIRECT)
+    );
+    let out = run_in(Some(dir.path()), &rib, false);
+    assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+    let corner = (0.5f32.sqrt()) * (0.5f32.sqrt()).atan();
+    let expected = 0.8 * 4.0 * corner / PI;
+    let m = mean(&out);
+    assert!((m - Vec3::splat(expected)).abs().max_element() < 0.03 * expected, "{m} vs {expected}");
+}

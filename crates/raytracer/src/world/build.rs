@@ -22,7 +22,8 @@ use std::time::Instant;
 use tessellate::{SeamWelder, is_quadric, shape_kind};
 
 /// The texture a shader names: the picture of the last `MakeTexture` (or lat-long environment)
-/// that made `name`, with its wrap modes, or else the file `name` itself. Relative paths are
+/// that made `name`, with its wrap modes, a cube-face environment's six pictures resampled to
+/// a lat-long map, or else the file `name` itself. Relative paths are
 /// tried from the working directory, then from the RIB file's directory.
 fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
     let resolve = |file: &str| {
@@ -46,8 +47,14 @@ fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
             let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
             Ok(Arc::new(texture.with_wrap(Wrap::Periodic, Wrap::Clamp)))
         }
-        Some(MadeTextureKind::CubeFaces { .. }) => {
-            Err("a cube-face environment cannot be a surface texture".to_string())
+        Some(MadeTextureKind::CubeFaces { faces, fov }) => {
+            let mut loaded = Vec::with_capacity(6);
+            for face in faces {
+                loaded.push(Texture::load(&resolve(face)).map_err(|e| format!("{face}: {e}"))?);
+            }
+            crate::texture::lat_long_from_cube_faces(std::array::from_fn(|i| &loaded[i]), *fov)
+                .map(Arc::new)
+                .ok_or_else(|| format!("cube-face field of view {fov} is not in (0, 180) degrees"))
         }
         None => Texture::load(&resolve(name)).map(Arc::new),
     }
