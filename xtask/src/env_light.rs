@@ -87,7 +87,7 @@ pub fn env_light(_args: &[String]) -> Result<(), String> {
     let mut renders = Vec::new();
     for (name, integrator) in [
         ("path", "\"path\""),
-        ("photonmap", "\"photonmap\" \"integer indirectphotons\" [50000] \"integer causticphotons\" [2000]"),
+        ("photonmap", "\"photonmap\" \"integer indirectphotons\" [50000] \"integer causticphotons\" [50000]"),
     ] {
         let rib = work.join(format!("{name}.rib"));
         std::fs::write(&rib, scene(integrator)).map_err(|e| e.to_string())?;

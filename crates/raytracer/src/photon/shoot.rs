@@ -434,8 +434,9 @@ fn emission(
 /// from [`Aim::sample`], and the power `Le cos / (pick pdf_pos pdf_aim)`. Where the cones cover
 /// no less solid angle than the light emits into (a narrow spot light, a point inside a bounding
 /// sphere), the photon keeps the light's own direction distribution instead; the choice depends
-/// on the position only, so each is unbiased given the position. Distant lights are not aimed
-/// (their photons start on a disc over the scene and carry no direction choice).
+/// on the position only, so each is unbiased given the position. Lights at infinity (distant and
+/// environment lights) keep their direction distribution and aim the origin instead
+/// ([`aimed_from_infinity`]).
 #[allow(clippy::too_many_arguments)]
 fn aimed_emission(
     light: &Light,
@@ -458,6 +459,9 @@ fn aimed_emission(
             // its origin is already pushed off the surface to that side.
             let le = light.sample_le(u_pos, u_dir, u_side, scene)?;
             (le.origin, le.n, le.pdf_pos, *two_sided, 2.0 * PI)
+        }
+        Light::Distant { .. } | Light::Environment(_) => {
+            return aimed_from_infinity(light, aim, u_pos, u_dir, u_aim, scene, pick);
         }
         _ => return emission(light, u_pos, u_dir, u_side, scene, pick),
     };
@@ -491,6 +495,60 @@ fn aimed_emission(
     let alpha = intensity / denominator;
     let ok = denominator > 0.0 && alpha.is_finite() && alpha != Vec3::ZERO;
     ok.then_some((origin, direction, alpha))
+}
+
+/// A photon from a light at infinity aimed at the specular shapes: the direction from the
+/// light's own distribution, the origin uniform on the silhouette (a disc of its radius) of an
+/// aiming sphere chosen by area, seen along that direction, instead of on the disc of the whole
+/// scene. The area density counts every silhouette that contains the origin. Where the
+/// silhouettes cover no less area than the scene's disc, the photon is not aimed.
+fn aimed_from_infinity(
+    light: &Light,
+    aim: &Aim,
+    u_pos: Vec2,
+    u_dir: Vec2,
+    u_aim: f32,
+    scene: (Vec3, f32),
+    pick: f32,
+) -> Option<(Vec3, Vec3, Vec3)> {
+    use std::f32::consts::PI;
+    let spheres = &aim.spheres[..aim.spheres.len().min(MAX_AIM_SPHERES)];
+    let total_r2: f32 = spheres.iter().map(|&(_, r)| r * r).sum();
+    let (centre, radius) = scene;
+    if spheres.is_empty() || !(total_r2 > 0.0) || total_r2 >= radius * radius {
+        return emission(light, u_pos, u_dir, 0.0, scene, pick);
+    }
+    // The direction (and radiance) as the light samples them; its origin is replaced.
+    let le = light.sample_le(u_pos, u_dir, 0.0, scene)?;
+    let wi = -le.direction;
+    let mut target = u_aim * total_r2;
+    let mut chosen = spheres[spheres.len() - 1];
+    for &(c, r) in spheres {
+        if target < r * r {
+            chosen = (c, r);
+            break;
+        }
+        target -= r * r;
+    }
+    let (c, r) = chosen;
+    let frame = crate::math::Frame::from_z(wi);
+    let d = crate::sampling::sample_concentric_disk(u_pos) * r;
+    let on_plane = c + frame.x * d.x + frame.y * d.y;
+    let covering = spheres
+        .iter()
+        .filter(|&&(c, r)| {
+            let v = on_plane - c;
+            (v - wi * v.dot(wi)).length_squared() <= r * r
+        })
+        .count()
+        .max(1);
+    let pdf_pos = covering as f32 / (PI * total_r2);
+    // Moved back along the direction until it is outside the scene's bounding sphere.
+    let origin = on_plane + wi * (radius + (c - centre).length());
+    let denominator = pick * pdf_pos * le.pdf_dir;
+    let alpha = le.le / denominator;
+    let ok = denominator > 0.0 && alpha.is_finite() && alpha != Vec3::ZERO && origin.is_finite();
+    ok.then_some((origin, le.direction, alpha))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -633,6 +691,55 @@ mod tests {
                 let v = halton(d, i, 42);
                 assert!((0.0..1.0).contains(&v));
             }
+        }
+    }
+
+    /// Photons from lights at infinity aimed at two overlapping spheres carry, on average over
+    /// the photons whose ray meets a sphere, the same power as unaimed photons: the flux through
+    /// the spheres' silhouettes.
+    #[test]
+    fn aimed_photons_from_infinity_carry_the_flux_through_the_silhouettes() {
+        use crate::environment_light::EnvironmentLight;
+        let map = crate::texture::Texture::from_rgb(
+            16,
+            8,
+            (0..128).map(|i| Vec3::splat(0.2 + (i % 5) as f32)).collect(),
+        )
+        .unwrap();
+        let env = Light::Environment(std::sync::Arc::new(
+            EnvironmentLight::new(Vec3::ONE, Some(std::sync::Arc::new(map)), glam::DMat3::IDENTITY).unwrap(),
+        ));
+        let distant =
+            Light::Distant { direction: Vec3::new(0.3, -1.0, 0.2).normalize(), irradiance: Vec3::ONE };
+        let spheres = vec![(Vec3::new(0.5, 0.0, 0.0), 0.6), (Vec3::new(1.0, 0.3, 0.2), 0.4)];
+        let aim = Aim { spheres: spheres.clone() };
+        let scene = (Vec3::ZERO, 3.0);
+        let hits = |o: Vec3, d: Vec3| {
+            spheres.iter().any(|&(c, r)| {
+                let v = c - o;
+                let t = v.dot(d);
+                t > 0.0 && (v - d * t).length_squared() <= r * r
+            })
+        };
+        for light in [&env, &distant] {
+            let n = 200_000;
+            let mut rng = Rng::new(3, 3);
+            let (mut aimed, mut plain) = (Vec3::ZERO, Vec3::ZERO);
+            for _ in 0..n {
+                let (u_pos, u_dir, u_aim) = (rng.uniform2(), rng.uniform2(), rng.uniform());
+                if let Some((o, d, a)) = aimed_from_infinity(light, &aim, u_pos, u_dir, u_aim, scene, 1.0) {
+                    assert!(hits(o, d), "an aimed photon misses");
+                    assert!((o - scene.0).length() >= scene.1 * 0.999);
+                    aimed += a;
+                }
+                if let Some((o, d, a)) = emission(light, u_pos, u_dir, 0.0, scene, 1.0)
+                    && hits(o, d)
+                {
+                    plain += a;
+                }
+            }
+            let (aimed, plain) = (aimed / n as f32, plain / n as f32);
+            assert!((aimed - plain).abs().max_element() < 0.03 * plain.max_element(), "{aimed} vs {plain}");
         }
     }
 
