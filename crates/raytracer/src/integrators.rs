@@ -120,25 +120,37 @@ const MAX_TRANSPARENT_LAYERS: u32 = 256;
 /// ray with probability `mean(Os)`). Returns the surface and the weight of the choices made.
 pub fn find_surface(
     world: &World,
-    mut ray: Ray,
+    ray: Ray,
     sampler: &mut Sampler,
     counter: &mut u64,
 ) -> Option<(SurfaceInteraction, Vec3)> {
+    find_surface_or_escape(world, ray, sampler, counter).ok()
+}
+
+/// [`find_surface`], telling a ray that leaves the scene (`Err`, with the weight of the
+/// partially transparent surfaces it passed, which tints what it sees of an environment) from
+/// one stopped after too many layers (`Err(Vec3::ZERO)`).
+pub fn find_surface_or_escape(
+    world: &World,
+    mut ray: Ray,
+    sampler: &mut Sampler,
+    counter: &mut u64,
+) -> Result<(SurfaceInteraction, Vec3), Vec3> {
     let mut weight = Vec3::ONE;
     for _ in 0..MAX_TRANSPARENT_LAYERS {
         *counter += 1;
-        let hit = world.intersect(&ray)?;
+        let Some(hit) = world.intersect(&ray) else { return Err(weight) };
         let si = world.interaction(&ray, &hit);
         let opacity = world.material(si.attributes).opacity;
         if opacity == Vec3::ONE {
-            return Some((si, weight));
+            return Ok((si, weight));
         }
         let p_stop = average(opacity).clamp(0.0, 1.0);
         if p_stop > 0.0 && sampler.uniform() < p_stop {
-            return Some((si, weight * opacity / p_stop));
+            return Ok((si, weight * opacity / p_stop));
         }
         if p_stop >= 1.0 {
-            return Some((si, weight));
+            return Ok((si, weight));
         }
         weight *= (Vec3::ONE - opacity) / (1.0 - p_stop);
         // Continue on the far side of this surface, same direction.
@@ -152,7 +164,7 @@ pub fn find_surface(
             time: ray.time,
         };
     }
-    None
+    Err(Vec3::ZERO)
 }
 
 fn light_context(si: &SurfaceInteraction) -> LightSampleContext {
@@ -293,10 +305,10 @@ pub fn escaped(world: &World, dir: Vec3) -> Vec3 {
     world.environment_lights.iter().map(|&e| world.lights[e as usize].escaped(dir)).sum()
 }
 
-/// A camera ray that leaves the scene: the environment it sees (no coverage), recorded as
-/// emission seen by the camera for the light layers.
-pub fn camera_escaped(world: &World, dir: Vec3) -> Radiance {
-    let le = sanitize(escaped(world, dir));
+/// A camera ray that leaves the scene: the environment it sees (no coverage) through surfaces
+/// of weight `through`, recorded as emission seen by the camera for the light layers.
+pub fn camera_escaped(world: &World, dir: Vec3, through: Vec3) -> Radiance {
+    let le = sanitize(through * escaped(world, dir));
     crate::light_layers::camera_escaped(le);
     Radiance { rgb: le, alpha: 0.0 }
 }
@@ -404,11 +416,12 @@ fn whitted(
     counters: &mut RayCounters,
     rays: &mut u64,
 ) -> Radiance {
-    let Some((si, weight)) = find_surface(world, ray, sampler, rays) else {
-        if depth == 0 {
-            return camera_escaped(world, ray.direction);
+    let (si, weight) = match find_surface_or_escape(world, ray, sampler, rays) {
+        Ok(found) => found,
+        Err(through) if depth == 0 => return camera_escaped(world, ray.direction, through),
+        Err(through) => {
+            return Radiance { rgb: sanitize(through * escaped(world, ray.direction)), alpha: 0.0 };
         }
-        return Radiance { rgb: sanitize(escaped(world, ray.direction)), alpha: 0.0 };
     };
     let material = world.material(si.attributes);
     if material.holdout {
@@ -474,7 +487,7 @@ fn escaped_with_mis(
     prev: Option<(glam::DVec3, f32, rib_parser::scene::AttributesId)>,
 ) -> Vec3 {
     if depth == 0 {
-        return beta * camera_escaped(world, dir).rgb;
+        return camera_escaped(world, dir, beta).rgb;
     }
     let dir = dir.normalize_or_zero();
     let mut l = Vec3::ZERO;
@@ -519,15 +532,18 @@ fn path(
     let mut depth = 0u32;
     loop {
         let mut rays = 0;
-        let found = find_surface(world, ray, sampler, &mut rays);
+        let found = find_surface_or_escape(world, ray, sampler, &mut rays);
         if depth == 0 {
             counters.camera += rays;
         } else {
             counters.bounce += rays;
         }
-        let Some((si, weight)) = found else {
-            l += escaped_with_mis(world, ray.direction, beta, depth, specular_bounce, prev);
-            break;
+        let (si, weight) = match found {
+            Ok(found) => found,
+            Err(through) => {
+                l += escaped_with_mis(world, ray.direction, beta * through, depth, specular_bounce, prev);
+                break;
+            }
         };
         beta *= weight;
         let material = world.material(si.attributes);

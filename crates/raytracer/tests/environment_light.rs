@@ -276,3 +276,19 @@ fn a_cube_face_environment_lights_through_its_faces() {
     let m = mean(&out);
     assert!((m - Vec3::splat(expected)).abs().max_element() < 0.03 * expected, "{m} vs {expected}");
 }
+
+/// The sky seen through a partially transparent surface of coloured opacity is tinted by
+/// `1 - Os`: a black surface of `Os = (1, 0.5, 0)` in front of a white sky shows `(0, 0.5, 1) L`.
+#[test]
+fn the_sky_through_coloured_opacity_is_tinted() {
+    for integrator in [PATH, DIRECT, PHOTONS] {
+        let rib = format!(
+            "{}WorldBegin\nLightSource \"envlight\" 1 \"intensity\" [2]\n\
+             Opacity [1 0.5 0]\nSurface \"matte\" \"Kd\" [0]\n{}WorldEnd\n",
+            camera(0.9, integrator),
+            PLANE.lines().nth(1).unwrap()
+        );
+        let m = mean(&run_in(None, &rib, false));
+        assert!((m - Vec3::new(0.0, 1.0, 2.0)).abs().max_element() < 0.15, "{integrator}: {m}");
+    }
+}

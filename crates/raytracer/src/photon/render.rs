@@ -6,7 +6,7 @@ use super::{GatherSampling, PhotonMapper, unpack_unit};
 use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
 use crate::integrators::{
     DirectStrategy, Radiance, RayCounters, camera_escaped, direct_from_light, escaped, find_surface,
-    sanitize, surface_terms,
+    find_surface_or_escape, sanitize, surface_terms,
 };
 use crate::math::Frame;
 use crate::sampler::Sampler;
@@ -120,17 +120,18 @@ impl PhotonMapper {
         scratch: &mut Scratch,
     ) -> Radiance {
         let mut rays = 0;
-        let found = find_surface(world, ray, sampler, &mut rays);
+        let found = find_surface_or_escape(world, ray, sampler, &mut rays);
         if depth == 0 {
             counters.camera += rays;
         } else {
             counters.bounce += rays;
         }
-        let Some((si, weight)) = found else {
-            if depth == 0 {
-                return camera_escaped(world, ray.direction);
+        let (si, weight) = match found {
+            Ok(found) => found,
+            Err(through) if depth == 0 => return camera_escaped(world, ray.direction, through),
+            Err(through) => {
+                return Radiance { rgb: sanitize(through * escaped(world, ray.direction)), alpha: 0.0 };
             }
-            return Radiance { rgb: sanitize(escaped(world, ray.direction)), alpha: 0.0 };
         };
         let material = world.material(si.attributes);
         if material.holdout {
