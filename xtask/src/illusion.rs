@@ -1,4 +1,4 @@
-//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b]`: how well a live object passes
+//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse]`: how well a live object passes
 //! for part of the ray-traced scene (issue 10).
 //!
 //! For each scene (the Cornell box, the caustics scene, the room), each placement and each
@@ -149,17 +149,41 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// Renders `rib_text` with `lrt-depth` into `dir/name.exr` and `dir/name.depth`.
+/// What a render was made from: the sample count and the `lrt-depth` binary's size and
+/// modification time (with the RIB text beside it, `--reuse` takes a render made from the same).
+fn render_stamp(lrt: &Path, spp: u32) -> String {
+    let meta = std::fs::metadata(lrt).ok();
+    let modified =
+        meta.as_ref().and_then(|m| m.modified().ok()).map(|t| format!("{t:?}")).unwrap_or_default();
+    format!("spp {spp}; lrt-depth {} bytes, modified {modified}\n", meta.map_or(0, |m| m.len()))
+}
+
+/// Renders `rib_text` with `lrt-depth` into `dir/name.exr` and `dir/name.depth` (with its
+/// light layers beside them); with `reuse`, a render already there from the same RIB text,
+/// sample count and binary is taken as it is.
 fn render(
     lrt: &Path,
     dir: &Path,
     name: &str,
     rib_text: &str,
     spp: u32,
+    reuse: bool,
 ) -> Result<(PathBuf, PathBuf), String> {
     let rib = dir.join(format!("{name}.rib"));
-    write(&rib, rib_text)?;
     let (image, depth) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.depth")));
+    let stamp_path = dir.join(format!("{name}.stamp"));
+    let stamp = render_stamp(lrt, spp);
+    if reuse
+        && image.exists()
+        && depth.exists()
+        && std::fs::read_to_string(&rib).is_ok_and(|t| t == rib_text)
+        && std::fs::read_to_string(&stamp_path).is_ok_and(|t| t == stamp)
+    {
+        eprintln!("illusion: reusing {}", image.display());
+        return Ok((image, depth));
+    }
+    let _ = std::fs::remove_file(&stamp_path);
+    write(&rib, rib_text)?;
     let mut cmd = Command::new(lrt);
     cmd.current_dir(dir).arg(&rib).arg("-o").arg(&image).arg("--depth").arg(&depth);
     cmd.args(["--spp", &spp.to_string()]);
@@ -168,6 +192,7 @@ fn render(
         return Err(format!("lrt-depth failed on {}:\n{}", rib.display(), r.stderr));
     }
     eprintln!("illusion: rendered {} in {:.1} s", image.display(), r.wall_s);
+    write(&stamp_path, &stamp)?;
     Ok((image, depth))
 }
 
@@ -308,7 +333,7 @@ fn frame_time(
 ) -> Result<f64, String> {
     let text = std::fs::read_to_string(&scene.rib).map_err(|e| format!("{}: {e}", scene.rib.display()))?;
     let name = format!("{}-frames-{size}", scene.name);
-    let (image, depth) = render(lrt, dir, &name, &scene_rib(&text, size, None)?, 1)?;
+    let (image, depth) = render(lrt, dir, &name, &scene_rib(&text, size, None)?, 1, true)?;
     let live = dir.join(format!("{name}-live.rib"));
     write(&live, &live_rib(&scene.placements[0], MATERIALS[1].1))?;
     let mut cmd = Command::new(viewer);
@@ -329,6 +354,7 @@ fn frame_time(
 
 pub fn illusion(args: &[String]) -> Result<(), String> {
     let (mut spp, mut size, mut only): (u32, u32, Option<Vec<String>>) = (64, 256, None);
+    let mut reuse = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or(format!("{a} needs a value"));
@@ -336,6 +362,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
             "--spp" => spp = value()?.parse().map_err(|_| "--spp needs a count")?,
             "--size" => size = value()?.parse().map_err(|_| "--size needs a pixel count")?,
             "--scenes" => only = Some(value()?.split(',').map(str::to_string).collect()),
+            "--reuse" => reuse = true,
             other => return Err(format!("illusion: unknown argument {other}")),
         }
     }
@@ -358,7 +385,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
         let text =
             std::fs::read_to_string(&scene.rib).map_err(|e| format!("{}: {e}", scene.rib.display()))?;
         let base_name = format!("{}-without", scene.name);
-        let (image, depth) = render(&lrt, &dir, &base_name, &scene_rib(&text, size, None)?, spp)?;
+        let (image, depth) = render(&lrt, &dir, &base_name, &scene_rib(&text, size, None)?, spp, reuse)?;
         let without = read_exr(&image)?;
         let base_rib = dir.join(format!("{base_name}.rib"));
         let mut rows = Vec::new();
@@ -367,8 +394,14 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
                 let slug = format!("{}-p{pi}-{material}", scene.name);
                 let live = dir.join(format!("{slug}-live.rib"));
                 write(&live, &live_rib(placement, lines))?;
-                let (truth_exr, _) =
-                    render(&lrt, &dir, &format!("{slug}-truth"), &scene_rib(&text, size, Some(&live))?, spp)?;
+                let (truth_exr, _) = render(
+                    &lrt,
+                    &dir,
+                    &format!("{slug}-truth"),
+                    &scene_rib(&text, size, Some(&live))?,
+                    spp,
+                    reuse,
+                )?;
                 let truth = read_exr(&truth_exr)?;
                 let (comp, mask) = composite(
                     &viewer,

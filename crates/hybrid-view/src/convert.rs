@@ -4,7 +4,7 @@
 use glam::{DVec3, Vec3};
 use rib_parser::scene::{LightId, LightKind, Scene};
 use tessellate::{Tolerance, tessellate_placed};
-use viewer::{LiveLight, ToneMap};
+use viewer::{AreaSample, LiveLight, ToneMap};
 
 /// What the conversion could not use, as warnings for the user.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -38,10 +38,25 @@ pub fn camera_effects(scene: &Scene, skipped: &mut Skipped) {
 
 /// The scene's lights as the viewer's live lights, in the scene's order (lights that cannot be
 /// used are left out with a warning).
+#[cfg(test)]
 pub fn live_lights(scene: &Scene, skipped: &mut Skipped) -> Vec<LiveLight> {
+    live_lights_with_sources(scene, skipped).into_iter().map(|l| l.light).collect()
+}
+
+/// A live light with where it came from: its index in the scene's lights (the sidecar's light
+/// numbering) and, for an area light, samples of its emitting surface.
+pub struct SourcedLight {
+    pub scene_index: usize,
+    pub light: LiveLight,
+    pub area_samples: Vec<AreaSample>,
+}
+
+/// [`live_lights`] with each light's scene index and area samples.
+pub fn live_lights_with_sources(scene: &Scene, skipped: &mut Skipped) -> Vec<SourcedLight> {
     let mut out = Vec::new();
     for (k, light) in scene.lights.iter().enumerate() {
         let finite = |v: f32| v.is_finite();
+        let mut samples = Vec::new();
         let converted = match &light.kind {
             LightKind::Ambient { intensity, color } => {
                 Some(LiveLight::Ambient { colour: *color * *intensity })
@@ -69,7 +84,7 @@ pub fn live_lights(scene: &Scene, skipped: &mut Skipped) -> Vec<LiveLight> {
                 beam_distribution: *beam_distribution,
             }),
             LightKind::Area { intensity, color } => {
-                area_light(scene, LightId(k as u32), *color * *intensity, skipped)
+                area_light(scene, LightId(k as u32), *color * *intensity, skipped, &mut samples)
             }
             LightKind::Other => {
                 skipped.warnings.push(format!(
@@ -80,7 +95,9 @@ pub fn live_lights(scene: &Scene, skipped: &mut Skipped) -> Vec<LiveLight> {
             }
         };
         match converted {
-            Some(l) if light_is_finite(&l, finite) => out.push(l),
+            Some(l) if light_is_finite(&l, finite) => {
+                out.push(SourcedLight { scene_index: k, light: l, area_samples: samples })
+            }
             Some(_) => skipped.warnings.push(format!(
                 "{}: light has non-finite values; the live objects ignore it",
                 light.shader.loc
@@ -119,7 +136,14 @@ fn light_is_finite(l: &LiveLight, finite: impl Fn(f32) -> bool) -> bool {
 /// (tessellated in world space), their total area, and their mean normal when they are flat
 /// enough to have one (the mean of unit normals keeps at least half its length); otherwise the
 /// emitter is treated as radiating evenly in all directions (a sphere).
-fn area_light(scene: &Scene, id: LightId, radiance: Vec3, skipped: &mut Skipped) -> Option<LiveLight> {
+fn area_light(
+    scene: &Scene,
+    id: LightId,
+    radiance: Vec3,
+    skipped: &mut Skipped,
+    samples: &mut Vec<AreaSample>,
+) -> Option<LiveLight> {
+    let mut triangles: Vec<[DVec3; 3]> = Vec::new();
     let tolerance = Tolerance::relative(1e-3).with_max_triangles(1 << 20);
     let mut area = 0.0f64;
     let mut weighted_centre = DVec3::ZERO;
@@ -148,6 +172,7 @@ fn area_light(scene: &Scene, id: LightId, radiance: Vec3, skipped: &mut Skipped)
             let a = 0.5 * cross.length();
             let [p0, p1, p2] = mesh.triangle(t).map(|p| p.as_dvec3());
             area += a;
+            triangles.push([p0, p1, p2]);
             weighted_centre += (p0 + p1 + p2) / 3.0 * a;
             weighted_normal += cross * 0.5;
         }
@@ -160,6 +185,9 @@ fn area_light(scene: &Scene, id: LightId, radiance: Vec3, skipped: &mut Skipped)
         ));
         return None;
     }
+    // Many more than the shaders take, so that any share of them is still spread evenly.
+    *samples =
+        viewer::light_layers::area_samples(&triangles, 4 * viewer::light_layers::AREA_SAMPLES_PER_LIGHT);
     let centroid = weighted_centre / area;
     let flat = weighted_normal.length() >= 0.5 * area;
     let (normal, radius) = if flat {

@@ -54,7 +54,8 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let image = Backdrop::read(&settings.image, tone.gamma)?;
     let depth = depth_remap::DepthTable::read(&settings.depth).map_err(|e| Failure(e.to_string()))?;
     let mut skipped = Skipped::default();
-    let lights = convert::live_lights(&rib, &mut skipped);
+    let sourced = convert::live_lights_with_sources(&rib, &mut skipped);
+    let lights = sourced.iter().map(|l| l.light.clone()).collect();
     convert::camera_effects(&rib, &mut skipped);
     let bounds = convert::scene_bounds(&rib);
     // Sizes first, naming the files: the image against its depth table and the RIB's Format.
@@ -76,7 +77,10 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
             settings.scene.display()
         )));
     }
-    let scene = ViewerScene::with_backdrop(camera, image, depth, lights, tone)?;
+    let mut scene = ViewerScene::with_backdrop(camera, image, depth, lights, tone)?;
+    if settings.shadows.is_some() {
+        attach_light_layers(settings, &mut scene, &sourced, rib.lights.len())?;
+    }
     let mut live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
     if let Some(path) = &settings.live {
         let objects = crate::live_rib::read_live_rib(path).map_err(Failure)?;
@@ -89,6 +93,54 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
+}
+
+/// Finds the light layers `lrt-depth` wrote for this render (docs/sidecar.md: next to the depth
+/// table, else next to the image) and binds them to the live lights, so live objects' shadows
+/// remove exactly the occluded share of each light. Without them, says what is approximated.
+fn attach_light_layers(
+    settings: &Settings,
+    scene: &mut ViewerScene,
+    sourced: &[convert::SourcedLight],
+    scene_lights: usize,
+) -> Result<(), Failure> {
+    let candidates = sidecar::SidecarPaths::candidates(&settings.image, &settings.depth);
+    let Some(path) = candidates.iter().map(|c| &c.layers).find(|p| p.exists()) else {
+        let looked: Vec<String> = candidates.iter().map(|c| c.layers.display().to_string()).collect();
+        eprintln!(
+            "note: no light layers ({}): live objects' shadows darken a fixed share of one light's pixels (--shadow-strength) and leave indirect light as it is",
+            looked.join(", ")
+        );
+        return Ok(());
+    };
+    let (width, height) = scene.size();
+    let expect = sidecar::LayerExpectation {
+        width,
+        height,
+        depth_fingerprint: Some(sidecar::depth_fingerprint(scene.depth().values())),
+    };
+    let layers = sidecar::read_layers(path, &expect, sidecar::ReadLimits::default())
+        .map_err(|e| Failure(e.to_string()))?;
+    let n = layers.lights.len();
+    if n != scene_lights {
+        return Err(Failure(format!(
+            "{}: error: the light layers list {n} lights but {} has {scene_lights}",
+            path.display(),
+            settings.scene.display()
+        )));
+    }
+    let layer_of_light = sourced
+        .iter()
+        .map(|l| {
+            (!matches!(l.light, viewer::LiveLight::Ambient { .. }))
+                .then(|| sidecar::light_layer_of(l.scene_index, n))
+        })
+        .collect();
+    let area_samples = sourced.iter().map(|l| l.area_samples.clone()).collect();
+    scene
+        .set_light_layers(viewer::SceneLayers { layers, layer_of_light, area_samples })
+        .map_err(|e| Failure(format!("{}: error: {e}", path.display())))?;
+    Ok(())
 }
 
 /// The sphere at start: where `--sphere` puts it; in a window without `--sphere`, in front of
@@ -222,7 +274,13 @@ fn print_stats(
         if planes.infinite_far { "infinite".to_string() } else { planes.far.to_string() }
     );
     eprintln!("lights: {} used by the live objects", scene.lights().len());
+    let casters =
+        usize::from(live.sphere.is_some()) + live.meshes.iter().filter(|m| m.exact_sphere.is_some()).count();
     match (compositor.shadow_light(), s.shadows, &live.sphere) {
+        (_, Some(_), _) if scene.light_layers().is_some() && casters > 0 => eprintln!(
+            "shadows: exact, from the light layers ({} layers), cast by {casters} sphere(s)",
+            scene.light_layers().map_or(0, |l| l.layers.light.len())
+        ),
         (Some(k), Some(sh), Some(_)) => eprintln!("shadows: from light {k}, strength {}", sh.strength),
         (_, None, _) => eprintln!("shadows: off (--no-shadows)"),
         (_, _, None) => eprintln!("shadows: skipped (no sphere)"),

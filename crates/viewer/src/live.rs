@@ -236,6 +236,9 @@ pub struct MeshInstance {
     pub mesh: Arc<Mesh>,
     pub world_from_object: DMat4,
     pub material: Material,
+    /// The exact sphere (world centre, radius) this mesh draws, if it draws one: shadows with
+    /// light layers are cast by the sphere itself.
+    pub exact_sphere: Option<(DVec3, f64)>,
 }
 
 /// The live objects of one frame.

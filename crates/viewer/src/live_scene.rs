@@ -91,6 +91,7 @@ impl LiveScene {
                 world_from_object: DMat4::from_translation(s.centre)
                     * DMat4::from_scale(DVec3::splat(s.radius)),
                 material: s.material.to_viewer_material(),
+                exact_sphere: Some((s.centre, s.radius)),
             });
         }
         for m in &self.meshes {
@@ -98,6 +99,7 @@ impl LiveScene {
                 mesh: m.mesh.clone(),
                 world_from_object: m.world_from_object,
                 material: m.material.to_viewer_material(),
+                exact_sphere: None,
             });
         }
     }

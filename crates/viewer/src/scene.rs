@@ -2,6 +2,7 @@
 
 use crate::backdrop::{Backdrop, Rgba8Image, ToneMap};
 use crate::error::ViewerError;
+use crate::light_layers::SceneLayers;
 use crate::live::LiveLight;
 use depth_remap::{Camera, DepthTable};
 use glam::DVec3;
@@ -14,6 +15,7 @@ pub struct ViewerScene {
     depth: DepthTable,
     lights: Vec<LiveLight>,
     tone_map: ToneMap,
+    layers: Option<std::sync::Arc<SceneLayers>>,
 }
 
 impl ViewerScene {
@@ -66,7 +68,20 @@ impl ViewerScene {
                 second: camera.resolution(),
             });
         }
-        Ok(ViewerScene { camera, backdrop, depth, lights, tone_map })
+        Ok(ViewerScene { camera, backdrop, depth, lights, tone_map, layers: None })
+    }
+
+    /// Binds the renderer's light layers: shadows of live objects then remove exactly the
+    /// occluded share of each light's direct light (and occluded indirect light near contact).
+    pub fn set_light_layers(&mut self, layers: SceneLayers) -> Result<(), ViewerError> {
+        layers.check(self.backdrop.width, self.backdrop.height, self.lights.len())?;
+        self.layers = Some(std::sync::Arc::new(layers));
+        Ok(())
+    }
+
+    /// The bound light layers, if any.
+    pub fn light_layers(&self) -> Option<&SceneLayers> {
+        self.layers.as_deref()
     }
 
     pub fn camera(&self) -> &Camera {

@@ -301,6 +301,7 @@ fn bad_live_objects_do_not_panic() {
             mesh: std::sync::Arc::new(broken),
             world_from_object: glam::DMat4::IDENTITY,
             material: Material::default(),
+            exact_sphere: None,
         }],
     };
     assert!(matches!(c.render(&live), Err(viewer::ViewerError::Invalid(_))));
@@ -313,6 +314,7 @@ fn bad_live_objects_do_not_panic() {
             mesh: std::sync::Arc::new(viewer::Mesh::cuboid(Vec3::splat(0.1))),
             world_from_object: glam::DMat4::from_translation(DVec3::new(f64::NAN, 0.0, 0.0)),
             material: Material::default(),
+            exact_sphere: None,
         };
         c.render(&LiveObjects { sphere: Some(sphere), meshes: vec![cube] }).unwrap();
         let frame = c.read_back().unwrap();

@@ -174,6 +174,7 @@ fn live_mesh_is_occluded_by_the_wall() {
             mesh: Arc::new(Mesh::cuboid(half)),
             world_from_object,
             material: Material::unlit(Vec3::new(1.0, 0.0, 0.0)),
+            exact_sphere: None,
         }],
     };
     let frame = render(&scene, &live, None);

@@ -2,6 +2,9 @@
 //! f64, packed into the uniform blocks the shaders read.
 
 use super::{Compositor, MAX_LIGHTS};
+
+/// Most spheres casting shadows with light layers in one frame (further ones cast none).
+pub const MAX_SHADOW_SPHERES: usize = 8;
 use crate::live::{LiveLight, LiveObjects, Material, ShadowSource};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
@@ -46,6 +49,14 @@ pub(super) struct FrameUniform {
     pub(super) shadow_params: [f32; 4],
     pub(super) sphere: [f32; 4],
     pub(super) sphere_material: GpuMaterial,
+    /// 1 when light layers are bound, the indirect slice, the normal slice, the number of
+    /// shadow-casting spheres.
+    pub(super) layer_info: [u32; 4],
+    /// Camera-space centre and radius of each sphere casting shadows with the layers: the
+    /// cursor sphere and live spheres.
+    pub(super) shadow_spheres: [[f32; 4]; MAX_SHADOW_SPHERES],
+    /// Per light: its layer slice (`u32::MAX`: none), first area sample, sample count.
+    pub(super) shadow_slots: [[u32; 4]; MAX_LIGHTS],
     pub(super) lights: [GpuLight; MAX_LIGHTS],
 }
 
@@ -136,8 +147,27 @@ impl Compositor {
             Some(s) => (vec4(point(s.centre), (s.radius * scale) as f32), GpuMaterial::from(&s.material)),
             None => ([0.0; 4], GpuMaterial::default()),
         };
+        let layered = self.layers.info[0] == 1;
+        let mut shadow_spheres = [[0.0f32; 4]; MAX_SHADOW_SPHERES];
+        let mut sphere_count = 0usize;
+        let casters = sphere.map(|s| (s.centre, s.radius)).into_iter().chain(
+            live.meshes.iter().filter(|m| m.world_from_object.is_finite()).filter_map(|m| m.exact_sphere),
+        );
+        for (centre, radius) in casters.filter(|(c, r)| c.is_finite() && *r > 0.0 && r.is_finite()) {
+            if layered && sphere_count < MAX_SHADOW_SPHERES {
+                shadow_spheres[sphere_count] = vec4(point(centre), (radius * scale) as f32);
+                sphere_count += 1;
+            }
+        }
+        let mut shadow_slots = [[super::layers::NO_LAYER, 0, 0, 0]; MAX_LIGHTS];
+        for (slot, light_slot) in shadow_slots.iter_mut().zip(&self.layers.light_slots) {
+            *slot = *light_slot;
+        }
         let (shadow_on, shadow_light, shadow_params) =
             match (self.shadow_light, self.settings.shadows, sphere) {
+                (_, Some(settings), _) if layered && sphere_count > 0 => {
+                    (1, [0.0; 4], [0.0, settings.strength, 0.0, 0.0])
+                }
                 (Some(k), Some(settings), Some(_)) => match self.lights[k].shadow_source() {
                     Some(ShadowSource::Point { position, radius }) => (
                         1,
@@ -162,6 +192,9 @@ impl Compositor {
             shadow_params,
             sphere: sphere_vec,
             sphere_material,
+            layer_info: [self.layers.info[0], self.layers.info[1], self.layers.info[2], sphere_count as u32],
+            shadow_spheres,
+            shadow_slots,
             lights,
         }
     }

@@ -3,6 +3,7 @@
 
 mod backdrop_points;
 mod encode;
+mod layers;
 mod lighting;
 mod live_objects;
 mod readback;
@@ -38,6 +39,8 @@ pub struct Compositor {
     lights: Vec<LiveLight>,
     shadow_light: Option<usize>,
     tone: [f32; 4],
+    /// The light layers on the GPU (a placeholder without them).
+    layers: layers::GpuLayers,
     /// Window depth of every pixel, kept to build the point cloud on demand.
     window_depths: Vec<f32>,
     /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
@@ -127,6 +130,36 @@ impl Compositor {
                 .collect()
         };
 
+        let mut lights = scene.lights().to_vec();
+        let shadow_light = match settings.shadows {
+            None => None,
+            Some(ShadowSettings { light: Some(k), .. }) => {
+                if k >= lights.len() || lights[k].shadow_source().is_none() {
+                    return Err(ViewerError::Invalid(format!(
+                        "shadow light {k} is not a light that casts shadows"
+                    )));
+                }
+                Some(k)
+            }
+            Some(ShadowSettings { light: None, .. }) => scene.dominant_light(),
+        };
+        // Keep the brightest lights if there are more than the shaders take (ambient lights
+        // first, they cost nothing), remembering where the shadow light went and which scene
+        // light each kept one is (for its light layer).
+        let mut kept: Vec<usize> = (0..lights.len()).collect();
+        if lights.len() > MAX_LIGHTS {
+            let at = scene.visible_centroid().unwrap_or(DVec3::ZERO);
+            let weight = |l: &LiveLight| {
+                if matches!(l, LiveLight::Ambient { .. }) { f64::INFINITY } else { l.irradiance_at(at) }
+            };
+            kept.sort_by(|&a, &b| weight(&lights[b]).total_cmp(&weight(&lights[a])));
+            kept.truncate(MAX_LIGHTS);
+        }
+        let shadow_light = shadow_light.and_then(|k| kept.iter().position(|&x| x == k));
+        let two_sided: Vec<bool> =
+            lights.iter().map(|l| matches!(l, LiveLight::Area { two_sided: true, .. })).collect();
+        lights = kept.iter().map(|&k| lights[k].clone()).collect();
+
         // Error scopes catch validation and memory errors of resource creation as values.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory_scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -215,8 +248,33 @@ impl Compositor {
                 texture_entry(1, wgpu::ShaderStages::FRAGMENT),
                 texture_entry(2, wgpu::ShaderStages::FRAGMENT),
                 texture_entry(3, wgpu::ShaderStages::FRAGMENT),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
             ],
         });
+        let gpu_layers = if settings.shadows.is_some() {
+            layers::upload(gpu, &projection, scene.light_layers(), &kept, &two_sided, (width, height))
+        } else {
+            layers::upload(gpu, &projection, None, &kept, &two_sided, (width, height))
+        };
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
@@ -235,6 +293,11 @@ impl Compositor {
                     binding: 3,
                     resource: wgpu::BindingResource::TextureView(&view(&radial_texture)),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&gpu_layers.view),
+                },
+                wgpu::BindGroupEntry { binding: 5, resource: gpu_layers.samples.as_entire_binding() },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -485,33 +548,6 @@ impl Compositor {
             return Err(ViewerError::Gpu(e.to_string()));
         }
 
-        let mut lights = scene.lights().to_vec();
-        let shadow_light = match settings.shadows {
-            None => None,
-            Some(ShadowSettings { light: Some(k), .. }) => {
-                if k >= lights.len() || lights[k].shadow_source().is_none() {
-                    return Err(ViewerError::Invalid(format!(
-                        "shadow light {k} is not a light that casts shadows"
-                    )));
-                }
-                Some(k)
-            }
-            Some(ShadowSettings { light: None, .. }) => scene.dominant_light(),
-        };
-        // Keep the brightest lights if there are more than the shaders take (ambient lights
-        // first, they cost nothing), remembering where the shadow light went.
-        let shadow_light_value = shadow_light.map(|k| lights[k].clone());
-        if lights.len() > MAX_LIGHTS {
-            let at = scene.visible_centroid().unwrap_or(DVec3::ZERO);
-            lights.sort_by(|a, b| {
-                let weight = |l: &LiveLight| {
-                    if matches!(l, LiveLight::Ambient { .. }) { f64::INFINITY } else { l.irradiance_at(at) }
-                };
-                weight(b).total_cmp(&weight(a))
-            });
-            lights.truncate(MAX_LIGHTS);
-        }
-        let shadow_light = shadow_light_value.and_then(|v| lights.iter().position(|l| *l == v));
         let tm = scene.tone_map();
         // Live radiance into the image's units: `lrt-depth` applies Exposure's gain to all it
         // writes (the display transfer is the encode pass's).
@@ -526,6 +562,7 @@ impl Compositor {
             lights,
             shadow_light,
             tone,
+            layers: gpu_layers,
             window_depths,
             surface_bounds,
             linear_image,
@@ -699,7 +736,7 @@ impl Compositor {
                 }
             }
             if uniform.counts[1] == 1
-                && let Some([x, y, w, h]) = self.shadow_scissor(&uniform)
+                && let Some([x, y, w, h]) = self.shadow_scissor_all(&uniform)
             {
                 pass.set_scissor_rect(x, y, w, h);
                 pass.set_pipeline(&self.shadow_pipeline);

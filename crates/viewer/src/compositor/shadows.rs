@@ -1,7 +1,8 @@
 //! The live sphere's shadow on the pre-rendered scene: which pixels it can fall on.
 
 use super::Compositor;
-use super::lighting::FrameUniform;
+use super::lighting::{FrameUniform, vec4};
+use crate::live::ShadowSource;
 use crate::projection::Projection;
 use glam::DVec3;
 
@@ -22,19 +23,82 @@ pub(super) fn camera_space_bounds(projection: &Projection, radial: &[f32]) -> Op
     lo.is_finite().then_some((lo, hi))
 }
 
+/// How far from the sphere's centre, in radii, its occlusion of indirect light is counted (it
+/// fades out over the last quarter; `(1/8)^2` of the indirect light is left out beyond).
+pub(super) const AO_REACH: f64 = 8.0;
+
 impl Compositor {
-    /// The pixels the sphere's shadow can fall on: the screen bounds of the shadow volume (the
-    /// sphere's outer penumbra cone from the light, cut where it leaves the bounds of the
-    /// visible surfaces), or the whole image when that volume reaches behind the eye. `None`
-    /// when no visible surface can be in the shadow.
-    pub(super) fn shadow_scissor(&self, uniform: &FrameUniform) -> Option<[u32; 4]> {
+    /// The pixels the sphere's shadows can fall on: with light layers, the union over the lights
+    /// that have one of each light's shadow volume and the box where the sphere's occlusion of
+    /// indirect light is counted; without, the shadow light's volume.
+    pub(super) fn shadow_scissor_all(&self, uniform: &FrameUniform) -> Option<[u32; 4]> {
+        let d = |a: [f32; 4]| DVec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
+        if uniform.layer_info[0] == 0 {
+            let (centre, r) = (d(uniform.sphere), f64::from(uniform.sphere[3]));
+            return self.shadow_scissor(centre, r, uniform.shadow_light, f64::from(uniform.shadow_params[0]));
+        }
+        let spheres = &uniform.shadow_spheres[..uniform.layer_info[3] as usize];
+        let mut union = None;
+        for s in spheres {
+            union = merge(union, self.layered_scissor(d(*s), f64::from(s[3])));
+        }
+        union
+    }
+
+    /// The pixels one sphere's layered shadows and indirect occlusion can reach.
+    fn layered_scissor(&self, centre: DVec3, r: f64) -> Option<[u32; 4]> {
+        let camera_from_world = self.projection.camera().camera_from_world();
+        let linear = glam::DMat3::from_mat4(camera_from_world);
+        let scale = linear.determinant().abs().cbrt();
+        let mut union: Option<[u32; 4]> = self.box_scissor(centre, r * AO_REACH);
+        for (light, slot) in self.lights.iter().zip(&self.layers.light_slots) {
+            if slot[0] == super::layers::NO_LAYER {
+                continue;
+            }
+            let (source, radius) = match light.shadow_source() {
+                Some(ShadowSource::Point { position, radius }) => {
+                    (vec4(camera_from_world.transform_point3(position), 1.0), radius * scale)
+                }
+                Some(ShadowSource::Direction(dir)) => (vec4((linear * dir).normalize_or_zero(), 0.0), 0.0),
+                None => continue,
+            };
+            union = merge(union, self.shadow_scissor(centre, r, source, radius));
+        }
+        union
+    }
+
+    /// The screen bounds of a camera-space box of half-size `half` about `centre` (the whole
+    /// image when it reaches behind the eye).
+    fn box_scissor(&self, centre: DVec3, half: f64) -> Option<[u32; 4]> {
+        let corners: Vec<DVec3> = (0..8)
+            .map(|k| {
+                centre
+                    + DVec3::new(
+                        if k & 1 == 0 { -half } else { half },
+                        if k & 2 == 0 { -half } else { half },
+                        if k & 4 == 0 { -half } else { half },
+                    )
+            })
+            .collect();
+        self.screen_bounds(&corners)
+    }
+
+    /// The pixels the sphere's shadow from one light can fall on: the screen bounds of the
+    /// shadow volume (the sphere's outer penumbra cone from the light, cut where it leaves the
+    /// bounds of the visible surfaces), or the whole image when that volume reaches behind the
+    /// eye. `None` when no visible surface can be in the shadow. `light` is a camera-space
+    /// position (w = 1) or direction of travel (w = 0).
+    fn shadow_scissor(
+        &self,
+        centre: DVec3,
+        r: f64,
+        light_vec: [f32; 4],
+        light_radius: f64,
+    ) -> Option<[u32; 4]> {
         let full = Some([0, 0, self.width, self.height]);
         let (lo, hi) = self.surface_bounds?;
         let d = |a: [f32; 4]| DVec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
-        let centre = d(uniform.sphere);
-        let r = f64::from(uniform.sphere[3]);
-        let light = d(uniform.shadow_light);
-        let light_radius = f64::from(uniform.shadow_params[0]);
+        let light = d(light_vec);
         let corners = (0..8).map(|k| {
             DVec3::new(
                 if k & 1 == 0 { lo.x } else { hi.x },
@@ -43,7 +107,7 @@ impl Compositor {
             )
         });
         // Cross-section discs (centre, radius) at the near end and the far end of the volume.
-        let (axis, discs) = if uniform.shadow_light[3] > 0.5 {
+        let (axis, discs) = if light_vec[3] > 0.5 {
             let to_sphere = centre - light;
             let d_s = to_sphere.length();
             if d_s <= r * 1.01 {
@@ -68,25 +132,49 @@ impl Compositor {
         };
         let u = axis.any_orthonormal_vector();
         let v = axis.cross(u);
+        let points: Vec<DVec3> = discs
+            .iter()
+            .flat_map(|&(c, radius)| {
+                [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                    .map(|(a, b)| c + (u * a + v * b) * radius)
+            })
+            .collect();
+        self.screen_bounds(&points)
+    }
+
+    /// The pixel rectangle covering camera-space `points` (the whole image when one is behind
+    /// the eye), `None` when it is empty.
+    fn screen_bounds(&self, points: &[DVec3]) -> Option<[u32; 4]> {
+        let full = Some([0, 0, self.width, self.height]);
         let clip_from_camera = self.projection.clip_from_camera();
         let (mut x0, mut y0, mut x1, mut y1) =
             (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for (c, radius) in discs {
-            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                let p = c + (u * a + v * b) * radius;
-                let clip = clip_from_camera * p.extend(1.0);
-                if clip.w.is_nan() || clip.w <= 1e-9 {
-                    return full;
-                }
-                let x = (clip.x / clip.w + 1.0) * 0.5 * f64::from(self.width);
-                let y = (1.0 - clip.y / clip.w) * 0.5 * f64::from(self.height);
-                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        for p in points {
+            let clip = clip_from_camera * p.extend(1.0);
+            if clip.w.is_nan() || clip.w <= 1e-9 {
+                return full;
             }
+            let x = (clip.x / clip.w + 1.0) * 0.5 * f64::from(self.width);
+            let y = (1.0 - clip.y / clip.w) * 0.5 * f64::from(self.height);
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
         }
         let clamp_x = |v: f64| v.clamp(0.0, f64::from(self.width)) as u32;
         let clamp_y = |v: f64| v.clamp(0.0, f64::from(self.height)) as u32;
         let (ix0, iy0) = (clamp_x(x0.floor() - 1.0), clamp_y(y0.floor() - 1.0));
         let (ix1, iy1) = (clamp_x(x1.ceil() + 1.0), clamp_y(y1.ceil() + 1.0));
         (ix1 > ix0 && iy1 > iy0).then_some([ix0, iy0, ix1 - ix0, iy1 - iy0])
+    }
+}
+
+/// The smallest rectangle holding both.
+fn merge(a: Option<[u32; 4]>, b: Option<[u32; 4]>) -> Option<[u32; 4]> {
+    match (a, b) {
+        (Some([ax, ay, aw, ah]), Some([bx, by, bw, bh])) => {
+            let (x0, y0) = (ax.min(bx), ay.min(by));
+            let (x1, y1) = ((ax + aw).max(bx + bw), (ay + ah).max(by + bh));
+            Some([x0, y0, x1 - x0, y1 - y0])
+        }
+        (a, None) => a,
+        (None, b) => b,
     }
 }

@@ -51,13 +51,32 @@ struct Frame {
     // Sphere: camera-space centre, radius.
     sphere: vec4<f32>,
     sphere_material: Material,
+    // Light layers: 1 when bound, indirect slice, camera-space normal slice, shadow spheres.
+    layer_info: vec4<u32>,
+    // Camera-space centre and radius of the spheres casting shadows with the layers.
+    shadow_spheres: array<vec4<f32>, 8>,
+    // Per light: layer slice (0xffffffff: none), first area sample, sample count.
+    shadow_slots: array<vec4<u32>, MAX_LIGHTS>,
     lights: array<Light, MAX_LIGHTS>,
+}
+
+const NO_LAYER: u32 = 0xffffffffu;
+const MAX_AREA_SAMPLES: u32 = 256u;
+// How far from the sphere's centre, in radii, its occlusion of indirect light reaches
+// (compositor/shadows.rs AO_REACH).
+const AO_REACH: f32 = 8.0;
+
+struct AreaSamples {
+    // Per sample: camera-space position and area, then unit normal and two-sidedness.
+    samples: array<vec4<f32>, 512>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var backdrop_colour: texture_2d<f32>;
 @group(0) @binding(2) var backdrop_window_depth: texture_2d<f32>;
 @group(0) @binding(3) var backdrop_radial_depth: texture_2d<f32>;
+@group(0) @binding(4) var light_layers: texture_2d_array<f32>;
+@group(0) @binding(5) var<uniform> area_samples: AreaSamples;
 
 struct MeshUniform {
     camera_from_object: mat4x4<f32>,
@@ -358,12 +377,167 @@ fn disc_overlap(a: f32, b: f32, d: f32) -> f32 {
     return a2 * alpha + b2 * beta - 0.5 * sqrt(max((-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b), 0.0));
 }
 
+// Whether any shadow-casting sphere blocks the segment from p along unit dir up to max_t.
+fn sphere_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
+    for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
+        if one_sphere_blocks(frame.shadow_spheres[i], p, dir, max_t) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// Whether sphere (centre, radius) blocks the segment from p along unit dir up to max_t.
+fn one_sphere_blocks(sphere: vec4<f32>, p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
+    let f = p - sphere.xyz;
+    let r = sphere.w;
+    let c = dot(f, f) - r * r;
+    if c <= 0.0 {
+        return true;
+    }
+    let b = dot(f, dir);
+    let q = f - b * dir;
+    let disc = r * r - dot(q, q);
+    if disc < 0.0 || b >= 0.0 {
+        return false;
+    }
+    let t = c / (-b + sqrt(disc));
+    return t < max_t;
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return (c.r + c.g + c.b) / 3.0;
+}
+
+// The share of light i's direct light at p (normal n, zero if unknown) that the sphere hides,
+// and the light's unshadowed irradiance there (to weigh lights that share a layer).
+fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
+    let light = frame.lights[i];
+    let kind = u32(light.position.w + 0.5);
+    let has_n = dot(n, n) > 0.0;
+    let power = luminance(light.colour.rgb);
+    if kind == LIGHT_DISTANT {
+        let dir = -light.direction.xyz;
+        let cos_s = select(1.0, max(dot(n, dir), 0.0), has_n);
+        return vec2<f32>(select(0.0, 1.0, sphere_blocks(p, dir, 3.0e38)), power * cos_s);
+    }
+    if kind == LIGHT_POINT || kind == LIGHT_SPOT {
+        let v = light.position.xyz - p;
+        let d = length(v);
+        let dir = v / d;
+        let cos_s = select(1.0, max(dot(n, dir), 0.0), has_n);
+        return vec2<f32>(select(0.0, 1.0, sphere_blocks(p, dir, d)), power * cos_s / (d * d));
+    }
+    if kind == LIGHT_AREA {
+        // The ray tracer's integral over the emitter, on its fixed samples: the occluded share
+        // of sum(area cos_l cos_s / d^2).
+        let slot = frame.shadow_slots[i];
+        var total = 0.0;
+        var hidden = 0.0;
+        for (var k = slot.y; k < min(slot.y + slot.z, MAX_AREA_SAMPLES); k = k + 1u) {
+            let s = area_samples.samples[2u * k];
+            let sn = area_samples.samples[2u * k + 1u];
+            let v = s.xyz - p;
+            let d2 = dot(v, v);
+            if d2 <= 0.0 {
+                continue;
+            }
+            let d = sqrt(d2);
+            let dir = v / d;
+            var cos_l = 1.0;
+            if dot(sn.xyz, sn.xyz) > 0.0 {
+                cos_l = dot(sn.xyz, -dir);
+                if sn.w > 0.5 {
+                    cos_l = abs(cos_l);
+                }
+            }
+            let cos_s = select(1.0, dot(n, dir), has_n);
+            if cos_l <= 0.0 || cos_s <= 0.0 {
+                continue;
+            }
+            let g = s.w * cos_l * cos_s / d2;
+            total += g;
+            if sphere_blocks(p, dir, d) {
+                hidden += g;
+            }
+        }
+        if total <= 0.0 {
+            return vec2<f32>(0.0, 0.0);
+        }
+        return vec2<f32>(hidden / total, power * total);
+    }
+    return vec2<f32>(0.0, 0.0);
+}
+
+// Shadows with the renderer's light layers: each light's occluded share of its own layer, and
+// the sphere's occlusion of indirect light (cosine-weighted solid angle, (r/d)^2 cos) of the
+// indirect layer, both in the image's units.
+fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    let n = select(vec3<f32>(0.0), normalize(n_raw), dot(n_raw, n_raw) > 1e-12);
+    var numerator = array<f32, MAX_LIGHTS>();
+    var weight = array<f32, MAX_LIGHTS>();
+    var share = array<f32, MAX_LIGHTS>();
+    var lights_in = array<u32, MAX_LIGHTS>();
+    for (var i = 0u; i < frame.counts.x; i = i + 1u) {
+        let slice = frame.shadow_slots[i].x;
+        if slice == NO_LAYER {
+            continue;
+        }
+        let h = hidden_share(i, p, n);
+        numerator[slice] += h.x * h.y;
+        weight[slice] += h.y;
+        share[slice] = h.x;
+        lights_in[slice] += 1u;
+    }
+    var removed = vec3<f32>(0.0);
+    for (var slice = 0u; slice < MAX_LIGHTS; slice = slice + 1u) {
+        if lights_in[slice] == 0u {
+            continue;
+        }
+        // One light per layer: its own share; several: weighted by their irradiance.
+        var s = share[slice];
+        if lights_in[slice] > 1u {
+            s = select(0.0, numerator[slice] / weight[slice], weight[slice] > 0.0);
+        }
+        if s > 0.0 {
+            removed += s * textureLoad(light_layers, pixel, i32(slice), 0).rgb;
+        }
+    }
+    // Occluded solid angles of separate spheres add (overlaps are rare and small).
+    var ao = 0.0;
+    for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let to_sphere = sphere.xyz - p;
+        let d = length(to_sphere);
+        let r = sphere.w;
+        if d <= r {
+            ao = 1.0;
+            break;
+        }
+        let cos_s = select(1.0, max(dot(n, to_sphere / d), 0.0), dot(n, n) > 0.0);
+        let fade = 1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d);
+        ao += cos_s * (r / d) * (r / d) * fade;
+    }
+    ao = min(ao, 1.0);
+    removed += ao * textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+    return removed * frame.tone.x;
+}
+
 @fragment
 fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
     let centre = surface_point(pixel);
     if centre.w < 0.5 {
         discard;
+    }
+    if frame.layer_info.x == 1u {
+        let removed = layered_shadow(pixel, centre.xyz);
+        if all(removed <= vec3<f32>(0.0)) {
+            discard;
+        }
+        let before = textureLoad(backdrop_colour, pixel, 0);
+        return vec4<f32>(max(before.rgb - removed, vec3<f32>(0.0)), before.a);
     }
     let p = centre.xyz;
     // Direction and distance to the light.

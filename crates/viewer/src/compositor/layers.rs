@@ -1,0 +1,139 @@
+//! The light layers on the GPU: one half-float texture array (the light layers of the kept
+//! lights, then `indirect`, then the camera-space shading normal) and a uniform block of
+//! area-light samples in camera space, with each kept light's slice and samples.
+
+use super::lighting::vec4;
+use crate::gpu::Gpu;
+use crate::light_layers::{AREA_SAMPLES_PER_LIGHT, MAX_AREA_SAMPLES, SceneLayers};
+use crate::projection::Projection;
+use bytemuck::{Pod, Zeroable};
+use glam::DMat3;
+
+/// No layer (the light's `shadow` slot).
+pub(super) const NO_LAYER: u32 = u32::MAX;
+
+/// The shaders' area-sample block: per sample, camera-space position and represented area,
+/// then unit normal and whether the emitter is two-sided.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct SampleUniform {
+    pub(super) samples: [[f32; 4]; 2 * MAX_AREA_SAMPLES],
+}
+
+/// What the compositor keeps of the layers.
+#[derive(Debug)]
+pub(super) struct GpuLayers {
+    pub(super) view: wgpu::TextureView,
+    pub(super) samples: wgpu::Buffer,
+    /// Per kept light: `[slice, first sample, sample count, 0]`.
+    pub(super) light_slots: Vec<[u32; 4]>,
+    /// `[1 if layers are bound, indirect slice, normal slice, 0]`.
+    pub(super) info: [u32; 4],
+}
+
+/// Uploads the layers for the kept lights (`kept[i]` = index of kept light `i` in the scene's
+/// lights; `two_sided[k]` whether scene light `k` emits from both sides). Without layers, a 1x1 placeholder keeps the bind
+/// group valid.
+pub(super) fn upload(
+    gpu: &Gpu,
+    projection: &Projection,
+    layers: Option<&SceneLayers>,
+    kept: &[usize],
+    two_sided: &[bool],
+    (width, height): (u32, u32),
+) -> GpuLayers {
+    let device = &gpu.device;
+    let camera_from_world = projection.camera().camera_from_world();
+    let linear = DMat3::from_mat4(camera_from_world);
+    let normal_from_world = linear.inverse().transpose();
+    let scale = linear.determinant().abs().cbrt();
+    let mut light_slots = vec![[NO_LAYER, 0, 0, 0]; kept.len()];
+    let mut samples = SampleUniform { samples: [[0.0; 4]; 2 * MAX_AREA_SAMPLES] };
+    let mut slices: Vec<Vec<[f32; 3]>> = Vec::new();
+    let mut info = [0u32; 4];
+    if let Some(bound) = layers {
+        let mut slice_of_layer = vec![None; bound.layers.light.len()];
+        let area_lights = kept.iter().filter(|&&k| !bound.area_samples[k].is_empty()).count().max(1);
+        let per_light = (MAX_AREA_SAMPLES / area_lights).min(AREA_SAMPLES_PER_LIGHT);
+        let mut next_sample = 0usize;
+        for (slot, &k) in light_slots.iter_mut().zip(kept) {
+            let Some(layer) = bound.layer_of_light[k] else { continue };
+            let slice = *slice_of_layer[layer].get_or_insert_with(|| {
+                slices.push(bound.layers.light[layer].clone());
+                slices.len() - 1
+            });
+            let light_samples = &bound.area_samples[k];
+            // Every `step`-th sample, each standing for `step` times its area.
+            let step = light_samples.len().div_ceil(per_light.max(1)).max(1);
+            let first = next_sample;
+            for s in light_samples.iter().step_by(step) {
+                let p = camera_from_world.transform_point3(s.position);
+                let n = (normal_from_world * s.normal).normalize_or_zero();
+                let area = (s.area * step as f64 * scale * scale) as f32;
+                samples.samples[2 * next_sample] = vec4(p, area);
+                samples.samples[2 * next_sample + 1] = vec4(n, if two_sided[k] { 1.0 } else { 0.0 });
+                next_sample += 1;
+            }
+            *slot = [slice as u32, first as u32, (next_sample - first) as u32, 0];
+        }
+        info = [1, slices.len() as u32, slices.len() as u32 + 1, 0];
+        slices.push(bound.layers.indirect.clone());
+        slices.push(
+            bound
+                .layers
+                .normal
+                .iter()
+                .map(|n| {
+                    let c = (normal_from_world
+                        * glam::DVec3::new(f64::from(n[0]), f64::from(n[1]), f64::from(n[2])))
+                    .normalize_or_zero();
+                    [c.x as f32, c.y as f32, c.z as f32]
+                })
+                .collect(),
+        );
+    }
+    let (w, h) = if layers.is_some() { (width, height) } else { (1, 1) };
+    let count = slices.len().max(2) as u32;
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("light layers"),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: count },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba16Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    for (z, slice) in slices.iter().enumerate() {
+        let texels: Vec<u16> = slice
+            .iter()
+            .flat_map(|c| {
+                let half = |v: f32| half::f16::from_f32(v.clamp(-65504.0, 65504.0)).to_bits();
+                [half(c[0]), half(c[1]), half(c[2]), 0]
+            })
+            .collect();
+        gpu.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: 0, z: z as u32 },
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(&texels),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 8), rows_per_image: Some(h) },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+    }
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("area light samples"),
+        size: std::mem::size_of::<SampleUniform>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&samples));
+    GpuLayers { view, samples: buffer, light_slots, info }
+}
