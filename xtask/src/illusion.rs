@@ -149,13 +149,11 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// What a render was made from: the sample count and the `lrt-depth` binary's size and
-/// modification time (with the RIB text beside it, `--reuse` takes a render made from the same).
-fn render_stamp(lrt: &Path, spp: u32) -> String {
-    let meta = std::fs::metadata(lrt).ok();
-    let modified =
-        meta.as_ref().and_then(|m| m.modified().ok()).map(|t| format!("{t:?}")).unwrap_or_default();
-    format!("spp {spp}; lrt-depth {} bytes, modified {modified}\n", meta.map_or(0, |m| m.len()))
+/// What a render was made from besides its RIB text: the sample count. `--reuse` takes a
+/// render made from the same RIB text and sample count, trusting that the renderer has not
+/// changed in between (use it to remeasure the viewer, not the renderer).
+fn render_stamp(_lrt: &Path, spp: u32) -> String {
+    format!("spp {spp}\n")
 }
 
 /// Renders `rib_text` with `lrt-depth` into `dir/name.exr` and `dir/name.depth` (with its

@@ -81,6 +81,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     if settings.shadows.is_some() {
         attach_light_layers(settings, &mut scene, &sourced, rib.lights.len())?;
     }
+    attach_probes(settings, &mut scene)?;
     let mut live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
     if let Some(path) = &settings.live {
         let objects = crate::live_rib::read_live_rib(path).map_err(Failure)?;
@@ -140,6 +141,24 @@ fn attach_light_layers(
     scene
         .set_light_layers(viewer::SceneLayers { layers, layer_of_light, area_samples })
         .map_err(|e| Failure(format!("{}: error: {e}", path.display())))?;
+    Ok(())
+}
+
+/// Finds the irradiance probes `lrt-depth` wrote for this render (docs/sidecar.md) and lights
+/// live objects' diffuse reflection with them. Without them, says what is approximated.
+fn attach_probes(settings: &Settings, scene: &mut ViewerScene) -> Result<(), Failure> {
+    let candidates = sidecar::SidecarPaths::candidates(&settings.image, &settings.depth);
+    let Some(path) = candidates.iter().map(|c| &c.probes).find(|p| p.exists()) else {
+        let looked: Vec<String> = candidates.iter().map(|c| c.probes.display().to_string()).collect();
+        eprintln!(
+            "note: no irradiance probes ({}): live objects are lit by the RIB's lights alone, without the scene's indirect light or its shadows",
+            looked.join(", ")
+        );
+        return Ok(());
+    };
+    let fingerprint = sidecar::depth_fingerprint(scene.depth().values());
+    let probes = sidecar::read_probes(path, Some(fingerprint)).map_err(|e| Failure(e.to_string()))?;
+    scene.set_probes(probes);
     Ok(())
 }
 
@@ -274,6 +293,10 @@ fn print_stats(
         if planes.infinite_far { "infinite".to_string() } else { planes.far.to_string() }
     );
     eprintln!("lights: {} used by the live objects", scene.lights().len());
+    if let Some(p) = scene.probes() {
+        let [x, y, z] = p.counts;
+        eprintln!("irradiance probes: {x}x{y}x{z}, live objects' diffuse light");
+    }
     let casters =
         usize::from(live.sphere.is_some()) + live.meshes.iter().filter(|m| m.exact_sphere.is_some()).count();
     match (compositor.shadow_light(), s.shadows, &live.sphere) {

@@ -16,6 +16,7 @@ pub struct ViewerScene {
     lights: Vec<LiveLight>,
     tone_map: ToneMap,
     layers: Option<std::sync::Arc<SceneLayers>>,
+    probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
 }
 
 impl ViewerScene {
@@ -68,7 +69,7 @@ impl ViewerScene {
                 second: camera.resolution(),
             });
         }
-        Ok(ViewerScene { camera, backdrop, depth, lights, tone_map, layers: None })
+        Ok(ViewerScene { camera, backdrop, depth, lights, tone_map, layers: None, probes: None })
     }
 
     /// Binds the renderer's light layers: shadows of live objects then remove exactly the
@@ -77,6 +78,21 @@ impl ViewerScene {
         layers.check(self.backdrop.width, self.backdrop.height, self.lights.len())?;
         self.layers = Some(std::sync::Arc::new(layers));
         Ok(())
+    }
+
+    /// Binds the renderer's irradiance probes: live objects' diffuse light then comes from the
+    /// scene's own global illumination instead of the bare lights.
+    pub fn set_probes(&mut self, probes: sidecar::ProbeGrid) {
+        self.probes = Some(std::sync::Arc::new(probes));
+    }
+
+    /// The bound irradiance probes, if any.
+    pub fn probes(&self) -> Option<&sidecar::ProbeGrid> {
+        self.probes.as_deref()
+    }
+
+    pub(crate) fn probes_arc(&self) -> Option<std::sync::Arc<sidecar::ProbeGrid>> {
+        self.probes.clone()
     }
 
     /// The bound light layers, if any.

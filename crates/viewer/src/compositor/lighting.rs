@@ -55,6 +55,10 @@ pub(super) struct FrameUniform {
     /// Camera-space centre and radius of each sphere casting shadows with the layers: the
     /// cursor sphere and live spheres.
     pub(super) shadow_spheres: [[f32; 4]; MAX_SHADOW_SPHERES],
+    /// Rotation from camera to world space (for the probes' world-space SH).
+    pub(super) world_from_camera: [[f32; 4]; 4],
+    /// The cursor sphere's radiance SH from the irradiance probes.
+    pub(super) sphere_sh: [[f32; 4]; 9],
     /// Per light: its layer slice (`u32::MAX`: none), first area sample, sample count.
     pub(super) shadow_slots: [[u32; 4]; MAX_LIGHTS],
     pub(super) lights: [GpuLight; MAX_LIGHTS],
@@ -66,6 +70,17 @@ pub(super) struct MeshUniform {
     pub(super) camera_from_object: [[f32; 4]; 4],
     pub(super) normal_from_object: [[f32; 4]; 4],
     pub(super) material: GpuMaterial,
+    /// The mesh's radiance SH from the irradiance probes.
+    pub(super) sh: [[f32; 4]; 9],
+}
+
+/// The probes' radiance SH at world point `p`, packed for the shaders (zero without probes).
+pub(super) fn probe_sh(probes: Option<&sidecar::ProbeGrid>, p: DVec3) -> [[f32; 4]; 9] {
+    let Some(grid) = probes else { return [[0.0; 4]; 9] };
+    if !p.is_finite() {
+        return [[0.0; 4]; 9];
+    }
+    grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]).map(|c| [c[0], c[1], c[2], 0.0])
 }
 
 pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
@@ -187,13 +202,20 @@ impl Compositor {
             screen_window: [sw.left as f32, sw.right as f32, sw.bottom as f32, sw.top as f32],
             raster: [self.width as f32, self.height as f32, tan_half, perspective],
             tone: self.tone,
-            counts: [self.lights.len().min(MAX_LIGHTS) as u32, shadow_on, u32::from(sphere.is_some()), 0],
+            counts: [
+                self.lights.len().min(MAX_LIGHTS) as u32,
+                shadow_on,
+                u32::from(sphere.is_some()),
+                u32::from(self.probes.is_some()),
+            ],
             shadow_light,
             shadow_params,
             sphere: sphere_vec,
             sphere_material,
             layer_info: [self.layers.info[0], self.layers.info[1], self.layers.info[2], sphere_count as u32],
             shadow_spheres,
+            world_from_camera: mat4_f32(DMat4::from_mat3(linear.inverse())),
+            sphere_sh: probe_sh(self.probes.as_deref(), sphere.map_or(DVec3::NAN, |s| s.centre)),
             shadow_slots,
             lights,
         }

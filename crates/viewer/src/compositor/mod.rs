@@ -24,7 +24,7 @@ use crate::scene::ViewerScene;
 use glam::{DMat3, DVec3, Mat4};
 
 use backdrop_points::PointVertex;
-use lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
+use lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32, probe_sh};
 use live_objects::{GpuMesh, MeshVertex};
 use shadows::camera_space_bounds;
 
@@ -41,6 +41,8 @@ pub struct Compositor {
     tone: [f32; 4],
     /// The light layers on the GPU (a placeholder without them).
     layers: layers::GpuLayers,
+    /// The renderer's irradiance probes: live objects' diffuse light.
+    probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
     /// Window depth of every pixel, kept to build the point cloud on demand.
     window_depths: Vec<f32>,
     /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
@@ -563,6 +565,7 @@ impl Compositor {
             shadow_light,
             tone,
             layers: gpu_layers,
+            probes: scene.probes_arc(),
             window_depths,
             surface_bounds,
             linear_image,
@@ -678,6 +681,12 @@ impl Compositor {
                     camera_from_object: mat4_f32(camera_from_object),
                     normal_from_object: Mat4::from_mat3(normal.as_mat3()).to_cols_array_2d(),
                     material: GpuMaterial::from(&instance.material),
+                    sh: probe_sh(
+                        self.probes.as_deref(),
+                        instance
+                            .exact_sphere
+                            .map_or(instance.world_from_object.w_axis.truncate(), |(c, _)| c),
+                    ),
                 };
                 let at = slot * self.mesh_uniform_stride as usize;
                 bytes[at..at + std::mem::size_of::<MeshUniform>()].copy_from_slice(bytemuck::bytes_of(&u));

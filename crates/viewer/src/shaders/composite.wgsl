@@ -42,7 +42,7 @@ struct Frame {
     raster: vec4<f32>,
     // x: scale from radiance to the image's units (Exposure's gain, which lrt-depth applies).
     tone: vec4<f32>,
-    // light count, shadow on, sphere on.
+    // light count, shadow on, sphere on, irradiance probes on.
     counts: vec4<u32>,
     // Shadow light: xyz camera-space position (w = 1) or direction of travel (w = 0).
     shadow_light: vec4<f32>,
@@ -55,6 +55,10 @@ struct Frame {
     layer_info: vec4<u32>,
     // Camera-space centre and radius of the spheres casting shadows with the layers.
     shadow_spheres: array<vec4<f32>, 8>,
+    // Rotation from camera to world space (normals for the probes' SH, which is world space).
+    world_from_camera: mat4x4<f32>,
+    // The cursor sphere's radiance SH from the irradiance probes (rgb per coefficient).
+    sphere_sh: array<vec4<f32>, 9>,
     // Per light: layer slice (0xffffffff: none), first area sample, sample count.
     shadow_slots: array<vec4<u32>, MAX_LIGHTS>,
     lights: array<Light, MAX_LIGHTS>,
@@ -82,6 +86,8 @@ struct MeshUniform {
     camera_from_object: mat4x4<f32>,
     normal_from_object: mat4x4<f32>,
     material: Material,
+    // The mesh's radiance SH from the irradiance probes.
+    sh: array<vec4<f32>, 9>,
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniform;
@@ -172,7 +178,21 @@ fn fs_backdrop_points(in: PointOut) -> BackdropOut {
 // ---------------------------------------------------------------------------------------------
 // Lighting (physical units: irradiance E per light; Lambert albedo / pi; normalised Blinn-Phong).
 
-fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+// Irradiance at world-space unit normal n from radiance SH (Ramamoorthi & Hanrahan 2001; the
+// basis and band factors of sidecar::sh).
+fn sh_irradiance(sh: array<vec4<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
+    let a0 = PI;
+    let a1 = 2.0 * PI / 3.0;
+    let a2 = PI / 4.0;
+    var e = a0 * 0.2820948 * sh[0].rgb;
+    e += a1 * 0.4886025 * (n.y * sh[1].rgb + n.z * sh[2].rgb + n.x * sh[3].rgb);
+    e += a2 * (1.0925484 * n.x * n.y * sh[4].rgb + 1.0925484 * n.y * n.z * sh[5].rgb
+        + 0.3153916 * (3.0 * n.z * n.z - 1.0) * sh[6].rgb + 1.0925484 * n.x * n.z * sh[7].rgb
+        + 0.5462742 * (n.x * n.x - n.y * n.y) * sh[8].rgb);
+    return max(e, vec3<f32>(0.0));
+}
+
+fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, sh: array<vec4<f32>, 9>) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
@@ -226,6 +246,11 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
         diffuse += irradiance;
         let h = normalize(l + v);
         specular += irradiance * pow(max(dot(n, h), 0.0), exponent);
+    }
+    // With the renderer's irradiance probes, diffuse light is the scene's own (direct and
+    // indirect, shadowed by the scene as the renderer saw it), not the bare lights'.
+    if frame.counts.w == 1u {
+        diffuse = sh_irradiance(sh, normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz));
     }
     let cs = material.colour.rgb;
     return cs * (ka * ambient + kd / PI * diffuse)
@@ -308,7 +333,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     }
     let n = (p - c) / r;
     var out: LiveOut;
-    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray.direction));
+    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray.direction, frame.sphere_sh));
     out.mask = vec4<f32>(1.0);
     out.depth = depth;
     return out;
@@ -342,7 +367,7 @@ struct MeshFragmentOut {
 fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
-    return MeshFragmentOut(to_image_units(shade(mesh.material, in.p_camera, n, ray.direction)), vec4<f32>(1.0));
+    return MeshFragmentOut(to_image_units(shade(mesh.material, in.p_camera, n, ray.direction, mesh.sh)), vec4<f32>(1.0));
 }
 
 // ---------------------------------------------------------------------------------------------
