@@ -51,13 +51,9 @@ fn a_white_matte_sphere_in_a_uniform_probe_field_has_the_field_s_radiance() {
     for (k, &m) in mask.iter().enumerate() {
         if m == 255 {
             inside += 1;
-            for ch in 0..3 {
+            for (ch, want) in l.iter().enumerate() {
                 let got = linear.rgba[4 * k + ch];
-                assert!(
-                    (got - l[ch]).abs() < 1e-4 * l[ch].max(1.0),
-                    "pixel {k} channel {ch}: {got} vs {}",
-                    l[ch]
-                );
+                assert!((got - want).abs() < 1e-4 * want.max(1.0), "pixel {k} channel {ch}: {got} vs {want}");
             }
         }
     }
