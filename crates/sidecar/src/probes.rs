@@ -77,6 +77,11 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Crushes tiny probe weights (DDGI): removes the residual glow of a probe seen through a wall.
+fn crushed(w: f32) -> f32 {
+    if w < 0.2 { w * w * w / 0.04 } else { w }
+}
+
 impl ProbeGrid {
     pub fn probe_count(&self) -> usize {
         self.counts.iter().map(|&c| c as usize).product()
@@ -92,51 +97,60 @@ impl ProbeGrid {
         std::array::from_fn(|a| self.origin[a] + cell[a] as f32 * self.spacing[a])
     }
 
+    /// The probes of `q`'s grid cell with a trilinear weight above 0: index, weight, vector from
+    /// `q` to the probe and its length.
+    fn cell_probes(&self, q: [f32; 3]) -> impl Iterator<Item = (usize, f32, [f32; 3], f32)> + '_ {
+        let mut base = [0u32; 3];
+        let mut alpha = [0.0f32; 3];
+        for a in 0..3 {
+            let last = self.counts[a].saturating_sub(1);
+            let t = ((q[a] - self.origin[a]) / self.spacing[a]).clamp(0.0, last as f32);
+            let b = (t.floor() as u32).min(last.saturating_sub(1));
+            base[a] = b;
+            alpha[a] = if last == 0 { 0.0 } else { t - b as f32 };
+        }
+        (0..8u32).filter_map(move |corner| {
+            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
+            let trilinear: f32 =
+                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
+            if trilinear <= 0.0 {
+                return None;
+            }
+            let to_probe = sub(self.probe_position(cell), q);
+            Some((self.probe_index(cell), trilinear, to_probe, dot(to_probe, to_probe).sqrt()))
+        })
+    }
+
+    /// Chebyshev visibility (DDGI) of a point `distance` from `probe` along unit `dir` (from
+    /// the point toward the probe): 1 within the texel's mean distance, else
+    /// `(var / (var + (d - mean)^2))^3`.
+    fn visibility_of(&self, probe: usize, dir: [f32; 3], distance: f32) -> f32 {
+        let texel = octahedral_texel(dir.map(|c| -c));
+        let [mean, mean_sq] = self.visibility[probe * VISIBILITY_TEXELS * VISIBILITY_TEXELS + texel];
+        if distance <= mean {
+            return 1.0;
+        }
+        let variance = (mean_sq - mean * mean).abs().max(1e-6 * mean_sq.max(1e-12));
+        let d = distance - mean;
+        (variance / (variance + d * d)).powi(3).max(0.0)
+    }
+
     /// The radiance SH arriving at `p` for an object around it, as real-time engines light a
     /// moving object from one probe sample: the probes of `p`'s cell blended by trilinear
     /// weight times their Chebyshev visibility of `p` (no normal term: the object has every
     /// normal), crushed like [`ProbeGrid::irradiance`]'s. Evaluate with
     /// [`crate::sh::sh_irradiance`] per normal.
     pub fn radiance_sh_at(&self, p: [f32; 3]) -> [[f32; 3]; SH_COEFFICIENTS] {
-        let mut base = [0u32; 3];
-        let mut alpha = [0.0f32; 3];
-        for a in 0..3 {
-            let last = self.counts[a].saturating_sub(1);
-            let t = ((p[a] - self.origin[a]) / self.spacing[a]).clamp(0.0, last as f32);
-            let b = (t.floor() as u32).min(last.saturating_sub(1));
-            base[a] = b;
-            alpha[a] = if last == 0 { 0.0 } else { t - b as f32 };
-        }
         let mut sum = [[0.0f32; 3]; SH_COEFFICIENTS];
         let mut total = 0.0f32;
-        for corner in 0..8u32 {
-            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
-            let trilinear: f32 =
-                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
-            if trilinear <= 0.0 {
-                continue;
-            }
-            let probe = self.probe_index(cell);
-            let to_probe = sub(self.probe_position(cell), p);
-            let distance = dot(to_probe, to_probe).sqrt();
+        for (probe, trilinear, to_probe, distance) in self.cell_probes(p) {
             let visibility = if distance > 0.0 {
-                let texel = octahedral_texel(to_probe.map(|c| -c / distance));
-                let [mean, mean_sq] = self.visibility[probe * VISIBILITY_TEXELS * VISIBILITY_TEXELS + texel];
-                if distance <= mean {
-                    1.0
-                } else {
-                    let variance = (mean_sq - mean * mean).abs().max(1e-6 * mean_sq.max(1e-12));
-                    let d = distance - mean;
-                    (variance / (variance + d * d)).powi(3).max(0.0)
-                }
+                self.visibility_of(probe, to_probe.map(|c| c / distance), distance)
             } else {
                 1.0
             };
-            let mut w = trilinear * visibility.max(1e-6);
-            if w < 0.2 {
-                w *= w * w / 0.04;
-            }
+            let w = crushed(trilinear * visibility.max(1e-6));
             for (acc, c) in sum.iter_mut().zip(&self.radiance_sh[probe]) {
                 for k in 0..3 {
                     acc[k] += w * c[k];
@@ -154,49 +168,16 @@ impl ProbeGrid {
     pub fn irradiance(&self, p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
         let bias = 0.1 * self.spacing.iter().copied().fold(f32::INFINITY, f32::min);
         let q: [f32; 3] = std::array::from_fn(|a| p[a] + n[a] * bias);
-        let mut base = [0u32; 3];
-        let mut alpha = [0.0f32; 3];
-        for a in 0..3 {
-            let last = self.counts[a].saturating_sub(1);
-            let t = ((q[a] - self.origin[a]) / self.spacing[a]).clamp(0.0, last as f32);
-            let b = (t.floor() as u32).min(last.saturating_sub(1));
-            base[a] = b;
-            alpha[a] = if last == 0 { 0.0 } else { t - b as f32 };
-        }
         let mut sum = [0.0f32; 3];
         let mut total = 0.0f32;
-        for corner in 0..8u32 {
-            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
-            let trilinear: f32 =
-                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
-            if trilinear <= 0.0 {
-                continue;
-            }
-            let probe = self.probe_index(cell);
-            let to_probe = sub(self.probe_position(cell), q);
-            let distance = dot(to_probe, to_probe).sqrt();
+        for (probe, trilinear, to_probe, distance) in self.cell_probes(q) {
             let dir = if distance > 0.0 { to_probe.map(|c| c / distance) } else { n };
             // Smooth backface term: probes behind the surface count little, never nothing.
             let backface = {
                 let h = (dot(dir, n) + 1.0) * 0.5;
                 h * h + 0.2
             };
-            let texel = octahedral_texel(dir.map(|c| -c));
-            let [mean, mean_sq] = self.visibility[probe * VISIBILITY_TEXELS * VISIBILITY_TEXELS + texel];
-            let visibility = if distance <= mean {
-                1.0
-            } else {
-                let variance = (mean_sq - mean * mean).abs().max(1e-6 * mean_sq.max(1e-12));
-                let d = distance - mean;
-                let chebyshev = variance / (variance + d * d);
-                chebyshev.powi(3).max(0.0)
-            };
-            let mut w = trilinear * backface * visibility.max(1e-6);
-            // Crush tiny weights (DDGI): removes the residual glow of a probe seen through a wall.
-            if w < 0.2 {
-                w *= w * w / 0.04;
-            }
+            let w = crushed(trilinear * backface * self.visibility_of(probe, dir, distance).max(1e-6));
             let e = sh_irradiance(&self.radiance_sh[probe], n);
             for c in 0..3 {
                 sum[c] += w * e[c];

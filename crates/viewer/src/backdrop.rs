@@ -276,32 +276,12 @@ fn read_exr_linear(path: &Path) -> Result<(u32, u32, Vec<f32>), ViewerError> {
 }
 
 fn read_exr_rgba(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
-    use exr::prelude::*;
-    let bad = |message: String| ViewerError::BadInput { path: path.to_path_buf(), message };
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .rgb_channels(
-            |resolution, _| {
-                let (w, h) = (resolution.width(), resolution.height());
-                // An impossible size yields an empty buffer; the size check below rejects it.
-                let ok = w > 0 && h > 0 && w <= MAX_IMAGE_SIDE as usize && h <= MAX_IMAGE_SIDE as usize;
-                (w, h, if ok { vec![0u8; w * h * 4] } else { Vec::new() })
-            },
-            move |(w, _, pixels): &mut (usize, usize, Vec<u8>), position, (r, g, b): (f32, f32, f32)| {
-                let k = (position.y() * *w + position.x()) * 4;
-                if let Some(px) = pixels.get_mut(k..k + 4) {
-                    px.copy_from_slice(&[tone_map.to_byte(r), tone_map.to_byte(g), tone_map.to_byte(b), 255]);
-                }
-            },
-        )
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| bad(format!("cannot read the OpenEXR image: {e}")))?;
-    let (w, h, pixels) = image.layer_data.channel_data.pixels;
-    check_size(path, w as u32, h as u32)?;
-    Ok(Rgba8Image { width: w as u32, height: h as u32, pixels })
+    let (width, height, linear) = read_exr_linear(path)?;
+    let pixels = linear
+        .chunks_exact(4)
+        .flat_map(|p| [tone_map.to_byte(p[0]), tone_map.to_byte(p[1]), tone_map.to_byte(p[2]), 255])
+        .collect();
+    Ok(Rgba8Image { width, height, pixels })
 }
 
 /// Writes an 8-bit PNG atomically: a temporary file beside the target, then a rename.
