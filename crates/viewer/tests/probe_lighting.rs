@@ -5,7 +5,9 @@ mod common;
 
 use common::*;
 use glam::{DVec3, Vec3};
-use viewer::{CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, Sphere};
+use viewer::{
+    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, Sphere, ViewerScene,
+};
 
 /// One probe in a uniform environment of radiance `l`: its only SH coefficient is
 /// `l * 4 pi * Y00`.
@@ -25,13 +27,12 @@ fn uniform_probe(l: [f32; 3]) -> sidecar::ProbeGrid {
 }
 
 /// A white Lambertian sphere (Kd 1, no Ka, no Ks) in a uniform environment of radiance `l`
-/// has radiance `l` at every visible point; the RIB's point light adds nothing diffuse.
+/// (and no lights) has radiance `l` at every visible point.
 #[test]
 fn a_white_matte_sphere_in_a_uniform_probe_field_has_the_field_s_radiance() {
     let gpu = gpu();
     let l = [0.3f32, 0.5, 0.7];
-    let light = LiveLight::Point { position: DVec3::new(0.0, 0.9, 0.0), colour: Vec3::splat(5.0) };
-    let mut scene = cornell_scene(vec![light]);
+    let mut scene = cornell_scene(vec![]);
     scene.set_probes(uniform_probe(l));
     let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
     let live = LiveObjects {
@@ -58,4 +59,46 @@ fn a_white_matte_sphere_in_a_uniform_probe_field_has_the_field_s_radiance() {
         }
     }
     assert!(inside > 1000, "inside {inside}");
+}
+
+fn render_linear(scene: &ViewerScene, live: &LiveObjects) -> (Vec<f32>, Vec<u8>) {
+    let gpu = gpu();
+    let mut c = Compositor::new(
+        &gpu,
+        scene,
+        CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() },
+    )
+    .unwrap();
+    c.render(live).unwrap();
+    (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
+}
+
+/// Probes that saw only the RIB's point light add nothing: the probes contribute the light the
+/// lights miss, and the lights' own direct light is taken out of them before they are used.
+#[test]
+fn probes_that_saw_only_the_lights_add_nothing() {
+    let (position, intensity) = (DVec3::new(0.1, 0.9, 0.2), 4.0f32);
+    let centre = DVec3::new(0.0, -0.2, 0.0);
+    let light = LiveLight::Point { position, colour: Vec3::splat(intensity) };
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius: 0.3, material }), meshes: Vec::new() };
+    let without = render_linear(&cornell_scene(vec![light.clone()]), &live);
+    // The point light's radiance at the sphere's centre, projected on the SH basis.
+    let to_light = position - centre;
+    let e = intensity / to_light.length_squared() as f32;
+    let dir = to_light.normalize();
+    let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
+    let mut probes = uniform_probe([0.0; 3]);
+    probes.origin = [centre.x as f32, centre.y as f32, centre.z as f32];
+    probes.radiance_sh[0] = y.map(|v| [v * e; 3]);
+    let mut scene = cornell_scene(vec![light]);
+    scene.set_probes(probes);
+    let with = render_linear(&scene, &live);
+    assert_eq!(without.1, with.1);
+    let inside: Vec<usize> = (0..with.1.len()).filter(|&k| with.1[k] == 255).collect();
+    assert!(inside.len() > 1000);
+    for k in inside {
+        let (a, b) = (without.0[4 * k], with.0[4 * k]);
+        assert!((a - b).abs() <= 1e-4 * a.abs().max(1e-3), "pixel {k}: {a} without probes, {b} with");
+    }
 }

@@ -74,13 +74,67 @@ pub(super) struct MeshUniform {
     pub(super) sh: [[f32; 4]; 9],
 }
 
-/// The probes' radiance SH at world point `p`, packed for the shaders (zero without probes).
-pub(super) fn probe_sh(probes: Option<&sidecar::ProbeGrid>, p: DVec3) -> [[f32; 4]; 9] {
+/// The scene's indirect light at world point `p` as radiance SH, packed for the shaders (zero
+/// without probes): the probes' radiance SH there minus the SH of the lights' direct light as
+/// the shaders add it per fragment (unshadowed), so direct light keeps its exact per-fragment
+/// falloff and the probes add what the lights alone miss (bounce light, the scene's colour).
+pub(super) fn indirect_sh(
+    probes: Option<&sidecar::ProbeGrid>,
+    lights: &[LiveLight],
+    p: DVec3,
+) -> [[f32; 4]; 9] {
     let Some(grid) = probes else { return [[0.0; 4]; 9] };
     if !p.is_finite() {
         return [[0.0; 4]; 9];
     }
-    grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]).map(|c| [c[0], c[1], c[2], 0.0])
+    let mut sh = grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]);
+    for light in lights {
+        let Some((dir, e)) = direct_at(light, p) else { continue };
+        let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
+        for (c, yi) in sh.iter_mut().zip(y) {
+            for k in 0..3 {
+                c[k] -= yi * e[k];
+            }
+        }
+    }
+    sh.map(|c| [c[0], c[1], c[2], 0.0])
+}
+
+/// Direction toward a light and the irradiance it gives a surface facing it at `p`, as
+/// `composite.wgsl`'s `shade` computes it (`None` for ambient light).
+fn direct_at(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
+    let toward = |position: DVec3| {
+        let v = position - p;
+        let d2 = v.length_squared().max(1e-30);
+        (v / d2.sqrt(), d2)
+    };
+    match light {
+        LiveLight::Ambient { .. } => None,
+        LiveLight::Distant { direction, colour } => Some((-direction.normalize_or_zero(), *colour)),
+        LiveLight::Point { position, colour } => {
+            let (l, d2) = toward(*position);
+            Some((l, *colour / d2 as f32))
+        }
+        LiveLight::Spot { position, axis, colour, cone_angle, cone_delta_angle, beam_distribution } => {
+            let (l, d2) = toward(*position);
+            let cos = (-l).dot(axis.normalize_or_zero()) as f32;
+            let (lo, hi) = (cone_angle.cos(), (cone_angle - cone_delta_angle).cos());
+            let t = ((cos - lo) / (hi - lo)).clamp(0.0, 1.0);
+            let smooth = t * t * (3.0 - 2.0 * t);
+            Some((l, *colour * cos.max(0.0).powf(*beam_distribution) * smooth / d2 as f32))
+        }
+        LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } => {
+            let (l, d2) = toward(*centroid);
+            let lobe = match normal {
+                Some(n) => {
+                    let c = n.dot(-l) as f32;
+                    if *two_sided { c.abs() } else { c.max(0.0) }
+                }
+                None => 0.25,
+            };
+            Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
+        }
+    }
 }
 
 pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
@@ -215,7 +269,11 @@ impl Compositor {
             layer_info: [self.layers.info[0], self.layers.info[1], self.layers.info[2], sphere_count as u32],
             shadow_spheres,
             world_from_camera: mat4_f32(DMat4::from_mat3(linear.inverse())),
-            sphere_sh: probe_sh(self.probes.as_deref(), sphere.map_or(DVec3::NAN, |s| s.centre)),
+            sphere_sh: indirect_sh(
+                self.probes.as_deref(),
+                &self.lights,
+                sphere.map_or(DVec3::NAN, |s| s.centre),
+            ),
             shadow_slots,
             lights,
         }

@@ -24,7 +24,7 @@ use crate::scene::ViewerScene;
 use glam::{DMat3, DVec3, Mat4};
 
 use backdrop_points::PointVertex;
-use lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32, probe_sh};
+use lighting::{FrameUniform, GpuMaterial, MeshUniform, indirect_sh, mat4_f32};
 use live_objects::{GpuMesh, MeshVertex};
 use shadows::camera_space_bounds;
 
@@ -681,8 +681,9 @@ impl Compositor {
                     camera_from_object: mat4_f32(camera_from_object),
                     normal_from_object: Mat4::from_mat3(normal.as_mat3()).to_cols_array_2d(),
                     material: GpuMaterial::from(&instance.material),
-                    sh: probe_sh(
+                    sh: indirect_sh(
                         self.probes.as_deref(),
+                        &self.lights,
                         instance
                             .exact_sphere
                             .map_or(instance.world_from_object.w_axis.truncate(), |(c, _)| c),

@@ -247,10 +247,10 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
         let h = normalize(l + v);
         specular += irradiance * pow(max(dot(n, h), 0.0), exponent);
     }
-    // With the renderer's irradiance probes, diffuse light is the scene's own (direct and
-    // indirect, shadowed by the scene as the renderer saw it), not the bare lights'.
+    // With the renderer's irradiance probes, the scene's indirect light (the probes' SH less
+    // the lights' direct light at the object, compositor/lighting.rs) joins the lights'.
     if frame.counts.w == 1u {
-        diffuse = sh_irradiance(sh, normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz));
+        diffuse += sh_irradiance(sh, normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz));
     }
     let cs = material.colour.rgb;
     return cs * (ka * ambient + kd / PI * diffuse)
