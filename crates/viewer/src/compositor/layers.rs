@@ -25,7 +25,8 @@ pub(super) struct SampleUniform {
 pub(super) struct GpuLayers {
     pub(super) view: wgpu::TextureView,
     pub(super) samples: wgpu::Buffer,
-    /// Per kept light: `[slice, first sample, sample count, 0]`.
+    /// Per kept light: `[slice, first sample, sample count, bounding radius of its samples about
+    /// its centroid as f32 bits]`.
     pub(super) light_slots: Vec<[u32; 4]>,
     /// `[1 if layers are bound, indirect slice, normal slice, 0]`.
     pub(super) info: [u32; 4],
@@ -39,6 +40,7 @@ pub(super) fn upload(
     projection: &Projection,
     layers: Option<&SceneLayers>,
     kept: &[usize],
+    lights: &[crate::live::LiveLight],
     two_sided: &[bool],
     (width, height): (u32, u32),
 ) -> GpuLayers {
@@ -56,7 +58,7 @@ pub(super) fn upload(
         let area_lights = kept.iter().filter(|&&k| !bound.area_samples[k].is_empty()).count().max(1);
         let per_light = (MAX_AREA_SAMPLES / area_lights).min(AREA_SAMPLES_PER_LIGHT);
         let mut next_sample = 0usize;
-        for (slot, &k) in light_slots.iter_mut().zip(kept) {
+        for (slot_index, (slot, &k)) in light_slots.iter_mut().zip(kept).enumerate() {
             let Some(layer) = bound.layer_of_light[k] else { continue };
             let slice = *slice_of_layer[layer].get_or_insert_with(|| {
                 slices.push(bound.layers.light[layer].clone());
@@ -74,7 +76,15 @@ pub(super) fn upload(
                 samples.samples[2 * next_sample + 1] = vec4(n, if two_sided[k] { 1.0 } else { 0.0 });
                 next_sample += 1;
             }
-            *slot = [slice as u32, first as u32, (next_sample - first) as u32, 0];
+            // The samples' bounding radius about the light's centroid (the shaders' cone test).
+            let centroid = match &lights[slot_index] {
+                crate::live::LiveLight::Area { centroid, .. } => Some(*centroid),
+                _ => None,
+            };
+            let bound = centroid.map_or(0.0, |c| {
+                light_samples.iter().map(|s| (s.position - c).length()).fold(0.0, f64::max) * scale * 1.001
+            });
+            *slot = [slice as u32, first as u32, (next_sample - first) as u32, (bound as f32).to_bits()];
         }
         info = [1, slices.len() as u32, slices.len() as u32 + 1, 0];
         slices.push(bound.layers.indirect.clone());

@@ -273,9 +273,17 @@ impl Compositor {
             ],
         });
         let gpu_layers = if settings.shadows.is_some() {
-            layers::upload(gpu, &projection, scene.light_layers(), &kept, &two_sided, (width, height))
+            layers::upload(
+                gpu,
+                &projection,
+                scene.light_layers(),
+                &kept,
+                &lights,
+                &two_sided,
+                (width, height),
+            )
         } else {
-            layers::upload(gpu, &projection, None, &kept, &two_sided, (width, height))
+            layers::upload(gpu, &projection, None, &kept, &lights, &two_sided, (width, height))
         };
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {

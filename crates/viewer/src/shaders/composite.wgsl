@@ -402,6 +402,27 @@ fn disc_overlap(a: f32, b: f32, d: f32) -> f32 {
     return a2 * alpha + b2 * beta - 0.5 * sqrt(max((-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b), 0.0));
 }
 
+// Whether any shadow-casting sphere's cone from p comes within `half_angle` of unit `axis`
+// and nearer than `reach` (the emitter's bounding cone from p).
+fn spheres_near_cone(p: vec3<f32>, axis: vec3<f32>, half_angle: f32, reach: f32) -> bool {
+    for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let to_sphere = sphere.xyz - p;
+        let ds = length(to_sphere);
+        if ds <= sphere.w {
+            return true;
+        }
+        if ds - sphere.w >= reach {
+            continue;
+        }
+        let separation = acos(clamp(dot(to_sphere / ds, axis), -1.0, 1.0));
+        if separation < asin(sphere.w / ds) + half_angle + 1e-3 {
+            return true;
+        }
+    }
+    return false;
+}
+
 // Whether any shadow-casting sphere blocks the segment from p along unit dir up to max_t.
 fn sphere_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
     for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
@@ -455,8 +476,15 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     }
     if kind == LIGHT_AREA {
         // The ray tracer's integral over the emitter, on its fixed samples: the occluded share
-        // of sum(area cos_l cos_s / d^2).
+        // of sum(area cos_l cos_s / d^2). First a cone test: when no sphere's cone from p
+        // overlaps the emitter's bounding cone, nothing is hidden (most pixels).
         let slot = frame.shadow_slots[i];
+        let to_light = light.position.xyz - p;
+        let dl = length(to_light);
+        let bound = bitcast<f32>(slot.w);
+        if dl > bound && !spheres_near_cone(p, to_light / dl, asin(bound / dl), dl + bound) {
+            return vec2<f32>(0.0, power / (dl * dl));
+        }
         var total = 0.0;
         var hidden = 0.0;
         for (var k = slot.y; k < min(slot.y + slot.z, MAX_AREA_SAMPLES); k = k + 1u) {
