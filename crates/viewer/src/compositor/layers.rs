@@ -147,3 +147,14 @@ pub(super) fn upload(
     gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&samples));
     GpuLayers { view, samples: buffer, light_slots, info }
 }
+
+impl GpuLayers {
+    /// Whether two kept lights share a layer (the shaders then weigh them).
+    pub(super) fn shared(&self) -> bool {
+        let mut slices: Vec<u32> = self.light_slots.iter().map(|s| s[0]).filter(|&s| s != NO_LAYER).collect();
+        let n = slices.len();
+        slices.sort_unstable();
+        slices.dedup();
+        slices.len() != n
+    }
+}

@@ -528,6 +528,29 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
 fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
     let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
     let n = select(vec3<f32>(0.0), normalize(n_raw), dot(n_raw, n_raw) > 1e-12);
+    var removed = vec3<f32>(0.0);
+    if frame.shadow_params.z < 0.5 {
+        // Every layer holds one light (the usual case): its own share, no bookkeeping.
+        for (var i = 0u; i < frame.counts.x; i = i + 1u) {
+            let slice = frame.shadow_slots[i].x;
+            if slice == NO_LAYER {
+                continue;
+            }
+            let s = hidden_share(i, p, n).x;
+            if s > 0.0 {
+                removed += s * textureLoad(light_layers, pixel, i32(slice), 0).rgb;
+            }
+        }
+    } else {
+        removed = shared_layer_shadow(pixel, p, n);
+    }
+    return (removed + indirect_occlusion(p, n) * textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb)
+        * frame.tone.x;
+}
+
+// Layers that hold several lights (scenes with more than 16): each light's share weighted by
+// its unshadowed irradiance.
+fn shared_layer_shadow(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     var numerator = array<f32, MAX_LIGHTS>();
     var weight = array<f32, MAX_LIGHTS>();
     var share = array<f32, MAX_LIGHTS>();
@@ -557,6 +580,11 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
             removed += s * textureLoad(light_layers, pixel, i32(slice), 0).rgb;
         }
     }
+    return removed;
+}
+
+// The spheres' cosine-weighted occluded solid angle at p (normal n): occluded indirect light.
+fn indirect_occlusion(p: vec3<f32>, n: vec3<f32>) -> f32 {
     // Occluded solid angles of separate spheres add (overlaps are rare and small).
     var ao = 0.0;
     for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
@@ -572,9 +600,7 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
         let fade = 1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d);
         ao += cos_s * (r / d) * (r / d) * fade;
     }
-    ao = min(ao, 1.0);
-    removed += ao * textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
-    return removed * frame.tone.x;
+    return min(ao, 1.0);
 }
 
 @fragment
