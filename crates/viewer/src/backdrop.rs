@@ -12,9 +12,6 @@
 //!   untouched (16-bit values are reduced to 8 bits by `image`'s rounding, `round(v / 257)`),
 //!   and their linear values are the bytes decoded with the RIB's gamma, `(b / 255)^gamma`, the
 //!   exact inverse of how `lrt-depth` writes 8-bit files (`Quantize`'s dither aside).
-//!
-//! [`Rgba8Image::read`] keeps the older 8-bit view of any of these files: float values become
-//! `round(255 * clamp((gain * v) ^ (1 / gamma), 0, 1))` with the given [`ToneMap`].
 
 use crate::display::DisplayEncoding;
 use crate::error::ViewerError;
@@ -24,7 +21,8 @@ use std::path::Path;
 /// compositor is created.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
-/// `Exposure gain gamma`, applied to linear values to get display values.
+/// The RIB's `Exposure gain gamma`: the gain scales live radiance into the image's units, the
+/// gamma decodes 8-bit images and chooses the display transfer ([`crate::display`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToneMap {
     pub gain: f32,
@@ -34,25 +32,6 @@ pub struct ToneMap {
 impl Default for ToneMap {
     fn default() -> Self {
         ToneMap { gain: 1.0, gamma: 1.0 }
-    }
-}
-
-impl ToneMap {
-    /// The tone map for a float image written with this exposure: `lrt-depth` applies the gain
-    /// to float outputs already, so only the gamma is left.
-    pub fn for_float_image(self) -> ToneMap {
-        ToneMap { gain: 1.0, gamma: self.gamma }
-    }
-
-    /// The 8-bit value of a linear channel value: `round(255 * clamp((gain v)^(1/gamma), 0, 1))`.
-    /// NaN maps to 0.
-    pub fn to_byte(self, v: f32) -> u8 {
-        let scaled = self.gain * v;
-        let display = if self.gamma == 1.0 { scaled } else { scaled.max(0.0).powf(1.0 / self.gamma) };
-        if display.is_nan() {
-            return 0;
-        }
-        (display.clamp(0.0, 1.0) * 255.0).round() as u8
     }
 }
 
@@ -69,17 +48,6 @@ impl Rgba8Image {
     pub fn filled(width: u32, height: u32, rgba: [u8; 4]) -> Rgba8Image {
         let pixels = rgba.iter().copied().cycle().take(width as usize * height as usize * 4).collect();
         Rgba8Image { width, height, pixels }
-    }
-
-    /// Reads a PNG, JPEG, TIFF or OpenEXR file (by content for the first three, by the `.exr`
-    /// extension for the last). Float images (EXR, 32-bit float TIFF) are tone-mapped with
-    /// `tone_map`; 8-bit values are copied through; 16-bit values become `round(v / 257)`.
-    pub fn read(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
-        let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        let image =
-            if is_exr { read_exr_rgba(path, tone_map)? } else { read_integer_or_float(path, tone_map)? };
-        check_size(path, image.width, image.height)?;
-        Ok(image)
     }
 
     /// Writes the image as PNG, atomically (temporary file + rename).
@@ -230,21 +198,6 @@ fn decode_integer_or_float(path: &Path) -> Result<Decoded, ViewerError> {
     Ok(Decoded::Bytes(Rgba8Image { width: rgba.width(), height: rgba.height(), pixels: rgba.into_raw() }))
 }
 
-fn read_integer_or_float(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
-    match decode_integer_or_float(path)? {
-        Decoded::Float(linear) => {
-            let pixels = linear
-                .pixels()
-                .flat_map(|p| {
-                    [tone_map.to_byte(p.0[0]), tone_map.to_byte(p.0[1]), tone_map.to_byte(p.0[2]), 255]
-                })
-                .collect();
-            Ok(Rgba8Image { width: linear.width(), height: linear.height(), pixels })
-        }
-        Decoded::Bytes(image) => Ok(image),
-    }
-}
-
 /// Reads an OpenEXR file's RGB channels as linear RGBA (alpha 1).
 fn read_exr_linear(path: &Path) -> Result<(u32, u32, Vec<f32>), ViewerError> {
     use exr::prelude::*;
@@ -273,15 +226,6 @@ fn read_exr_linear(path: &Path) -> Result<(u32, u32, Vec<f32>), ViewerError> {
     let (w, h, pixels) = image.layer_data.channel_data.pixels;
     check_size(path, w as u32, h as u32)?;
     Ok((w as u32, h as u32, pixels))
-}
-
-fn read_exr_rgba(path: &Path, tone_map: ToneMap) -> Result<Rgba8Image, ViewerError> {
-    let (width, height, linear) = read_exr_linear(path)?;
-    let pixels = linear
-        .chunks_exact(4)
-        .flat_map(|p| [tone_map.to_byte(p[0]), tone_map.to_byte(p[1]), tone_map.to_byte(p[2]), 255])
-        .collect();
-    Ok(Rgba8Image { width, height, pixels })
 }
 
 /// Writes an 8-bit PNG atomically: a temporary file beside the target, then a rename.
@@ -320,51 +264,47 @@ pub(crate) fn write_png_atomically(
 mod tests {
     use super::*;
 
-    #[test]
-    fn tone_map_matches_the_8bit_writer_rule() {
-        let t = ToneMap::default();
-        assert_eq!(
-            [t.to_byte(0.0), t.to_byte(1.0), t.to_byte(0.5), t.to_byte(2.0), t.to_byte(-1.0)],
-            [0, 255, 128, 255, 0]
-        );
-        assert_eq!(t.to_byte(f32::NAN), 0);
-        let g = ToneMap { gain: 2.0, gamma: 2.2 };
-        assert_eq!(g.to_byte(0.25), ((0.5f32).powf(1.0 / 2.2) * 255.0).round() as u8);
-    }
-
     fn scratch(name: &str) -> tempfile::TempDir {
         tempfile::Builder::new().prefix(&format!("viewer-backdrop-{name}-")).tempdir().unwrap()
     }
 
     #[test]
-    fn float_images_are_tone_mapped_and_8bit_images_copied() {
+    fn float_images_stay_linear_and_8bit_images_are_copied() {
         let scratch_dir = scratch("read");
         let dir = scratch_dir.path();
         let value = |x: usize, y: usize| (x as f32 * 0.3, y as f32 * 0.45, 1.7 - x as f32 * 0.2);
         let exr_path = dir.join("a.exr");
         exr::prelude::write_rgb_file(&exr_path, 5, 3, value).unwrap();
-        let tone = ToneMap { gain: 1.5, gamma: 2.2 };
-        let img = Rgba8Image::read(&exr_path, tone).unwrap();
+        let img = Backdrop::read(&exr_path, 2.2).unwrap();
+        assert!(img.is_float);
         assert_eq!((img.width, img.height), (5, 3));
         for y in 0..3 {
             for x in 0..5 {
                 let (r, g, b) = value(x, y);
                 let k = (y * 5 + x) * 4;
-                assert_eq!(img.pixels[k..k + 4], [tone.to_byte(r), tone.to_byte(g), tone.to_byte(b), 255]);
+                assert_eq!(img.linear[k..k + 4], [r, g, b, 1.0]);
+                let e = img.encoding;
+                let (xu, yu) = (x as u32, y as u32);
+                let bytes =
+                    [e.encode(r, xu, yu, 5, 0), e.encode(g, xu, yu, 5, 1), e.encode(b, xu, yu, 5, 2), 255];
+                assert_eq!(img.display.pixels[k..k + 4], bytes);
             }
         }
         let png_path = dir.join("a.png");
         let rgba = image::RgbaImage::from_fn(4, 2, |x, y| image::Rgba([x as u8 * 60, y as u8 * 200, 7, 255]));
         rgba.save(&png_path).unwrap();
-        assert_eq!(Rgba8Image::read(&png_path, tone).unwrap().pixels, rgba.into_raw());
+        assert_eq!(Backdrop::read(&png_path, 2.2).unwrap().display.pixels, rgba.into_raw());
         let png16 = dir.join("b.png");
         let wide = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(2, 1, |x, _| {
             image::Rgb([x as u16 * 40000, 257, 65535])
         });
         wide.save(&png16).unwrap();
-        assert_eq!(Rgba8Image::read(&png16, tone).unwrap().pixels, vec![0, 1, 255, 255, 156, 1, 255, 255]);
-        assert!(Rgba8Image::read(&dir.join("missing.png"), tone).is_err());
+        assert_eq!(
+            Backdrop::read(&png16, 2.2).unwrap().display.pixels,
+            vec![0, 1, 255, 255, 156, 1, 255, 255]
+        );
+        assert!(Backdrop::read(&dir.join("missing.png"), 2.2).is_err());
         std::fs::write(dir.join("junk.png"), b"not an image").unwrap();
-        assert!(Rgba8Image::read(&dir.join("junk.png"), tone).is_err());
+        assert!(Backdrop::read(&dir.join("junk.png"), 2.2).is_err());
     }
 }
