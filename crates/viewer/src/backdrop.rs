@@ -237,12 +237,9 @@ pub(crate) fn write_png_atomically(
     bytes: &[u8],
 ) -> Result<(), ViewerError> {
     use image::ImageEncoder;
-    let io = |e: std::io::Error| ViewerError::Io { path: path.to_path_buf(), source: e };
-    let file_name =
-        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
-    let result = (|| {
-        let file = std::fs::File::create(&tmp).map_err(io)?;
+    write_atomically(path, |tmp| {
+        let io = |e: std::io::Error| ViewerError::Io { path: path.to_path_buf(), source: e };
+        let file = std::fs::File::create(tmp).map_err(io)?;
         let mut writer = std::io::BufWriter::new(file);
         image::codecs::png::PngEncoder::new(&mut writer).write_image(bytes, width, height, color).map_err(
             |e| ViewerError::BadInput {
@@ -250,10 +247,25 @@ pub(crate) fn write_png_atomically(
                 message: format!("cannot encode PNG: {e}"),
             },
         )?;
-        let file = writer.into_inner().map_err(|e| io(e.into_error()))?;
-        file.sync_all().map_err(io)?;
+        writer.into_inner().map_err(|e| io(e.into_error()))?;
+        Ok(())
+    })
+}
+
+/// Writes `path` atomically: `write` fills a temporary file beside it, which is synced and
+/// renamed over `path`, or removed if anything fails.
+pub(crate) fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), ViewerError>,
+) -> Result<(), ViewerError> {
+    let io = |e: std::io::Error| ViewerError::Io { path: path.to_path_buf(), source: e };
+    let file_name =
+        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
+    let result = write(&tmp).and_then(|()| {
+        std::fs::File::open(&tmp).and_then(|f| f.sync_all()).map_err(io)?;
         std::fs::rename(&tmp, path).map_err(io)
-    })();
+    });
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

@@ -48,10 +48,6 @@ impl LinearFrame {
     /// CONTRACTS §6's `--screenshot OUT.exr`.
     pub fn write_exr(&self, path: &std::path::Path) -> Result<(), ViewerError> {
         use exr::prelude::*;
-        let io = |e: std::io::Error| ViewerError::Io { path: path.to_path_buf(), source: e };
-        let file_name =
-            path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-        let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
         let w = self.width as usize;
         let rgba = &self.rgba;
         let pixel = |x: usize, y: usize| {
@@ -65,21 +61,15 @@ impl LinearFrame {
             Encoding { compression: Compression::ZIP16, ..Encoding::FAST_LOSSLESS },
             channels,
         );
-        let result = (|| {
-            Image::from_layer(layer).write().to_file(&tmp).map_err(|e| match e {
-                exr::error::Error::Io(e) => io(e),
+        crate::backdrop::write_atomically(path, |tmp| {
+            Image::from_layer(layer).write().to_file(tmp).map_err(|e| match e {
+                exr::error::Error::Io(e) => ViewerError::Io { path: path.to_path_buf(), source: e },
                 other => ViewerError::BadInput {
                     path: path.to_path_buf(),
                     message: format!("cannot encode OpenEXR: {other}"),
                 },
-            })?;
-            std::fs::File::open(&tmp).and_then(|f| f.sync_all()).map_err(io)?;
-            std::fs::rename(&tmp, path).map_err(io)
-        })();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result
+            })
+        })
     }
 }
 
