@@ -30,6 +30,8 @@ pub(super) struct GpuLayers {
     pub(super) light_slots: Vec<[u32; 4]>,
     /// `[1 if layers are bound, indirect slice, normal slice, 0]`.
     pub(super) info: [u32; 4],
+    /// Whether two kept lights share a layer (the shaders then weigh them).
+    pub(super) shared: bool,
 }
 
 /// Uploads the layers for the kept lights (`kept[i]` = index of kept light `i` in the scene's
@@ -145,16 +147,12 @@ pub(super) fn upload(
         mapped_at_creation: false,
     });
     gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&samples));
-    GpuLayers { view, samples: buffer, light_slots, info }
-}
-
-impl GpuLayers {
-    /// Whether two kept lights share a layer (the shaders then weigh them).
-    pub(super) fn shared(&self) -> bool {
-        let mut slices: Vec<u32> = self.light_slots.iter().map(|s| s[0]).filter(|&s| s != NO_LAYER).collect();
+    let shared = {
+        let mut slices: Vec<u32> = light_slots.iter().map(|s| s[0]).filter(|&s| s != NO_LAYER).collect();
         let n = slices.len();
         slices.sort_unstable();
         slices.dedup();
         slices.len() != n
-    }
+    };
+    GpuLayers { view, samples: buffer, light_slots, info, shared }
 }

@@ -235,7 +235,7 @@ impl Compositor {
         let (shadow_on, shadow_light, shadow_params) =
             match (self.shadow_light, self.settings.shadows, sphere) {
                 (_, Some(settings), _) if layered && sphere_count > 0 => {
-                    (1, [0.0; 4], [0.0, settings.strength, if self.layers.shared() { 1.0 } else { 0.0 }, 0.0])
+                    (1, [0.0; 4], [0.0, settings.strength, if self.layers.shared { 1.0 } else { 0.0 }, 0.0])
                 }
                 (Some(k), Some(settings), Some(_)) => match self.lights[k].shadow_source() {
                     Some(ShadowSource::Point { position, radius }) => (

@@ -272,19 +272,10 @@ impl Compositor {
                 },
             ],
         });
-        let gpu_layers = if settings.shadows.is_some() {
-            layers::upload(
-                gpu,
-                &projection,
-                scene.light_layers(),
-                &kept,
-                &lights,
-                &two_sided,
-                (width, height),
-            )
-        } else {
-            layers::upload(gpu, &projection, None, &kept, &lights, &two_sided, (width, height))
-        };
+        // Layers serve only shadows: without shadows a placeholder keeps the bind group valid.
+        let bound_layers = scene.light_layers().filter(|_| settings.shadows.is_some());
+        let gpu_layers =
+            layers::upload(gpu, &projection, bound_layers, &kept, &lights, &two_sided, (width, height));
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
