@@ -36,13 +36,6 @@ pub fn camera_effects(scene: &Scene, skipped: &mut Skipped) {
     }
 }
 
-/// The scene's lights as the viewer's live lights, in the scene's order (lights that cannot be
-/// used are left out with a warning).
-#[cfg(test)]
-pub fn live_lights(scene: &Scene, skipped: &mut Skipped) -> Vec<LiveLight> {
-    live_lights_with_sources(scene, skipped).into_iter().map(|l| l.light).collect()
-}
-
 /// A live light with where it came from: its index in the scene's lights (the sidecar's light
 /// numbering) and, for an area light, samples of its emitting surface.
 pub struct SourcedLight {
@@ -51,7 +44,8 @@ pub struct SourcedLight {
     pub area_samples: Vec<AreaSample>,
 }
 
-/// [`live_lights`] with each light's scene index and area samples.
+/// The scene's lights as the viewer's live lights, in the scene's order (lights that cannot be
+/// used are left out with a warning), each with its scene index and area samples.
 pub fn live_lights_with_sources(scene: &Scene, skipped: &mut Skipped) -> Vec<SourcedLight> {
     let mut out = Vec::new();
     for (k, light) in scene.lights.iter().enumerate() {
@@ -250,7 +244,8 @@ mod tests {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/cornell/cornell.rib");
         let loaded = rib_parser::load_scene(std::path::Path::new(path), &Default::default()).unwrap();
         let mut skipped = Skipped::default();
-        let lights = live_lights(&loaded.scene, &mut skipped);
+        let lights: Vec<LiveLight> =
+            live_lights_with_sources(&loaded.scene, &mut skipped).into_iter().map(|l| l.light).collect();
         assert_eq!(lights.len(), 1, "{skipped:?}");
         let LiveLight::Area { centroid, normal, radiance, area, radius, .. } = &lights[0] else {
             panic!("not an area light: {:?}", lights[0]);
@@ -282,7 +277,8 @@ mod tests {
             "#,
         );
         let mut skipped = Skipped::default();
-        let lights = live_lights(&s, &mut skipped);
+        let lights: Vec<LiveLight> =
+            live_lights_with_sources(&s, &mut skipped).into_iter().map(|l| l.light).collect();
         assert_eq!(skipped.warnings.len(), 1, "{skipped:?}");
         assert!(skipped.warnings[0].contains("mysterylight"));
         assert_eq!(lights.len(), 5);
