@@ -63,8 +63,8 @@ fn scenes(root: &Path) -> Vec<IllusionScene> {
             name: "caustics",
             rib: root.join("examples/caustics/caustics.rib"),
             placements: vec![
-                p([0.5, -0.7, 0.3], 0.3, "resting on the floor"),
-                p([-0.55, -0.75, -0.35], 0.25, "on the floor by the wall"),
+                p([-0.3, -0.79, 0.5], 0.2, "on the floor, in front of the mirror sphere"),
+                p([0.25, -0.74, -0.5], 0.25, "on the floor, between the spheres"),
                 p([0.0, 0.2, 0.4], 0.2, "floating"),
             ],
         },
@@ -149,11 +149,12 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// What a render was made from besides its RIB text: the sample count. `--reuse` takes a
-/// render made from the same RIB text and sample count, trusting that the renderer has not
-/// changed in between (use it to remeasure the viewer, not the renderer).
-fn render_stamp(_lrt: &Path, spp: u32) -> String {
-    format!("spp {spp}\n")
+/// What a render was made from besides its RIB text: the sample count and the text of the
+/// live archive it reads (`archive`, empty for none). `--reuse` takes a render made from the
+/// same RIB text, archive and sample count, trusting that the renderer has not changed in
+/// between (use it to remeasure the viewer, not the renderer).
+fn render_stamp(spp: u32, archive: &str) -> String {
+    format!("spp {spp}\n{archive}")
 }
 
 /// Renders `rib_text` with `lrt-depth` into `dir/name.exr` and `dir/name.depth` (with its
@@ -166,11 +167,12 @@ fn render(
     rib_text: &str,
     spp: u32,
     reuse: bool,
+    archive: &str,
 ) -> Result<(PathBuf, PathBuf), String> {
     let rib = dir.join(format!("{name}.rib"));
     let (image, depth) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.depth")));
     let stamp_path = dir.join(format!("{name}.stamp"));
-    let stamp = render_stamp(lrt, spp);
+    let stamp = render_stamp(spp, archive);
     if reuse
         && image.exists()
         && depth.exists()
@@ -331,7 +333,7 @@ fn frame_time(
 ) -> Result<f64, String> {
     let text = std::fs::read_to_string(&scene.rib).map_err(|e| format!("{}: {e}", scene.rib.display()))?;
     let name = format!("{}-frames-{size}", scene.name);
-    let (image, depth) = render(lrt, dir, &name, &scene_rib(&text, size, None)?, 1, true)?;
+    let (image, depth) = render(lrt, dir, &name, &scene_rib(&text, size, None)?, 1, true, "")?;
     let live = dir.join(format!("{name}-live.rib"));
     write(&live, &live_rib(&scene.placements[0], MATERIALS[1].1))?;
     let mut cmd = Command::new(viewer);
@@ -383,7 +385,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
         let text =
             std::fs::read_to_string(&scene.rib).map_err(|e| format!("{}: {e}", scene.rib.display()))?;
         let base_name = format!("{}-without", scene.name);
-        let (image, depth) = render(&lrt, &dir, &base_name, &scene_rib(&text, size, None)?, spp, reuse)?;
+        let (image, depth) = render(&lrt, &dir, &base_name, &scene_rib(&text, size, None)?, spp, reuse, "")?;
         let without = read_exr(&image)?;
         let base_rib = dir.join(format!("{base_name}.rib"));
         let mut rows = Vec::new();
@@ -391,7 +393,8 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
             for (material, lines) in MATERIALS {
                 let slug = format!("{}-p{pi}-{material}", scene.name);
                 let live = dir.join(format!("{slug}-live.rib"));
-                write(&live, &live_rib(placement, lines))?;
+                let live_text = live_rib(placement, lines);
+                write(&live, &live_text)?;
                 let (truth_exr, _) = render(
                     &lrt,
                     &dir,
@@ -399,6 +402,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
                     &scene_rib(&text, size, Some(&live))?,
                     spp,
                     reuse,
+                    &live_text,
                 )?;
                 let truth = read_exr(&truth_exr)?;
                 let (comp, mask) = composite(

@@ -82,6 +82,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         attach_light_layers(settings, &mut scene, &sourced, rib.lights.len())?;
     }
     attach_probes(settings, &mut scene)?;
+    attach_reflections(settings, &mut scene)?;
     let mut live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
     if let Some(path) = &settings.live {
         let objects = crate::live_rib::read_live_rib(path).map_err(Failure)?;
@@ -160,6 +161,24 @@ fn attach_probes(settings: &Settings, scene: &mut ViewerScene) -> Result<(), Fai
     let probes = sidecar::read_probes(path, Some(fingerprint)).map_err(|e| Failure(e.to_string()))?;
     scene.set_probes(probes);
     Ok(())
+}
+
+/// Finds the reflection probes `lrt-depth` wrote for this render (docs/sidecar.md): glossy live
+/// surfaces reflect the scene's prefiltered radiance. Without them, says what is approximated.
+fn attach_reflections(settings: &Settings, scene: &mut ViewerScene) -> Result<(), Failure> {
+    let candidates = sidecar::SidecarPaths::candidates(&settings.image, &settings.depth);
+    let Some(path) = candidates.iter().map(|c| &c.reflections).find(|p| p.exists()) else {
+        eprintln!("{}", sidecar::reflections_absent_note(&candidates[0].reflections));
+        return Ok(());
+    };
+    let fingerprint = sidecar::depth_fingerprint(scene.depth().values());
+    let Some(probes) =
+        sidecar::read_reflections(path, Some(fingerprint)).map_err(|e| Failure(e.to_string()))?
+    else {
+        eprintln!("{}", sidecar::reflections_absent_note(path));
+        return Ok(());
+    };
+    scene.set_reflections(probes).map_err(|e| Failure(format!("{}: error: {e}", path.display())))
 }
 
 /// The sphere at start: where `--sphere` puts it; in a window without `--sphere`, in front of
@@ -296,6 +315,10 @@ fn print_stats(
     if let Some(p) = scene.probes() {
         let [x, y, z] = p.counts;
         eprintln!("irradiance probes: {x}x{y}x{z}, live objects' diffuse light");
+    }
+    if let Some(p) = scene.reflections() {
+        let [x, y, z] = p.counts;
+        eprintln!("reflection probes: {x}x{y}x{z}, live objects' glossy reflection");
     }
     let casters =
         usize::from(live.sphere.is_some()) + live.meshes.iter().filter(|m| m.exact_sphere.is_some()).count();

@@ -358,7 +358,7 @@ impl ReflectionProbes {
 /// reflection probes, or a render without layers): glossy live materials then fall back.
 pub fn reflections_absent_note(path: &Path) -> String {
     format!(
-        "{}: note: no reflection probes (the render predates them or wrote no layers); glossy live materials reflect the irradiance probes only",
+        "{}: note: no reflection probes (the render predates them or wrote no layers); glossy live surfaces reflect only the RIB's lights (area lights as points), not the scene",
         path.display()
     )
 }

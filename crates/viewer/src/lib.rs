@@ -74,5 +74,5 @@ pub use light_layers::{AreaSample, SceneLayers};
 pub use live::{FrameInfo, LiveLight, LiveObjects, LiveUpdate, Material, Mesh, MeshInstance, Sphere};
 pub use live_scene::{LiveMaterial, LiveMesh, LiveScene, LiveSphere, LiveSurface};
 pub use projection::Projection;
-pub use scene::ViewerScene;
+pub use scene::{MAX_VIEWER_REFLECTION_PROBES, ViewerScene};
 pub use wgpu;

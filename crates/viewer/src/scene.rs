@@ -17,7 +17,12 @@ pub struct ViewerScene {
     tone_map: ToneMap,
     layers: Option<std::sync::Arc<SceneLayers>>,
     probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
+    reflections: Option<std::sync::Arc<sidecar::ReflectionProbes>>,
 }
+
+/// Most reflection probes the viewer binds: the texture-array layers every wgpu adapter has
+/// (`Limits::default().max_texture_array_layers`).
+pub const MAX_VIEWER_REFLECTION_PROBES: usize = 256;
 
 impl ViewerScene {
     /// Checks that the image, the depth table and the camera's `Format` have the same size, and
@@ -69,7 +74,16 @@ impl ViewerScene {
                 second: camera.resolution(),
             });
         }
-        Ok(ViewerScene { camera, backdrop, depth, lights, tone_map, layers: None, probes: None })
+        Ok(ViewerScene {
+            camera,
+            backdrop,
+            depth,
+            lights,
+            tone_map,
+            layers: None,
+            probes: None,
+            reflections: None,
+        })
     }
 
     /// Binds the renderer's light layers: shadows of live objects then remove exactly the
@@ -93,6 +107,34 @@ impl ViewerScene {
 
     pub(crate) fn probes_arc(&self) -> Option<std::sync::Arc<sidecar::ProbeGrid>> {
         self.probes.clone()
+    }
+
+    /// Binds the renderer's reflection probes: glossy live surfaces then reflect the scene's
+    /// prefiltered radiance (docs/sidecar.md), area lights included. Refuses more probes than
+    /// [`MAX_VIEWER_REFLECTION_PROBES`] or a grid whose arrays do not match its counts.
+    pub fn set_reflections(&mut self, probes: sidecar::ReflectionProbes) -> Result<(), ViewerError> {
+        let n = probes.probe_count();
+        if n == 0 || n > MAX_VIEWER_REFLECTION_PROBES {
+            return Err(ViewerError::Invalid(format!(
+                "{n} reflection probes: the viewer binds 1 to {MAX_VIEWER_REFLECTION_PROBES}"
+            )));
+        }
+        let texels = |level: usize| sidecar::reflection_level_texels(level).pow(2) * n;
+        let consistent = probes.radiance.len() == sidecar::REFLECTION_LEVELS
+            && probes.radiance.iter().enumerate().all(|(k, level)| level.len() == texels(k))
+            && probes.distance.len() == texels(0)
+            && probes.spacing.iter().all(|s| s.is_finite() && *s > 0.0)
+            && probes.origin.iter().all(|o| o.is_finite());
+        if !consistent {
+            return Err(ViewerError::Invalid("reflection probes: arrays do not match the grid".into()));
+        }
+        self.reflections = Some(std::sync::Arc::new(probes));
+        Ok(())
+    }
+
+    /// The bound reflection probes, if any.
+    pub fn reflections(&self) -> Option<&sidecar::ReflectionProbes> {
+        self.reflections.as_deref()
     }
 
     /// The bound light layers, if any.

@@ -23,15 +23,31 @@ pub(super) struct GpuLight {
 pub(super) struct GpuMaterial {
     pub(super) colour: [f32; 4],
     pub(super) coefficients: [f32; 4],
+    /// rgb: specular colour; w: the mip level of the reflection probes for its roughness.
     pub(super) specular_colour: [f32; 4],
+    /// The Blinn lobe's directional albedo at `cos_o = max(i / 15, 1e-3)`, `i = 0..16`
+    /// (`sidecar::blinn_albedo`): the split sum's second factor for the reflection probes.
+    pub(super) albedo: [[f32; 4]; 4],
 }
+
+/// Entries of [`GpuMaterial::albedo`].
+const ALBEDO_ENTRIES: usize = 16;
 
 impl From<&Material> for GpuMaterial {
     fn from(m: &Material) -> Self {
+        let exponent = sidecar::blinn_exponent(m.roughness);
+        let mut albedo = [[0.0f32; 4]; 4];
+        if m.ks != 0.0 && !m.unlit {
+            for i in 0..ALBEDO_ENTRIES {
+                let cos_o = (i as f32 / (ALBEDO_ENTRIES - 1) as f32).max(1e-3);
+                albedo[i / 4][i % 4] = sidecar::blinn_albedo(exponent, cos_o);
+            }
+        }
         GpuMaterial {
             colour: [m.colour.x, m.colour.y, m.colour.z, if m.unlit { 1.0 } else { 0.0 }],
             coefficients: [m.ka, m.kd, m.ks, m.roughness],
-            specular_colour: m.specular_colour.extend(0.0).to_array(),
+            specular_colour: m.specular_colour.extend(sidecar::reflection_level(m.roughness)).to_array(),
+            albedo,
         }
     }
 }
@@ -61,6 +77,12 @@ pub(super) struct FrameUniform {
     pub(super) sphere_sh: [[f32; 4]; 9],
     /// Per light: its layer slice (`u32::MAX`: none), first area sample, sample count.
     pub(super) shadow_slots: [[u32; 4]; MAX_LIGHTS],
+    /// Camera space to world space, points (the reflection probes' lookups are in world space).
+    pub(super) world_from_camera_point: [[f32; 4]; 4],
+    /// The reflection probes' grid: origin (w 1 when bound), spacing, counts.
+    pub(super) reflection_origin: [f32; 4],
+    pub(super) reflection_spacing: [f32; 4],
+    pub(super) reflection_counts: [u32; 4],
     pub(super) lights: [GpuLight; MAX_LIGHTS],
 }
 
@@ -275,6 +297,10 @@ impl Compositor {
                 sphere.map_or(DVec3::NAN, |s| s.centre),
             ),
             shadow_slots,
+            world_from_camera_point: mat4_f32(camera_from_world.inverse()),
+            reflection_origin: self.reflections.origin,
+            reflection_spacing: self.reflections.spacing,
+            reflection_counts: self.reflections.counts,
             lights,
         }
     }

@@ -7,6 +7,7 @@ mod layers;
 mod lighting;
 mod live_objects;
 mod readback;
+mod reflections;
 mod settings;
 mod shadows;
 
@@ -43,6 +44,8 @@ pub struct Compositor {
     layers: layers::GpuLayers,
     /// The renderer's irradiance probes: live objects' diffuse light.
     probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
+    /// The renderer's reflection probes on the GPU (placeholders without them).
+    reflections: reflections::GpuReflections,
     /// Window depth of every pixel, kept to build the point cloud on demand.
     window_depths: Vec<f32>,
     /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
@@ -270,12 +273,39 @@ impl Compositor {
                     },
                     count: None,
                 },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 6,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 7,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 8,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
             ],
         });
         // Layers serve only shadows: without shadows a placeholder keeps the bind group valid.
         let bound_layers = scene.light_layers().filter(|_| settings.shadows.is_some());
         let gpu_layers =
             layers::upload(gpu, &projection, bound_layers, &kept, &lights, &two_sided, (width, height));
+        let gpu_reflections = reflections::upload(gpu, scene.reflections());
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
@@ -299,6 +329,18 @@ impl Compositor {
                     resource: wgpu::BindingResource::TextureView(&gpu_layers.view),
                 },
                 wgpu::BindGroupEntry { binding: 5, resource: gpu_layers.samples.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::TextureView(&gpu_reflections.radiance),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: wgpu::BindingResource::TextureView(&gpu_reflections.distance),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: wgpu::BindingResource::Sampler(&gpu_reflections.sampler),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -565,6 +607,7 @@ impl Compositor {
             tone,
             layers: gpu_layers,
             probes: scene.probes_arc(),
+            reflections: gpu_reflections,
             window_depths,
             surface_bounds,
             linear_image,

@@ -29,7 +29,10 @@ struct Material {
     colour: vec4<f32>,
     // Ka, Kd, Ks, roughness.
     coefficients: vec4<f32>,
+    // rgb: specular colour; w: the reflection probes' mip level for the roughness.
     specular_colour: vec4<f32>,
+    // The Blinn lobe's directional albedo at cos_o = max(i / 15, 1e-3), i = 0..16.
+    albedo: array<vec4<f32>, 4>,
 }
 
 struct Frame {
@@ -61,6 +64,12 @@ struct Frame {
     sphere_sh: array<vec4<f32>, 9>,
     // Per light: layer slice (0xffffffff: none), first area sample, sample count.
     shadow_slots: array<vec4<u32>, MAX_LIGHTS>,
+    // Camera space to world space for points.
+    world_from_camera_point: mat4x4<f32>,
+    // The reflection probes' grid: origin (w = 1 when bound), spacing, counts.
+    reflection_origin: vec4<f32>,
+    reflection_spacing: vec4<f32>,
+    reflection_counts: vec4<u32>,
     lights: array<Light, MAX_LIGHTS>,
 }
 
@@ -81,6 +90,11 @@ struct AreaSamples {
 @group(0) @binding(3) var backdrop_radial_depth: texture_2d<f32>;
 @group(0) @binding(4) var light_layers: texture_2d_array<f32>;
 @group(0) @binding(5) var<uniform> area_samples: AreaSamples;
+// The reflection probes: prefiltered radiance (a layer per probe, a mip level per roughness
+// level) and the distance to the first surface per level-0 texel.
+@group(0) @binding(6) var reflection_radiance: texture_2d_array<f32>;
+@group(0) @binding(7) var reflection_distance: texture_2d_array<f32>;
+@group(0) @binding(8) var reflection_sampler: sampler;
 
 struct MeshUniform {
     camera_from_object: mat4x4<f32>,
@@ -192,6 +206,134 @@ fn sh_irradiance(sh: array<vec4<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
     return max(e, vec3<f32>(0.0));
 }
 
+// ---------------------------------------------------------------------------------------------
+// The reflection probes: a port of sidecar::ReflectionProbes::radiance (its reference lookup).
+
+const REFLECTION_TEXELS: u32 = 32u;
+
+fn octahedral_uv(d: vec3<f32>) -> vec2<f32> {
+    let l1 = abs(d.x) + abs(d.y) + abs(d.z);
+    var xy = vec2<f32>(0.0);
+    if l1 > 0.0 {
+        xy = d.xy / l1;
+    }
+    if d.z < 0.0 {
+        let o = xy;
+        xy = vec2<f32>(
+            (1.0 - abs(o.y)) * select(-1.0, 1.0, o.x >= 0.0),
+            (1.0 - abs(o.x)) * select(-1.0, 1.0, o.y >= 0.0),
+        );
+    }
+    return xy * 0.5 + 0.5;
+}
+
+fn probe_index(cell: vec3<u32>) -> u32 {
+    let c = frame.reflection_counts;
+    return cell.x + c.x * (cell.y + c.y * cell.z);
+}
+
+fn probe_position(cell: vec3<u32>) -> vec3<f32> {
+    return frame.reflection_origin.xyz + vec3<f32>(cell) * frame.reflection_spacing.xyz;
+}
+
+fn probe_distance_toward(probe: u32, dir: vec3<f32>) -> f32 {
+    let uv = octahedral_uv(dir);
+    let n = f32(REFLECTION_TEXELS);
+    let texel = min(vec2<u32>(uv * n), vec2<u32>(REFLECTION_TEXELS - 1u));
+    return textureLoad(reflection_distance, texel, probe, 0).r;
+}
+
+fn probe_sees(cell: vec3<u32>, p: vec3<f32>) -> bool {
+    let to_p = p - probe_position(cell);
+    let d = length(to_p);
+    if !(d > 0.0) {
+        return true;
+    }
+    return d <= 1.05 * probe_distance_toward(probe_index(cell), to_p / d);
+}
+
+// Parallax-corrected lookup of one probe (ReflectionProbes::radiance_from).
+fn probe_radiance_from(cell: vec3<u32>, p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
+    let probe = probe_index(cell);
+    let pc = p - probe_position(cell);
+    var dir = r;
+    for (var step = 0; step < 3; step++) {
+        let radius = probe_distance_toward(probe, dir);
+        let b = dot(pc, r);
+        let disc = b * b - (dot(pc, pc) - radius * radius);
+        if disc < 0.0 {
+            break;
+        }
+        let t = max(-b + sqrt(disc), 0.0);
+        let hit = pc + t * r;
+        let len = length(hit);
+        if !(len > 0.0) {
+            break;
+        }
+        dir = hit / len;
+    }
+    return textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, level).rgb;
+}
+
+// Glossy reflection at world point p toward unit r (ReflectionProbes::radiance): the probes
+// around p weighted trilinearly, a probe a wall hides from p by 1e-3 of that.
+fn reflection_radiance_at(p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
+    let counts = frame.reflection_counts.xyz;
+    let last = max(counts, vec3<u32>(1u)) - vec3<u32>(1u);
+    var t = (p - frame.reflection_origin.xyz) / frame.reflection_spacing.xyz;
+    t = clamp(t, vec3<f32>(0.0), vec3<f32>(last));
+    // NaN (a point at infinity) goes to the first probe, as the reference does.
+    t = select(vec3<f32>(0.0), t, t == t);
+    let base = min(vec3<u32>(floor(t)), max(last, vec3<u32>(1u)) - vec3<u32>(1u));
+    let alpha = select(t - vec3<f32>(base), vec3<f32>(0.0), last == vec3<u32>(0u));
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w3 = select(vec3<f32>(1.0) - alpha, alpha, offset == vec3<u32>(1u));
+        let trilinear = w3.x * w3.y * w3.z;
+        if trilinear <= 0.0 {
+            continue;
+        }
+        let cell = min(base + offset, last);
+        let w = select(1e-3 * trilinear, trilinear, probe_sees(cell, p));
+        sum += w * probe_radiance_from(cell, p, r, level);
+        total += w;
+    }
+    if total > 0.0 {
+        return sum / total;
+    }
+    return probe_radiance_from(vec3<u32>(round(t)), p, r, level);
+}
+
+// The Blinn lobe's directional albedo for the material (linear in its 16-entry table).
+fn blinn_albedo(material: Material, cos_o: f32) -> f32 {
+    let x = clamp(cos_o, 0.0, 1.0) * 15.0;
+    let i = min(u32(x), 14u);
+    let f = x - f32(i);
+    let a = material.albedo[i / 4u][i % 4u];
+    let b = material.albedo[(i + 1u) / 4u][(i + 1u) % 4u];
+    return a + (b - a) * f;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// The ray tracer's Blinn lobe times cos(theta_l) (raytracer::bsdf: Blinn's D with V-cavity
+// shadowing, D G / (4 cos_o cos_l), no Fresnel: Ks plays its part).
+fn blinn_lobe_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, exponent: f32) -> f32 {
+    let h = normalize(l + v);
+    let cos_h = dot(n, h);
+    let cos_o = max(dot(n, v), 1e-3);
+    let cos_l = dot(n, l);
+    let o_dot_h = abs(dot(v, h));
+    if cos_h <= 0.0 || cos_l <= 0.0 || o_dot_h == 0.0 {
+        return 0.0;
+    }
+    let d = (exponent + 2.0) / (2.0 * PI) * pow(cos_h, exponent);
+    let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+    return d * g / (4.0 * cos_o);
+}
+
 fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, sh: array<vec4<f32>, 9>) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
@@ -202,7 +344,10 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
     let ka = material.coefficients.x;
     let kd = material.coefficients.y;
     let ks = material.coefficients.z;
-    let exponent = 1.0 / max(material.coefficients.w, 1e-4);
+    let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
+    // With reflection probes, area lights' glossy reflection comes from the probes, which saw
+    // the emitters; point, spot and distant lights are in no probe.
+    let reflections = frame.reflection_origin.w > 0.5 && ks != 0.0;
     var ambient = vec3<f32>(0.0);
     var diffuse = vec3<f32>(0.0);
     var specular = vec3<f32>(0.0);
@@ -242,19 +387,27 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
         if n_dot_l <= 0.0 {
             continue;
         }
-        let irradiance = e * n_dot_l;
-        diffuse += irradiance;
-        let h = normalize(l + v);
-        specular += irradiance * pow(max(dot(n, h), 0.0), exponent);
+        diffuse += e * n_dot_l;
+        if !(reflections && kind == LIGHT_AREA) {
+            specular += e * blinn_lobe_cos(n, v, l, exponent);
+        }
     }
     // With the renderer's irradiance probes, the scene's indirect light (the probes' SH less
     // the lights' direct light at the object, compositor/lighting.rs) joins the lights'.
     if frame.counts.w == 1u {
         diffuse += sh_irradiance(sh, normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz));
     }
+    // With the reflection probes, the scene's prefiltered radiance in the reflected direction
+    // times the lobe's albedo (the split sum).
+    if reflections {
+        let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
+        let r = reflect(view_dir, n);
+        let r_world = normalize((frame.world_from_camera * vec4<f32>(r, 0.0)).xyz);
+        specular += blinn_albedo(material, dot(n, v))
+            * reflection_radiance_at(p_world, r_world, material.specular_colour.w);
+    }
     let cs = material.colour.rgb;
-    return cs * (ka * ambient + kd / PI * diffuse)
-        + material.specular_colour.rgb * ks * (exponent + 8.0) / (8.0 * PI) * specular;
+    return cs * (ka * ambient + kd / PI * diffuse) + material.specular_colour.rgb * ks * specular;
 }
 
 // Radiance in the image's own units, into the linear frame (the encode pass displays it).

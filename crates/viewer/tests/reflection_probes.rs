@@ -1,0 +1,202 @@
+//! GPU tests of glossy live surfaces lit by the renderer's reflection probes (docs/sidecar.md):
+//! the shader's lookup agrees with `sidecar::ReflectionProbes::radiance`, the reference, and
+//! lights' glossy reflection is the ray tracer's Blinn lobe.
+
+mod common;
+
+use common::*;
+use glam::{DVec3, Vec3};
+use viewer::{
+    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, Sphere, ViewerScene,
+};
+
+const CENTRE: DVec3 = DVec3::new(0.0, -0.2, 0.0);
+const RADIUS: f64 = 0.3;
+
+/// Probes along x at `xs` (one row), every one seeing radiance `field(direction)` and a
+/// surface `distance` away in every direction, prefiltered by the sidecar's own code.
+fn probes(xs: &[f32], distance: f32, field: impl Fn([f32; 3]) -> [f32; 3]) -> sidecar::ReflectionProbes {
+    let n = sidecar::REFLECTION_TEXELS;
+    let base: Vec<[f32; 3]> = (0..n * n).map(|t| field(sidecar::octahedral_texel_center(n, t))).collect();
+    let levels = sidecar::reflection_levels(&base);
+    let spacing = if xs.len() > 1 { xs[1] - xs[0] } else { 1.0 };
+    sidecar::ReflectionProbes {
+        depth_fingerprint: 0,
+        origin: [xs[0], CENTRE.y as f32, CENTRE.z as f32],
+        spacing: [spacing, 1.0, 1.0],
+        counts: [xs.len() as u32, 1, 1],
+        radiance: levels.iter().map(|level| level.repeat(xs.len())).collect(),
+        distance: vec![distance; n * n * xs.len()],
+    }
+}
+
+fn glossy(roughness: f32) -> Material {
+    Material {
+        colour: Vec3::ONE,
+        ka: 0.0,
+        kd: 0.0,
+        ks: 1.0,
+        roughness,
+        specular_colour: Vec3::ONE,
+        unlit: false,
+    }
+}
+
+fn render(scene: &ViewerScene, material: Material) -> (Vec<f32>, Vec<u8>) {
+    let gpu = gpu();
+    let live =
+        LiveObjects { sphere: Some(Sphere { centre: CENTRE, radius: RADIUS, material }), meshes: Vec::new() };
+    let mut c = Compositor::new(
+        &gpu,
+        scene,
+        CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() },
+    )
+    .unwrap();
+    c.render(&live).unwrap();
+    (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
+}
+
+/// The world-space hit point, unit normal and unit direction toward the eye of pixel `k`'s ray
+/// on the sphere (`None` for a miss).
+fn hit(scene: &ViewerScene, k: usize) -> Option<(DVec3, DVec3, DVec3)> {
+    let camera = scene.camera();
+    let (w, _) = scene.size();
+    let world_from_camera = camera.camera_from_world().inverse();
+    let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
+    let origin = world_from_camera.transform_point3(ray.origin);
+    let direction = world_from_camera.transform_vector3(ray.direction).normalize();
+    let t = ray_sphere(origin, direction, CENTRE, RADIUS)?;
+    let p = origin + t * direction;
+    Some((p, (p - CENTRE).normalize(), -direction))
+}
+
+/// Pixels inside the sphere whose normal faces the eye by more than `min_cos` (away from the
+/// silhouette, where a pixel's centre and the GPU's rasterisation may disagree).
+fn inside(scene: &ViewerScene, mask: &[u8], min_cos: f64) -> Vec<(usize, DVec3, DVec3, DVec3)> {
+    (0..mask.len())
+        .filter(|&k| mask[k] == 255)
+        .filter_map(|k| hit(scene, k).map(|(p, n, v)| (k, p, n, v)))
+        .filter(|(_, _, n, v)| n.dot(*v) > min_cos)
+        .collect()
+}
+
+/// In a uniform field of radiance `l`, a glossy sphere (Ks 1, nothing else) shows `l` times
+/// its lobe's directional albedo: the split sum's two factors.
+#[test]
+fn a_uniform_field_is_reflected_with_the_lobe_s_albedo() {
+    let l = [0.4f32, 0.6, 0.8];
+    let mut scene = cornell_scene(vec![]);
+    scene.set_reflections(probes(&[0.0], 5.0, |_| l)).unwrap();
+    let roughness = 0.1;
+    let (rgba, mask) = render(&scene, glossy(roughness));
+    let pixels = inside(&scene, &mask, 0.15);
+    assert!(pixels.len() > 1000, "{} pixels", pixels.len());
+    let exponent = sidecar::blinn_exponent(roughness);
+    for (k, _, n, v) in pixels {
+        let albedo = sidecar::blinn_albedo(exponent, n.dot(v) as f32);
+        for c in 0..3 {
+            let (got, want) = (rgba[4 * k + c], albedo * l[c]);
+            assert!((got - want).abs() <= 0.01 * want, "pixel {k} channel {c}: {got} vs {want}");
+        }
+    }
+}
+
+/// With a field that varies with direction and two probes on either side of the sphere, the
+/// GPU's lookup (parallax correction, probe weights, mip level) gives what the reference
+/// `ReflectionProbes::radiance` gives, pixel by pixel, at two roughnesses.
+#[test]
+fn the_shader_s_lookup_matches_the_reference() {
+    let field = |d: [f32; 3]| [0.5 + 0.5 * d[0], 0.5 + 0.5 * d[1], 1.0 + d[2] * d[2]];
+    let reflections = probes(&[-0.6, 0.6], 1.5, field);
+    let mut scene = cornell_scene(vec![]);
+    scene.set_reflections(reflections.clone()).unwrap();
+    for roughness in [0.02f32, 0.3] {
+        let (rgba, mask) = render(&scene, glossy(roughness));
+        let pixels = inside(&scene, &mask, 0.15);
+        assert!(pixels.len() > 1000, "{} pixels", pixels.len());
+        let exponent = sidecar::blinn_exponent(roughness);
+        let mut worst = 0.0f32;
+        for (k, p, n, v) in pixels {
+            let r = 2.0 * n.dot(v) * n - v;
+            let radiance = reflections.radiance(p.as_vec3().to_array(), r.as_vec3().to_array(), roughness);
+            let albedo = sidecar::blinn_albedo(exponent, n.dot(v) as f32);
+            for c in 0..3 {
+                let (got, want) = (rgba[4 * k + c], albedo * radiance[c]);
+                worst = worst.max((got - want).abs() / want);
+            }
+        }
+        assert!(worst <= 0.02, "roughness {roughness}: worst relative difference {worst}");
+    }
+}
+
+/// A point light's glossy reflection is the ray tracer's Blinn lobe (D with V-cavity shadowing
+/// over 4 cos_o, no Fresnel) times the light's irradiance, computed here in f64.
+#[test]
+fn a_point_light_s_highlight_is_the_ray_tracer_s_blinn_lobe() {
+    let (position, intensity) = (DVec3::new(0.3, 0.8, -0.6), 3.0);
+    let light = LiveLight::Point { position, colour: Vec3::splat(intensity as f32) };
+    let scene = cornell_scene(vec![light]);
+    let roughness = 0.2;
+    let (rgba, mask) = render(&scene, glossy(roughness));
+    let e = f64::from(sidecar::blinn_exponent(roughness));
+    let mut lit = 0;
+    for (k, p, n, v) in inside(&scene, &mask, 0.15) {
+        let to_light = position - p;
+        let l = to_light.normalize();
+        let h = (l + v).normalize();
+        let (cos_h, cos_o, cos_l, o_dot_h) = (n.dot(h), n.dot(v), n.dot(l), v.dot(h));
+        let want = if cos_l > 0.0 && cos_h > 0.0 {
+            let d = (e + 2.0) / (2.0 * std::f64::consts::PI) * cos_h.powf(e);
+            let g = (2.0 * cos_h * cos_o / o_dot_h).min(2.0 * cos_h * cos_l / o_dot_h).min(1.0);
+            intensity / to_light.length_squared() * d * g / (4.0 * cos_o)
+        } else {
+            0.0
+        };
+        let got = f64::from(rgba[4 * k]);
+        // Pixels where the light grazes the surface are too close to call in f32.
+        if cos_l.abs() < 1e-3 {
+            continue;
+        }
+        lit += usize::from(want > 1e-3);
+        assert!((got - want).abs() <= 2e-3 * want + 1e-5, "pixel {k}: {got} vs {want}");
+    }
+    assert!(lit > 200, "{lit} highlight pixels");
+}
+
+/// With reflection probes, an area light's glossy reflection comes from the probes (which saw
+/// the emitter) and not also from the light: probes that saw nothing leave a glossy, black
+/// sphere black under an area light.
+#[test]
+fn an_area_light_is_reflected_once() {
+    let light = LiveLight::Area {
+        centroid: DVec3::new(0.0, 0.9, 0.0),
+        normal: Some(DVec3::NEG_Y),
+        two_sided: false,
+        radiance: Vec3::splat(5.0),
+        area: 0.1,
+        radius: 0.18,
+    };
+    let without = cornell_scene(vec![light.clone()]);
+    let (rgba, mask) = render(&without, glossy(0.1));
+    let lit = inside(&without, &mask, 0.15).iter().filter(|(k, ..)| rgba[4 * k] > 1e-3).count();
+    assert!(lit > 100, "without probes the area light's highlight shows on {lit} pixels");
+    let mut with = cornell_scene(vec![light]);
+    with.set_reflections(probes(&[0.0], 5.0, |_| [0.0; 3])).unwrap();
+    let (rgba, mask) = render(&with, glossy(0.1));
+    for (k, ..) in inside(&with, &mask, 0.0) {
+        assert_eq!(&rgba[4 * k..4 * k + 3], &[0.0; 3], "pixel {k}");
+    }
+}
+
+/// The scene refuses probes it cannot bind, naming why.
+#[test]
+fn unusable_probes_are_refused() {
+    let mut scene = cornell_scene(vec![]);
+    let mut bad = probes(&[0.0], 1.0, |_| [1.0; 3]);
+    bad.distance.pop();
+    assert!(scene.set_reflections(bad).unwrap_err().to_string().contains("do not match"));
+    let mut many = probes(&[0.0], 1.0, |_| [1.0; 3]);
+    many.counts = [300, 1, 1];
+    assert!(scene.set_reflections(many).unwrap_err().to_string().contains("300 reflection probes"));
+    assert!(scene.reflections().is_none());
+}
