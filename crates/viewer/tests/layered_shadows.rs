@@ -240,3 +240,87 @@ fn an_area_light_layer_loses_the_occluded_share_of_the_emitter() {
     assert!(checked > 5000 && penumbra > 100, "checked {checked}, penumbra {penumbra}");
     assert!(off * 100 <= checked, "{off} of {checked} pixels off by more than 1e-4");
 }
+
+/// With the layers' emitter samples, a live surface near an area light is lit by the light
+/// integrated over them (`L A cos_e cos_l / d^2` per sample, as the ray tracer integrates it),
+/// not by one representative point, which overestimates grazing light close to the emitter.
+#[test]
+fn an_area_light_lights_a_live_sphere_over_its_samples() {
+    let gpu = gpu();
+    let (w, h) = (512u32, 512u32);
+    let n = (w * h) as usize;
+    let corners = [
+        DVec3::new(-0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, 0.2),
+        DVec3::new(-0.23, 0.99, 0.2),
+    ];
+    let triangles = [[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]];
+    let samples = viewer::light_layers::area_samples(&triangles, 64);
+    let light = cornell_light();
+    let LiveLight::Area { radiance, area, .. } = light else { unreachable!() };
+    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
+    let mut s = ViewerScene::with_backdrop(
+        cornell_camera(),
+        backdrop,
+        cornell_depth(),
+        vec![light],
+        ToneMap::default(),
+    )
+    .unwrap();
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let layers =
+        sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
+    s.set_light_layers(SceneLayers {
+        layers,
+        layer_of_light: vec![Some(0)],
+        area_samples: vec![samples.clone()],
+    })
+    .unwrap();
+    let (centre, radius) = (DVec3::new(0.05, 0.55, 0.0), 0.2);
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let mut c = Compositor::new(&gpu, &s, CompositorSettings::default()).unwrap();
+    c.render(&live).unwrap();
+    let linear = c.read_back_linear().unwrap();
+    let mask = c.read_back().unwrap().mask;
+    let camera = s.camera();
+    let total_area: f64 = samples.iter().map(|s| s.area).sum();
+    let (mut checked, mut worst_point) = (0, 0.0f64);
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            if mask[k] != 255 {
+                continue;
+            }
+            let ray = camera.pixel_centre_world_ray(i, j);
+            let Some(t) = ray_sphere(ray.origin, ray.direction, centre, radius) else { continue };
+            let p = ray.origin + t * ray.direction;
+            let normal = (p - centre).normalize();
+            if normal.dot(-ray.direction) < 0.15 {
+                continue; // The silhouette, where rasterisation and the pixel centre may differ.
+            }
+            let mut e = 0.0;
+            for sample in &samples {
+                let v = sample.position - p;
+                let d2 = v.length_squared();
+                let l = v / d2.sqrt();
+                e += sample.area * sample.normal.dot(-l).max(0.0) * normal.dot(l).max(0.0) / d2;
+            }
+            let want = f64::from(radiance.x) * area / total_area * e / std::f64::consts::PI;
+            let got = f64::from(linear.rgba[4 * k]);
+            assert!((got - want).abs() <= 2e-3 * want + 1e-5, "pixel ({i}, {j}): {got} vs {want}");
+            // What the representative point would give, to show the test tells them apart.
+            let v = DVec3::new(0.0, 0.99, 0.01) - p;
+            let d2 = v.length_squared();
+            let l = v / d2.sqrt();
+            let point = f64::from(radiance.x) * area * (-l.y).max(0.0) * normal.dot(l).max(0.0)
+                / d2
+                / std::f64::consts::PI;
+            worst_point = worst_point.max((point - want).abs() / want.max(1e-3));
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000, "checked {checked}");
+    assert!(worst_point > 0.05, "the representative point is within {worst_point} everywhere");
+}

@@ -359,6 +359,36 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
             ambient += light.colour.rgb;
             continue;
         }
+        // An area light with samples from the light layers is integrated over them, as the
+        // ray tracer integrates it (`A cos_e cos_l / d^2` per sample), not seen as one point.
+        let slot = frame.shadow_slots[k];
+        if kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u {
+            let sample_count = min(slot.z, MAX_AREA_SAMPLES);
+            var total_area = 0.0;
+            for (var i = 0u; i < sample_count; i++) {
+                total_area += area_samples.samples[2u * (slot.y + i)].w;
+            }
+            let radiance = light.colour.rgb / max(total_area, 1e-30);
+            for (var i = 0u; i < sample_count; i++) {
+                let sample = area_samples.samples[2u * (slot.y + i)];
+                let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
+                let to_sample = sample.xyz - p;
+                let dist2 = max(dot(to_sample, to_sample), 1e-30);
+                let l = to_sample * inverseSqrt(dist2);
+                let c = dot(sample_normal.xyz, -l);
+                let cos_e = select(max(c, 0.0), abs(c), sample_normal.w > 0.5);
+                let n_dot_l = dot(n, l);
+                if n_dot_l <= 0.0 || cos_e <= 0.0 {
+                    continue;
+                }
+                let e = radiance * (sample.w * cos_e / dist2);
+                diffuse += e * n_dot_l;
+                if !reflections {
+                    specular += e * blinn_lobe_cos(n, v, l, exponent);
+                }
+            }
+            continue;
+        }
         var l: vec3<f32>;
         var e: vec3<f32>;
         if kind == LIGHT_DISTANT {
