@@ -102,3 +102,68 @@ fn probes_that_saw_only_the_lights_add_nothing() {
         assert!((a - b).abs() <= 1e-4 * a.abs().max(1e-3), "pixel {k}: {a} without probes, {b} with");
     }
 }
+
+/// The same for an area light integrated over the light layers' emitter samples: probes that
+/// saw only its direct light (projected from those samples) add nothing.
+#[test]
+fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
+    let centre = DVec3::new(0.05, 0.5, 0.0);
+    let corners = [
+        DVec3::new(-0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, 0.2),
+        DVec3::new(-0.23, 0.99, 0.2),
+    ];
+    let triangles = [[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]];
+    let samples = viewer::light_layers::area_samples(&triangles, 64);
+    let light = cornell_light();
+    let LiveLight::Area { radiance, area, .. } = light else { unreachable!() };
+    let layered = |probes: Option<sidecar::ProbeGrid>| {
+        let mut scene = cornell_scene(vec![light.clone()]);
+        let (w, h) = scene.size();
+        let fingerprint = sidecar::depth_fingerprint(scene.depth().values());
+        let layers =
+            sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
+        scene
+            .set_light_layers(viewer::SceneLayers {
+                layers,
+                layer_of_light: vec![Some(0)],
+                area_samples: vec![samples.clone()],
+            })
+            .unwrap();
+        if let Some(p) = probes {
+            scene.set_probes(p);
+        }
+        scene
+    };
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius: 0.2, material }), meshes: Vec::new() };
+    let without = render_linear(&layered(None), &live);
+    let total: f64 = samples.iter().map(|s| s.area).sum();
+    let mut sh = [[0.0f32; 3]; 9];
+    for s in &samples {
+        let v = s.position - centre;
+        let d2 = v.length_squared();
+        let l = v / d2.sqrt();
+        let weight = area / total * s.area * s.normal.dot(-l).max(0.0) / d2;
+        let y = sidecar::sh::sh_basis([l.x as f32, l.y as f32, l.z as f32]);
+        for (c, yi) in sh.iter_mut().zip(y) {
+            for (ch, v) in c.iter_mut().enumerate() {
+                *v += yi * (f64::from(radiance[ch]) * weight) as f32;
+            }
+        }
+    }
+    let mut probes = uniform_probe([0.0; 3]);
+    probes.origin = [centre.x as f32, centre.y as f32, centre.z as f32];
+    probes.radiance_sh[0] = sh;
+    let with = render_linear(&layered(Some(probes)), &live);
+    assert_eq!(without.1, with.1);
+    let inside: Vec<usize> = (0..with.1.len()).filter(|&k| with.1[k] == 255).collect();
+    assert!(inside.len() > 1000);
+    for k in inside {
+        for ch in 0..3 {
+            let (a, b) = (without.0[4 * k + ch], with.0[4 * k + ch]);
+            assert!((a - b).abs() <= 1e-3 * a.abs().max(1e-2), "pixel {k}: {a} without probes, {b} with");
+        }
+    }
+}

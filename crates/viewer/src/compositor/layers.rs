@@ -32,6 +32,9 @@ pub(super) struct GpuLayers {
     pub(super) info: [u32; 4],
     /// Whether two kept lights share a layer (the shaders then weigh them).
     pub(super) shared: bool,
+    /// Per kept light, the world-space emitter samples the shaders integrate it over (each
+    /// standing for its share of the area; empty where the shaders use a representative point).
+    pub(super) world_samples: Vec<Vec<crate::light_layers::AreaSample>>,
 }
 
 /// Uploads the layers for the kept lights (`kept[i]` = index of kept light `i` in the scene's
@@ -55,6 +58,7 @@ pub(super) fn upload(
     let mut samples = SampleUniform { samples: [[0.0; 4]; 2 * MAX_AREA_SAMPLES] };
     let mut slices: Vec<Vec<[f32; 3]>> = Vec::new();
     let mut info = [0u32; 4];
+    let mut world_samples = vec![Vec::new(); kept.len()];
     if let Some(bound) = layers {
         let mut slice_of_layer = vec![None; bound.layers.light.len()];
         let area_lights = kept.iter().filter(|&&k| !bound.area_samples[k].is_empty()).count().max(1);
@@ -71,6 +75,8 @@ pub(super) fn upload(
             let step = light_samples.len().div_ceil(per_light.max(1)).max(1);
             let first = next_sample;
             for s in light_samples.iter().step_by(step) {
+                world_samples[slot_index]
+                    .push(crate::light_layers::AreaSample { area: s.area * step as f64, ..*s });
                 let p = camera_from_world.transform_point3(s.position);
                 let n = (normal_from_world * s.normal).normalize_or_zero();
                 let area = (s.area * step as f64 * scale * scale) as f32;
@@ -154,5 +160,5 @@ pub(super) fn upload(
         slices.dedup();
         slices.len() != n
     };
-    GpuLayers { view, samples: buffer, light_slots, info, shared }
+    GpuLayers { view, samples: buffer, light_slots, info, shared, world_samples }
 }

@@ -5,6 +5,7 @@ use super::{Compositor, MAX_LIGHTS};
 
 /// Most spheres casting shadows with light layers in one frame (further ones cast none).
 pub const MAX_SHADOW_SPHERES: usize = 8;
+use crate::light_layers::AreaSample;
 use crate::live::{LiveLight, LiveObjects, Material, ShadowSource};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
@@ -98,11 +99,14 @@ pub(super) struct MeshUniform {
 
 /// The scene's indirect light at world point `p` as radiance SH, packed for the shaders (zero
 /// without probes): the probes' radiance SH there minus the SH of the lights' direct light as
-/// the shaders add it per fragment (unshadowed), so direct light keeps its exact per-fragment
-/// falloff and the probes add what the lights alone miss (bounce light, the scene's colour).
+/// the shaders add it per fragment (unshadowed; an area light over `samples[k]`, its emitter
+/// samples, where the shaders integrate it over them), so direct light keeps its exact
+/// per-fragment falloff and the probes add what the lights alone miss (bounce light, the
+/// scene's colour).
 pub(super) fn indirect_sh(
     probes: Option<&sidecar::ProbeGrid>,
     lights: &[LiveLight],
+    samples: &[Vec<AreaSample>],
     p: DVec3,
 ) -> [[f32; 4]; 9] {
     let Some(grid) = probes else { return [[0.0; 4]; 9] };
@@ -110,12 +114,33 @@ pub(super) fn indirect_sh(
         return [[0.0; 4]; 9];
     }
     let mut sh = grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]);
-    for light in lights {
-        let Some((dir, e)) = direct_at(light, p) else { continue };
+    let mut subtract = |dir: DVec3, e: glam::Vec3| {
         let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
         for (c, yi) in sh.iter_mut().zip(y) {
             for k in 0..3 {
                 c[k] -= yi * e[k];
+            }
+        }
+    };
+    for (k, light) in lights.iter().enumerate() {
+        match (light, samples.get(k).filter(|s| !s.is_empty())) {
+            (LiveLight::Area { radiance, area, two_sided, .. }, Some(samples)) => {
+                let total: f64 = samples.iter().map(|s| s.area).sum();
+                for s in samples {
+                    let v = s.position - p;
+                    let d2 = v.length_squared().max(1e-30);
+                    let l = v / d2.sqrt();
+                    let c = s.normal.dot(-l);
+                    let cos_e = if *two_sided { c.abs() } else { c.max(0.0) };
+                    if cos_e > 0.0 && total > 0.0 {
+                        subtract(l, *radiance * (area / total * s.area * cos_e / d2) as f32);
+                    }
+                }
+            }
+            _ => {
+                if let Some((dir, e)) = direct_at(light, p) {
+                    subtract(dir, e);
+                }
             }
         }
     }
@@ -294,6 +319,7 @@ impl Compositor {
             sphere_sh: indirect_sh(
                 self.probes.as_deref(),
                 &self.lights,
+                &self.layers.world_samples,
                 sphere.map_or(DVec3::NAN, |s| s.centre),
             ),
             shadow_slots,

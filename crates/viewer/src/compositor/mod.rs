@@ -726,6 +726,7 @@ impl Compositor {
                     sh: indirect_sh(
                         self.probes.as_deref(),
                         &self.lights,
+                        &self.layers.world_samples,
                         instance
                             .exact_sphere
                             .map_or(instance.world_from_object.w_axis.truncate(), |(c, _)| c),
