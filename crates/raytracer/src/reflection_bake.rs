@@ -1,6 +1,7 @@
 //! Baking the sidecar's reflection probes (docs/sidecar.md) from the render's own integrator:
 //! a coarse grid of probes at the cell centres of the scene's bounds, each an octahedral map of
-//! the radiance the integrator returns through every texel (jittered rays, averaged), the
+//! the radiance the integrator returns through every texel (jittered rays, averaged) less the
+//! area lights' emission seen directly (a viewer adds the lights' glossy reflection itself), the
 //! distance to the first surface through each texel's centre, and the map prefiltered into the
 //! roughness levels `sidecar::reflection_levels` defines.
 
@@ -13,6 +14,20 @@ use rayon::prelude::*;
 use sidecar::{
     REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, octahedral_direction, reflection_levels,
 };
+
+/// The radiance an area light's emitter sends straight along `ray` (zero when the ray's first
+/// hit is not an emitter): the probes leave it out, because a viewer reflects the lights itself
+/// from their emitter samples (exactly, where the probes would blur a close, bright emitter
+/// with the probe's view of it).
+fn emitter_seen(world: &World, ray: &Ray, counters: &mut RayCounters) -> Vec3 {
+    counters.shadow += 1;
+    let Some(hit) = world.intersect(ray) else { return Vec3::ZERO };
+    let si = world.interaction(ray, &hit);
+    match si.emitter {
+        Some(e) => world.lights[e as usize].emitted(si.ng, si.wo),
+        None => Vec3::ZERO,
+    }
+}
 
 /// Bounds on the bake's work: at most `max_probes * 1024 * rays_per_texel` integrator
 /// estimates and `max_probes * 1024` distance rays.
@@ -66,10 +81,10 @@ pub fn bake_reflections(
                         (i as f32 + jitter.x) / side as f32,
                         (j as f32 + jitter.y) / side as f32,
                     ]);
-                    let r =
-                        integrator.li(world, Ray::new(p, Vec3::from_array(d)), &mut sampler, &mut counters);
+                    let ray = Ray::new(p, Vec3::from_array(d));
+                    let r = integrator.li(world, ray, &mut sampler, &mut counters);
                     if r.rgb.is_finite() {
-                        sum += r.rgb;
+                        sum += (r.rgb - emitter_seen(world, &ray, &mut counters)).max(Vec3::ZERO);
                     }
                 }
                 radiance.push((sum / rays as f32).to_array());

@@ -1,24 +1,39 @@
-//! Reflection probes baked with the layers: a probe in a closed box with one emissive wall sees
-//! that wall's radiance toward it and black elsewhere, its distance map is the box, and the bake
-//! is the same for any thread count.
+//! Reflection probes baked with the layers: a probe in a closed box with one self-luminous
+//! (`constant`) wall sees that wall's radiance toward it and black elsewhere, its distance map
+//! is the box, an area light's emitter seen directly is left out (viewers reflect the lights
+//! from their samples), and the bake is the same for any thread count.
 
 use raytracer::render::{RenderOptions, RenderOutput, render};
 use sidecar::{REFLECTION_TEXELS, octahedral_texel_center};
 
-/// The cube [-1, 1]^3, black matte walls, the +x wall a two-sided area light of radiance
-/// (2, 1, 0.5); the camera at the centre.
-const BOX: &str = "Format 4 4 1\nPixelSamples 1 1\nProjection \"perspective\" \"fov\" [60]\n\
-    SurfaceIntegrator \"directlighting\"\nWorldBegin\nSides 2\nSurface \"matte\" \"Kd\" [0]\n\
-    AttributeBegin\nAreaLightSource \"arealight\" 1 \"intensity\" [2] \"lightcolor\" [1 0.5 0.25] \"twosided\" [1]\n\
-    Polygon \"P\" [1 -1 -1  1 1 -1  1 1 1  1 -1 1]\nAttributeEnd\n\
-    Polygon \"P\" [-1 -1 -1  -1 -1 1  -1 1 1  -1 1 -1]\n\
-    Polygon \"P\" [-1 -1 -1  1 -1 -1  1 -1 1  -1 -1 1]\n\
-    Polygon \"P\" [-1 1 -1  -1 1 1  1 1 1  1 1 -1]\n\
-    Polygon \"P\" [-1 -1 -1  -1 1 -1  1 1 -1  1 -1 -1]\n\
-    Polygon \"P\" [-1 -1 1  1 -1 1  1 1 1  -1 1 1]\nWorldEnd\n";
+/// The cube [-1, 1]^3, black matte walls, the +x wall `wall` (RIB lines before its polygon);
+/// the camera at the centre.
+fn box_rib(wall: &str) -> String {
+    format!(
+        "Format 4 4 1\nPixelSamples 1 1\nProjection \"perspective\" \"fov\" [60]\n\
+         SurfaceIntegrator \"directlighting\"\nWorldBegin\nSides 2\nSurface \"matte\" \"Kd\" [0]\n\
+         AttributeBegin\n{wall}\nPolygon \"P\" [1 -1 -1  1 1 -1  1 1 1  1 -1 1]\nAttributeEnd\n\
+         Polygon \"P\" [-1 -1 -1  -1 -1 1  -1 1 1  -1 1 -1]\n\
+         Polygon \"P\" [-1 -1 -1  1 -1 -1  1 -1 1  -1 -1 1]\n\
+         Polygon \"P\" [-1 1 -1  -1 1 1  1 1 1  1 1 -1]\n\
+         Polygon \"P\" [-1 -1 -1  -1 1 -1  1 1 -1  1 -1 -1]\n\
+         Polygon \"P\" [-1 -1 1  1 -1 1  1 1 1  -1 1 1]\nWorldEnd\n"
+    )
+}
+
+/// A self-luminous wall of radiance (2, 1, 0.5): surface radiance, not a light.
+const CONSTANT_WALL: &str = "Color [2 1 0.5]\nSurface \"constant\"";
+
+/// The same wall as a two-sided area light of that radiance.
+const EMITTER_WALL: &str =
+    "AreaLightSource \"arealight\" 1 \"intensity\" [2] \"lightcolor\" [1 0.5 0.25] \"twosided\" [1]";
 
 fn run(threads: usize) -> RenderOutput {
-    let scene = rib_parser::load_bytes("box.rib", BOX.as_bytes().to_vec(), &Default::default())
+    run_with(CONSTANT_WALL, threads)
+}
+
+fn run_with(wall: &str, threads: usize) -> RenderOutput {
+    let scene = rib_parser::load_bytes("box.rib", box_rib(wall).into_bytes(), &Default::default())
         .unwrap_or_else(|e| panic!("{}", e.render()))
         .scene;
     let options = RenderOptions { depth: true, layers: true, threads: Some(threads), ..Default::default() };
@@ -26,7 +41,7 @@ fn run(threads: usize) -> RenderOutput {
 }
 
 #[test]
-fn a_probe_in_a_box_sees_the_emissive_wall_where_it_is_and_how_far() {
+fn a_probe_in_a_box_sees_the_luminous_wall_where_it_is_and_how_far() {
     let out = run(2);
     let probes = out.reflections.clone().expect("reflection probes are baked with the layers");
     assert_eq!(probes.counts, [3, 3, 3]);
@@ -85,4 +100,18 @@ fn a_probe_in_a_box_sees_the_emissive_wall_where_it_is_and_how_far() {
 #[test]
 fn reflection_probes_are_the_same_for_any_thread_count() {
     assert_eq!(run(1).reflections, run(2).reflections);
+}
+
+/// An area light's emitter seen straight from a probe is left out of its radiance: the same box
+/// with the wall an area light of the same radiance (and black walls, which reflect nothing)
+/// leaves every texel black, while the distance map still sees the wall.
+#[test]
+fn an_emitter_seen_directly_is_left_out() {
+    let out = run_with(EMITTER_WALL, 2);
+    let probes = out.reflections.expect("reflection probes are baked with the layers");
+    for level in &probes.radiance {
+        assert!(level.iter().all(|t| *t == [0.0; 3]), "a texel holds emitted light");
+    }
+    let centre = probes.probe_index([1, 1, 1]);
+    assert!((probes.distance_toward(centre, [1.0, 0.0, 0.0]) - 1.0).abs() < 1e-3);
 }

@@ -345,8 +345,8 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
     let kd = material.coefficients.y;
     let ks = material.coefficients.z;
     let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
-    // With reflection probes, area lights' glossy reflection comes from the probes, which saw
-    // the emitters; point, spot and distant lights are in no probe.
+    // The reflection probes hold the scene's radiance without the lights' emission (the bake
+    // leaves the emitters it sees directly out): every light's glossy reflection is added here.
     let reflections = frame.reflection_origin.w > 0.5 && ks != 0.0;
     var ambient = vec3<f32>(0.0);
     var diffuse = vec3<f32>(0.0);
@@ -383,9 +383,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
                 }
                 let e = radiance * (sample.w * cos_e / dist2);
                 diffuse += e * n_dot_l;
-                if !reflections {
-                    specular += e * blinn_lobe_cos(n, v, l, exponent);
-                }
+                specular += e * blinn_lobe_cos(n, v, l, exponent);
             }
             continue;
         }
@@ -418,9 +416,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
             continue;
         }
         diffuse += e * n_dot_l;
-        if !(reflections && kind == LIGHT_AREA) {
-            specular += e * blinn_lobe_cos(n, v, l, exponent);
-        }
+        specular += e * blinn_lobe_cos(n, v, l, exponent);
     }
     // With the renderer's irradiance probes, the scene's indirect light (the probes' SH less
     // the lights' direct light at the object, compositor/lighting.rs) joins the lights'.
