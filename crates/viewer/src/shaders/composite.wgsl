@@ -581,21 +581,80 @@ fn disc_overlap(a: f32, b: f32, d: f32) -> f32 {
     return a2 * alpha + b2 * beta - 0.5 * sqrt(max((-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b), 0.0));
 }
 
-// Whether any shadow-casting sphere's cone from p comes within `half_angle` of unit `axis`
-// and nearer than `reach` (the emitter's bounding cone from p).
-fn spheres_near_cone(p: vec3<f32>, axis: vec3<f32>, half_angle: f32, reach: f32) -> bool {
+// The shadow-casting spheres that can hide part of an emitter from p, each as its cone from
+// p: unit axis, cosine of the half-angle, distance to the centre and radius.
+struct NearSpheres {
+    axis: array<vec4<f32>, 8>,
+    // x: cos(half-angle); y: distance from p to the centre; z: radius.
+    cone: array<vec4<f32>, 8>,
+    count: u32,
+    // Whether one sphere hides the whole emitter (p is in its umbra).
+    umbra: bool,
+}
+
+// The spheres whose cone from p overlaps the emitter's bounding cone (unit `axis`, half-angle
+// with cosine `cos_e` and sine `sin_e`; emitter points between `near` and `far` from p),
+// compared by cosines: the cones overlap when the angle between their axes is below the sum
+// of their half-angles (plus 1e-3 radians). With `all`, every sphere not inside p's reach is
+// a candidate (p within the emitter's bounds).
+fn spheres_near_cone(p: vec3<f32>, axis: vec3<f32>, cos_e: f32, sin_e: f32, near: f32, far: f32, all: bool) -> NearSpheres {
+    var out: NearSpheres;
+    out.count = 0u;
+    out.umbra = false;
     for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
         let sphere = frame.shadow_spheres[i];
         let to_sphere = sphere.xyz - p;
         let ds = length(to_sphere);
-        if ds <= sphere.w {
-            return true;
+        let r = sphere.w;
+        if ds <= r {
+            // p inside a sphere: every sample is hidden.
+            out.umbra = true;
+            return out;
         }
-        if ds - sphere.w >= reach {
+        if ds - r >= far {
             continue;
         }
-        let separation = acos(clamp(dot(to_sphere / ds, axis), -1.0, 1.0));
-        if separation < asin(sphere.w / ds) + half_angle + 1e-3 {
+        let u = to_sphere / ds;
+        let sin_s = r / ds;
+        let cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
+        if !all {
+            let cos_between = dot(u, axis);
+            let cos_sum = cos_s * cos_e - sin_s * sin_e;
+            let sin_sum = sin_s * cos_e + cos_s * sin_e;
+            // cos(sum + 1e-3); a sum within 1e-3 of pi overlaps every direction.
+            if cos_sum > -0.9999 && cos_between <= cos_sum * 0.9999995 - sin_sum * 1e-3 {
+                continue;
+            }
+            // Umbra: the emitter's cone inside the sphere's by 1e-3 radians, and every emitter
+            // point beyond the sphere's nearest hit (at most ds along a ray inside its cone).
+            let sin_diff = sin_s * cos_e - cos_s * sin_e;
+            let cos_diff = cos_s * cos_e + sin_s * sin_e;
+            if sin_diff > 1e-3 && ds <= near && cos_between >= cos_diff * 0.9999995 + sin_diff * 1e-3 {
+                out.umbra = true;
+                return out;
+            }
+        }
+        out.axis[out.count] = vec4<f32>(u, 0.0);
+        out.cone[out.count] = vec4<f32>(cos_s, ds, r, 0.0);
+        out.count += 1u;
+    }
+    return out;
+}
+
+// Whether one of `near` hides the emitter sample at distance d along unit dir from p: inside a
+// sphere's cone and beyond its nearest hit; exactly by the segment test when the sample is
+// not clearly beyond the sphere.
+fn near_sphere_blocks(near: NearSpheres, p: vec3<f32>, dir: vec3<f32>, d: f32) -> bool {
+    for (var j = 0u; j < near.count; j = j + 1u) {
+        let cone = near.cone[j];
+        if dot(dir, near.axis[j].xyz) < cone.x {
+            continue;
+        }
+        if d >= cone.y {
+            return true;
+        }
+        let sphere = vec4<f32>(p + near.axis[j].xyz * cone.y, cone.z);
+        if one_sphere_blocks(sphere, p, dir, d) {
             return true;
         }
     }
@@ -661,8 +720,24 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
         let to_light = light.position.xyz - p;
         let dl = length(to_light);
         let bound = bitcast<f32>(slot.w);
-        if dl > bound && !spheres_near_cone(p, to_light / dl, asin(bound / dl), dl + bound) {
-            return vec2<f32>(0.0, power / (dl * dl));
+        var near: NearSpheres;
+        if dl > bound {
+            let sin_e = bound / dl;
+            near = spheres_near_cone(
+                p, to_light / dl, sqrt(max(1.0 - sin_e * sin_e, 0.0)), sin_e, dl - bound, dl + bound, false,
+            );
+            if near.count == 0u && !near.umbra {
+                return vec2<f32>(0.0, power / (dl * dl));
+            }
+            if near.umbra {
+                return vec2<f32>(1.0, power / (dl * dl));
+            }
+        } else {
+            // p within the emitter's bounds: every sphere is a candidate.
+            near = spheres_near_cone(p, vec3<f32>(0.0, 0.0, 1.0), 0.0, 1.0, 0.0, dl + bound, true);
+            if near.umbra {
+                return vec2<f32>(1.0, power / (dl * dl));
+            }
         }
         var total = 0.0;
         var hidden = 0.0;
@@ -689,7 +764,7 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
             }
             let g = s.w * cos_l * cos_s / d2;
             total += g;
-            if sphere_blocks(p, dir, d) {
+            if near_sphere_blocks(near, p, dir, d) {
                 hidden += g;
             }
         }
