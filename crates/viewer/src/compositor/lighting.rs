@@ -208,7 +208,7 @@ impl Compositor {
             None => (0.0, 0.0),
         };
         let mut lights = [GpuLight::default(); MAX_LIGHTS];
-        for (slot, light) in lights.iter_mut().zip(&self.lights) {
+        for (k, (slot, light)) in lights.iter_mut().zip(&self.lights).enumerate() {
             *slot = match light {
                 LiveLight::Ambient { colour } => GpuLight {
                     position: [0.0, 0.0, 0.0, 0.0],
@@ -253,7 +253,15 @@ impl Compositor {
                     colour: (*radiance * (*area * scale * scale) as f32)
                         .extend(if normal.is_some() { 1.0 } else { 0.0 })
                         .to_array(),
-                    ..Default::default()
+                    // The radiance each emitter sample carries (the light's power spread over
+                    // the samples' area) where the shaders integrate over them.
+                    params: {
+                        let sampled: f64 =
+                            self.layers.world_samples.get(k).map_or(0.0, |s| s.iter().map(|s| s.area).sum());
+                        let per_sample =
+                            if sampled > 0.0 { *radiance * (*area / sampled) as f32 } else { *radiance };
+                        per_sample.extend(0.0).to_array()
+                    },
                 },
             };
         }

@@ -20,7 +20,8 @@ struct Light {
     direction: vec4<f32>,
     // rgb: intensity * colour (area: radiance * area); w: area light has a normal (1) or not.
     colour: vec4<f32>,
-    // spot: cos(cone), cos(cone - delta), beam distribution.
+    // spot: cos(cone), cos(cone - delta), beam distribution; area: rgb the radiance each emitter
+    // sample of the light layers carries.
     params: vec4<f32>,
 }
 
@@ -364,11 +365,8 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
         let slot = frame.shadow_slots[k];
         if kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u {
             let sample_count = min(slot.z, MAX_AREA_SAMPLES);
-            var total_area = 0.0;
-            for (var i = 0u; i < sample_count; i++) {
-                total_area += area_samples.samples[2u * (slot.y + i)].w;
-            }
-            let radiance = light.colour.rgb / max(total_area, 1e-30);
+            // The radiance each sample carries (compositor/lighting.rs).
+            let radiance = light.params.rgb;
             for (var i = 0u; i < sample_count; i++) {
                 let sample = area_samples.samples[2u * (slot.y + i)];
                 let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
@@ -581,84 +579,46 @@ fn disc_overlap(a: f32, b: f32, d: f32) -> f32 {
     return a2 * alpha + b2 * beta - 0.5 * sqrt(max((-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b), 0.0));
 }
 
-// The shadow-casting spheres that can hide part of an emitter from p, each as its cone from
-// p: unit axis, cosine of the half-angle, distance to the centre and radius.
-struct NearSpheres {
-    axis: array<vec4<f32>, 8>,
-    // x: cos(half-angle); y: distance from p to the centre; z: radius.
-    cone: array<vec4<f32>, 8>,
-    count: u32,
-    // Whether one sphere hides the whole emitter (p is in its umbra).
-    umbra: bool,
-}
+const CONE_CLEAR: u32 = 0u;
+const CONE_UMBRA: u32 = 1u;
+const CONE_PENUMBRA: u32 = 2u;
 
-// The spheres whose cone from p overlaps the emitter's bounding cone (unit `axis`, half-angle
-// with cosine `cos_e` and sine `sin_e`; emitter points between `near` and `far` from p),
-// compared by cosines: the cones overlap when the angle between their axes is below the sum
-// of their half-angles (plus 1e-3 radians). With `all`, every sphere not inside p's reach is
-// a candidate (p within the emitter's bounds).
-fn spheres_near_cone(p: vec3<f32>, axis: vec3<f32>, cos_e: f32, sin_e: f32, near: f32, far: f32, all: bool) -> NearSpheres {
-    var out: NearSpheres;
-    out.count = 0u;
-    out.umbra = false;
+// How the shadow-casting spheres stand against an emitter's bounding cone from p (unit `axis`,
+// half-angle with cosine `cos_e` and sine `sin_e`, emitter points between `near` and `far`
+// from p), compared by cosines: CONE_CLEAR when no sphere's cone overlaps it (the angle
+// between the axes at least the sum of the half-angles plus 1e-3 radians), CONE_UMBRA when one
+// sphere's cone holds it whole with every emitter point beyond the sphere's nearest hit (which
+// is at most the sphere's distance along any ray inside its cone), else CONE_PENUMBRA.
+fn emitter_cone_class(p: vec3<f32>, axis: vec3<f32>, cos_e: f32, sin_e: f32, near: f32, far: f32) -> u32 {
+    var cone_class = CONE_CLEAR;
     for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
         let sphere = frame.shadow_spheres[i];
         let to_sphere = sphere.xyz - p;
         let ds = length(to_sphere);
         let r = sphere.w;
         if ds <= r {
-            // p inside a sphere: every sample is hidden.
-            out.umbra = true;
-            return out;
+            return CONE_UMBRA;
         }
         if ds - r >= far {
             continue;
         }
-        let u = to_sphere / ds;
         let sin_s = r / ds;
         let cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
-        if !all {
-            let cos_between = dot(u, axis);
-            let cos_sum = cos_s * cos_e - sin_s * sin_e;
-            let sin_sum = sin_s * cos_e + cos_s * sin_e;
-            // cos(sum + 1e-3); a sum within 1e-3 of pi overlaps every direction.
-            if cos_sum > -0.9999 && cos_between <= cos_sum * 0.9999995 - sin_sum * 1e-3 {
-                continue;
-            }
-            // Umbra: the emitter's cone inside the sphere's by 1e-3 radians, and every emitter
-            // point beyond the sphere's nearest hit (at most ds along a ray inside its cone).
-            let sin_diff = sin_s * cos_e - cos_s * sin_e;
-            let cos_diff = cos_s * cos_e + sin_s * sin_e;
-            if sin_diff > 1e-3 && ds <= near && cos_between >= cos_diff * 0.9999995 + sin_diff * 1e-3 {
-                out.umbra = true;
-                return out;
-            }
-        }
-        out.axis[out.count] = vec4<f32>(u, 0.0);
-        out.cone[out.count] = vec4<f32>(cos_s, ds, r, 0.0);
-        out.count += 1u;
-    }
-    return out;
-}
-
-// Whether one of `near` hides the emitter sample at distance d along unit dir from p: inside a
-// sphere's cone and beyond its nearest hit; exactly by the segment test when the sample is
-// not clearly beyond the sphere.
-fn near_sphere_blocks(near: NearSpheres, p: vec3<f32>, dir: vec3<f32>, d: f32) -> bool {
-    for (var j = 0u; j < near.count; j = j + 1u) {
-        let cone = near.cone[j];
-        if dot(dir, near.axis[j].xyz) < cone.x {
+        let cos_between = dot(to_sphere / ds, axis);
+        let cos_sum = cos_s * cos_e - sin_s * sin_e;
+        let sin_sum = sin_s * cos_e + cos_s * sin_e;
+        // cos(sum + 1e-3); a sum within 1e-3 of pi overlaps every direction.
+        if cos_sum > -0.9999 && cos_between <= cos_sum * 0.9999995 - sin_sum * 1e-3 {
             continue;
         }
-        if d >= cone.y {
-            return true;
+        let sin_diff = sin_s * cos_e - cos_s * sin_e;
+        let cos_diff = cos_s * cos_e + sin_s * sin_e;
+        if sin_diff > 1e-3 && ds <= near && cos_between >= cos_diff * 0.9999995 + sin_diff * 1e-3 {
+            return CONE_UMBRA;
         }
-        let sphere = vec4<f32>(p + near.axis[j].xyz * cone.y, cone.z);
-        if one_sphere_blocks(sphere, p, dir, d) {
-            return true;
-        }
+        cone_class = CONE_PENUMBRA;
     }
-    return false;
+    return cone_class;
 }
 
 // Whether any shadow-casting sphere blocks the segment from p along unit dir up to max_t.
@@ -720,22 +680,15 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
         let to_light = light.position.xyz - p;
         let dl = length(to_light);
         let bound = bitcast<f32>(slot.w);
-        var near: NearSpheres;
         if dl > bound {
             let sin_e = bound / dl;
-            near = spheres_near_cone(
-                p, to_light / dl, sqrt(max(1.0 - sin_e * sin_e, 0.0)), sin_e, dl - bound, dl + bound, false,
+            let cone_class = emitter_cone_class(
+                p, to_light / dl, sqrt(max(1.0 - sin_e * sin_e, 0.0)), sin_e, dl - bound, dl + bound,
             );
-            if near.count == 0u && !near.umbra {
+            if cone_class == CONE_CLEAR {
                 return vec2<f32>(0.0, power / (dl * dl));
             }
-            if near.umbra {
-                return vec2<f32>(1.0, power / (dl * dl));
-            }
-        } else {
-            // p within the emitter's bounds: every sphere is a candidate.
-            near = spheres_near_cone(p, vec3<f32>(0.0, 0.0, 1.0), 0.0, 1.0, 0.0, dl + bound, true);
-            if near.umbra {
+            if cone_class == CONE_UMBRA {
                 return vec2<f32>(1.0, power / (dl * dl));
             }
         }
@@ -764,7 +717,7 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
             }
             let g = s.w * cos_l * cos_s / d2;
             total += g;
-            if near_sphere_blocks(near, p, dir, d) {
+            if sphere_blocks(p, dir, d) {
                 hidden += g;
             }
         }
