@@ -15,7 +15,7 @@
 //!   5x5 pixels so that noise alone does not select a pixel;
 //! - elsewhere: all other pixels.
 //!
-//! Then the viewer's frame time at 512^2 and 2048^2 (`--headless --frames 60 --stats`).
+//! Then the viewer's frame time at 512^2 and 2048^2 (`--headless --frames 20 --stats`).
 //! Writes `docs/illusion.md` and one picture per scene, `docs/illusion-SCENE.png` (truth,
 //! composite, render without the object and 4x the absolute error, for each material at the
 //! first placement).
@@ -338,12 +338,12 @@ fn frame_time(
     write(&live, &live_rib(&scene.placements[0], MATERIALS[1].1))?;
     let mut cmd = Command::new(viewer);
     cmd.arg(&image).arg(&depth).arg(dir.join(format!("{name}.rib"))).arg("--live").arg(&live);
-    cmd.args(["--headless", "--frames", "60", "--stats"]);
+    cmd.args(["--headless", "--frames", "20", "--stats"]);
     let r = run_measured(&mut cmd)?;
     if !r.success {
         return Err(format!("hybrid-view failed:\n{}", r.stderr));
     }
-    // "frames: 60, frame time (render + wait) mean 1.234 ms, median 1.200 ms, min 1.100 ms"
+    // "frames: 20, frame time (render + wait) mean 1.234 ms, median 1.200 ms, min 1.100 ms"
     r.stderr
         .lines()
         .find_map(|l| {
@@ -473,7 +473,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     );
     doc.push_str(&table);
     doc.push_str(
-        "\nThe viewer's median frame time over 60 headless frames (render + wait, lavapipe on this \
+        "\nThe viewer's median frame time over 20 headless frames (render + wait, lavapipe on this \
          machine's CPU), the plastic sphere at the first placement:\n\n| scene | image size | frame ms |\n|---|---|---|\n",
     );
     doc.push_str(&frames);
