@@ -501,7 +501,7 @@ const EXPLANATIONS: &[(&str, &str)] = &[
     ),
     (
         "Geometry",
-        "Gap: `Geometry` with an implementation-specific name (e.g. \"teapot\", \"bunny\") is not built.",
+        "Gap: `Geometry` with an implementation-specific name other than \"teapot\" (e.g. \"bunny\") is not built; the teapot is.",
     ),
     ("SolidBegin", "Gap: CSG (difference, intersection) is not built; the solids are rendered as a union."),
     (

@@ -433,20 +433,13 @@ fn teapot_sides(p: &[Vec4]) -> [([Vec4; 4], bool, f64); 4] {
     ]
 }
 
-#[test]
-fn the_teapot_has_no_cracks_between_its_patches() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/rib-corpus/aqsis__aqsis/librib2__tests__teapot.rib"
-    );
-    let bytes = std::fs::read(path).expect("the corpus teapot");
-    let scene = rib_parser::load_bytes("teapot.rib", bytes, &Default::default()).unwrap().scene;
+/// The 32 Bezier patches of a teapot (16 homogeneous control points each, with their
+/// placement) as surfaces, and every side that another patch shares as a seam.
+fn teapot_surfaces(patches: &[(Vec<Vec4>, DMat4)]) -> (Vec<Surface>, Vec<Seam>) {
     let mut surfaces = Vec::new();
     let mut sides = Vec::new();
-    for entity in &scene.shapes {
-        let Shape::NuPatch(np) = &*entity.shape else { continue };
-        assert_eq!((np.nu, np.nv, np.u_order, np.v_order), (4, 4, 4, 4));
-        for (side, along_v, at) in teapot_sides(&np.positions) {
+    for (positions, world_from_object) in patches {
+        for (side, along_v, at) in teapot_sides(positions) {
             sides.push((surfaces.len(), side, along_v, at));
         }
         surfaces.push(Surface {
@@ -455,8 +448,8 @@ fn the_teapot_has_no_cracks_between_its_patches() {
             step: (3, 3),
             n: (4, 4),
             periodic: (false, false),
-            control: np.positions.iter().map(|p| (p.truncate() / p.w).as_dvec3()).collect(),
-            world_from_object: entity.world_from_object,
+            control: positions.iter().map(|p| (p.truncate() / p.w).as_dvec3()).collect(),
+            world_from_object: *world_from_object,
         });
     }
     assert_eq!(surfaces.len(), 32);
@@ -474,6 +467,24 @@ fn the_teapot_has_no_cracks_between_its_patches() {
             seams.push(Seam { surface: *s, along_v: *along_v, at: *at, range: (0.0, 1.0) });
         }
     }
+    (surfaces, seams)
+}
+
+#[test]
+fn the_teapot_has_no_cracks_between_its_patches() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/rib-corpus/aqsis__aqsis/librib2__tests__teapot.rib"
+    );
+    let bytes = std::fs::read(path).expect("the corpus teapot");
+    let scene = rib_parser::load_bytes("teapot.rib", bytes, &Default::default()).unwrap().scene;
+    let mut patches = Vec::new();
+    for entity in &scene.shapes {
+        let Shape::NuPatch(np) = &*entity.shape else { continue };
+        assert_eq!((np.nu, np.nv, np.u_order, np.v_order), (4, 4, 4, 4));
+        patches.push((np.positions.clone(), entity.world_from_object));
+    }
+    let (surfaces, seams) = teapot_surfaces(&patches);
     assert!(seams.len() >= 40, "{} shared sides", seams.len());
     assert_watertight("teapot", &scene, &surfaces, &seams, 40);
 
@@ -487,6 +498,64 @@ fn the_teapot_has_no_cracks_between_its_patches() {
         rib_parser::load_bytes("teapot.rib", text.into_bytes(), &Default::default()).unwrap().scene;
     assert_eq!((instanced.shapes.len(), instanced.instances.len()), (0, 1));
     assert_watertight("instanced teapot", &instanced, &surfaces, &seams, 40);
+}
+
+#[test]
+fn geometry_teapot_is_newells_teapot_placed_as_aqsis_places_it_and_has_no_cracks() {
+    let rib = "WorldBegin\nTranslate 1 -2 0.5\nRotate 30 0 0 1\nGeometry \"teapot\" \"uniform color Cs\" [0 0.5 1]\nWorldEnd\n";
+    let scene = load("teapot.rib", rib.to_string());
+    let mut patches = Vec::new();
+    for entity in &scene.shapes {
+        let Shape::Patches(mesh) = &*entity.shape else { panic!("only patches") };
+        assert_eq!((mesh.nu, mesh.nv, mesh.u_basis.step, mesh.v_basis.step), (4, 4, 3, 3));
+        assert_eq!(mesh.u_basis.matrix.map(f64::from), BEZIER);
+        assert!(mesh.primvars.get("Cs").is_some(), "the teapot's colour");
+        patches.push((mesh.positions.clone(), entity.world_from_object));
+    }
+    let (surfaces, seams) = teapot_surfaces(&patches);
+    // Rim, body, handle, spout, lid and bottom meet along 52 edges, each a seam of both its
+    // patches (the pole sides of the lid and bottom are points, not seams).
+    assert_eq!(seams.len(), 104);
+
+    // The object-space box of the true surface, sampled densely by the test's own evaluator:
+    // Newell's extents (y and the radius 2 of the body, the lid's top at 3.15 and the bottom's
+    // centre at 0), moved down by 0.15 as Aqsis places the teapot.
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    let object_from_world = patches[0].1.inverse();
+    for s in &surfaces {
+        for j in 0..=64 {
+            for i in 0..=64 {
+                let p = object_from_world.transform_point3(s.eval(i as f64 / 64.0, j as f64 / 64.0).0);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-6;
+    assert!(close(lo.y, -2.0) && close(hi.y, 2.0), "y extent {} {}", lo.y, hi.y);
+    assert!(close(lo.z, -0.15) && close(hi.z, 3.0), "z extent {} {}", lo.z, hi.z);
+    // The handle's back is x = -3 and the spout's lip reaches x = 3.434 (Newell's extents).
+    assert!(close(lo.x, -3.0), "x from {}", lo.x);
+    assert!((hi.x - 3.434).abs() < 1e-3, "x to {}", hi.x);
+
+    // The haptic proxy's triangles span the same box, within the tessellation tolerance.
+    let geometry = scene_geometry(&scene, &tessellation_tolerance(None));
+    let mut t_lo = DVec3::splat(f64::INFINITY);
+    let mut t_hi = DVec3::splat(f64::NEG_INFINITY);
+    for k in 0..geometry.mesh.triangle_count() {
+        for p in geometry.mesh.triangle_local(k) {
+            let p = object_from_world.transform_point3(geometry.mesh.world_from_local(p));
+            t_lo = t_lo.min(p);
+            t_hi = t_hi.max(p);
+        }
+    }
+    assert!(
+        t_lo.abs_diff_eq(lo, 0.02) && t_hi.abs_diff_eq(hi, 0.02),
+        "tessellated box {t_lo} {t_hi}, surface {lo} {hi}"
+    );
+
+    assert_watertight("Geometry teapot", &scene, &surfaces, &seams, 40);
 }
 
 #[test]

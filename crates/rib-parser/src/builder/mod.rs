@@ -55,6 +55,7 @@ mod objects;
 mod options;
 mod resources;
 mod shapes;
+mod teapot;
 mod transforms;
 
 use crate::diagnostics::{DiagnosticKind, Diagnostics};
@@ -689,6 +690,10 @@ impl RibTarget for SceneBuilder {
 
     fn blobby(&mut self, blobby: crate::scene::Blobby, cx: &mut Cx<'_>) {
         SceneBuilder::blobby(self, blobby, cx)
+    }
+
+    fn geometry(&mut self, kind: &str, params: ParamList, cx: &mut Cx<'_>) {
+        SceneBuilder::geometry(self, kind, params, cx)
     }
 
     fn imager(&mut self, call: ShaderCall, cx: &mut Cx<'_>) {

@@ -189,9 +189,20 @@ fn curves_shape(
 impl SceneBuilder {
     /// Adds a shape made now to the world (or the object being defined).
     pub(super) fn add_shape(&mut self, shape: Shape, cx: &mut Cx<'_>) {
+        self.add_shapes(vec![shape], cx);
+    }
+
+    /// Shapes made by one request (`Geometry "teapot"` makes 32): one motion sample.
+    pub(super) fn add_shapes(&mut self, shapes: Vec<Shape>, cx: &mut Cx<'_>) {
         if self.skip_motion_sample() {
             return;
         }
+        for shape in shapes {
+            self.push_shape(shape, cx);
+        }
+    }
+
+    fn push_shape(&mut self, shape: Shape, cx: &mut Cx<'_>) {
         let in_solid = self.solid_depth > 0;
         if self.recording.is_some() && self.gs.motion.is_some() {
             self.warn_once(
