@@ -492,8 +492,8 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "Gap: deformation blur (geometry, lights or attributes inside `MotionBegin`) is not built; the first sample is used. Transformation motion blur is rendered.",
     ),
     (
-        "camera motion blur",
-        "Gap: a moving camera is not built; the camera at shutter open is used. Moving objects are blurred.",
+        "camera's motion block",
+        "A moving camera whose keys are not cameras (projective or singular): the camera at shutter open is used, reported.",
     ),
     (
         "moving area light",
@@ -556,7 +556,10 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "ShaderLayer",
         "Gap: shader layers of later RenderMan versions are not built; their shaders are RSL anyway.",
     ),
-    ("ClippingPlane", "Gap: user clipping planes are not built."),
+    (
+        "ClippingPlane",
+        "A `ClippingPlane` the scene gives where options are fixed (inside the world block), or beyond 64 planes: ignored, reported. Clipping planes themselves are rendered.",
+    ),
     (
         "Display inside",
         "The scene puts Display inside the world block, where RenderMan ignores it too: a scene error, reported.",

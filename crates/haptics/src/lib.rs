@@ -66,6 +66,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bvh;
+pub mod clipping;
 pub mod device;
 pub mod geometry;
 pub mod material;

@@ -6,6 +6,7 @@
 //! of the collision mesh (the proxy passes through it), as CHAI3D leaves out objects with
 //! haptics disabled.
 
+use crate::clipping::{clip_mesh, world_clipping_planes};
 use crate::geometry::{CollisionMesh, MaterialId};
 use crate::material::MaterialSpec;
 use glam::DVec3;
@@ -106,6 +107,8 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
     let mut mesh = CollisionMesh::new(centre);
     let mut warnings = Vec::new();
     let mut untouchable_shapes = 0;
+    // What the ray tracer clips away is not touched either.
+    let planes = world_clipping_planes(scene);
     for skipped in &meshes.skipped {
         let what =
             if skipped.error.is_not_a_surface() { "has no surface to touch" } else { "cannot be touched" };
@@ -121,7 +124,15 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
         let positions: Vec<DVec3> = m.mesh.positions.iter().map(|p| p.as_dvec3()).collect();
         let normals: Option<Vec<DVec3>> =
             m.mesh.normals.as_ref().map(|n| n.iter().map(|v| v.as_dvec3()).collect());
-        if let Err(e) = mesh.push_indexed(&positions, &m.mesh.indices, normals.as_deref(), material_id(id)) {
+        let clipped;
+        let (positions, triangles, normals) = if planes.is_empty() {
+            (positions, m.mesh.indices.as_slice(), normals)
+        } else {
+            let (p, t, n) = clip_mesh(&planes, &positions, &m.mesh.indices, normals.as_deref());
+            clipped = t;
+            (p, clipped.as_slice(), n)
+        };
+        if let Err(e) = mesh.push_indexed(&positions, triangles, normals.as_deref(), material_id(id)) {
             warnings.push(format!("{}: warning: cannot be touched: {e}", m.loc));
         }
     }

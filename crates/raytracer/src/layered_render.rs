@@ -139,10 +139,7 @@ fn layered_tile(
                 let lens_u = if frame.rays.has_lens() { sampler.uniform2() } else { glam::Vec2::ZERO };
                 // A time sample only where something moves, as in `render.rs`.
                 let time = if frame.world.motion_blur { sampler.uniform() } else { 0.0 };
-                let ray = frame
-                    .rays
-                    .lens_ray(DVec2::new(x, y), lens_u)
-                    .map(|(ray, o)| (crate::world::Ray { time, ..ray }, o));
+                let ray = frame.rays.lens_ray_at(DVec2::new(x, y), lens_u, time);
                 let traced = ray.is_some();
                 if traced {
                     plan.arm();

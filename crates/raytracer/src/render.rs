@@ -17,6 +17,7 @@ use depth_remap::camera::WorldRay;
 use depth_remap::{Camera, CameraError};
 use glam::{DMat4, DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use rib_parser::motion::TransformMotion;
 use rib_parser::scene::{LightKind, Scene};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -148,6 +149,8 @@ pub struct CameraRays {
     far: f64,
     /// The `DepthOfField` lens; `None` is a pinhole.
     lens: Option<ThinLens>,
+    /// A moving camera ([`World::camera_motion`]); `None` when it stays.
+    motion: Option<Arc<TransformMotion>>,
 }
 
 impl CameraRays {
@@ -155,13 +158,45 @@ impl CameraRays {
         let c = camera.clipping();
         let near = if c.near.is_finite() && c.near > 0.0 { c.near } else { 0.0 };
         let far = if c.far.is_finite() && c.far > near { c.far } else { f64::INFINITY };
-        CameraRays { camera, render_from_world: *render_from_world, near, far, lens: None }
+        CameraRays { camera, render_from_world: *render_from_world, near, far, lens: None, motion: None }
     }
 
     /// The same rays through a thin lens (`DepthOfField`); a lens without aperture is a pinhole.
     pub fn with_lens(mut self, lens: Option<ThinLens>) -> CameraRays {
         self.lens = lens.filter(|l| l.radius > 0.0 && l.radius.is_finite() && l.focal_distance > 0.0);
         self
+    }
+
+    /// The same rays from a camera that moves as `motion` says ([`World::camera_motion`]).
+    pub fn with_motion(mut self, motion: Option<Arc<TransformMotion>>) -> CameraRays {
+        self.motion = motion;
+        self
+    }
+
+    /// The ray of [`CameraRays::lens_ray`] taken by the camera at shutter fraction `time`, and
+    /// carrying that time. Without camera motion it is that ray unmoved; the depth table keeps
+    /// using the pinhole ray at shutter open ([`CameraRays::pixel_centre_ray`]).
+    pub fn lens_ray_at(&self, raster: DVec2, lens_u: Vec2, time: f32) -> Option<(Ray, DVec3)> {
+        let (ray, origin) = self.lens_ray(raster, lens_u)?;
+        let Some(motion) = &self.motion else {
+            return Some((Ray { time, ..ray }, origin));
+        };
+        let m = motion.at(f64::from(time));
+        let moved_origin = m.transform_point3(origin);
+        let direction = m.transform_vector3(ray.direction.as_dvec3());
+        // The clipping range is a distance along the ray: it scales with the direction.
+        let scale = direction.length() / ray.direction.as_dvec3().length();
+        if !(scale.is_finite() && scale > 0.0 && moved_origin.is_finite()) {
+            return None;
+        }
+        let moved = Ray {
+            origin: moved_origin.as_vec3(),
+            direction: (direction / direction.length()).as_vec3(),
+            t_min: (f64::from(ray.t_min) * scale) as f32,
+            t_max: (f64::from(ray.t_max) * scale) as f32,
+            time,
+        };
+        Some((moved, moved_origin))
     }
 
     /// Whether camera rays need a lens sample (a pair of sampler dimensions) each.
@@ -297,7 +332,9 @@ fn render_in_pool(
     let world = World::build(scene, camera.eye_position(), pixel_footprint(&camera), &mut diagnostics)?;
     let time_build = build_start.elapsed();
     let lens = scene.render.depth_of_field.as_ref().map(ThinLens::from_depth_of_field);
-    let rays = CameraRays::new(camera, &world.render_from_world).with_lens(lens);
+    let rays = CameraRays::new(camera, &world.render_from_world)
+        .with_lens(lens)
+        .with_motion(world.camera_motion.clone());
 
     let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
     let prepare_start = Instant::now();
@@ -607,9 +644,8 @@ fn render_tile(
                 let lens_u = if rays.has_lens() { sampler.uniform2() } else { Vec2::ZERO };
                 // A time sample only where something moves, so still images stay as they were.
                 let time = if world.motion_blur { sampler.uniform() } else { 0.0 };
-                let r = match rays.lens_ray(DVec2::new(x, y), lens_u) {
+                let r = match rays.lens_ray_at(DVec2::new(x, y), lens_u, time) {
                     Some((ray, _)) => {
-                        let ray = Ray { time, ..ray };
                         world.over_background(integrator.li(world, ray, &mut sampler, &mut counters))
                     }
                     None => Default::default(),

@@ -150,3 +150,32 @@ fn csg_difference_carves_the_subtracted_solid_out() {
     let exact = 9.0 - (0.25 - x * x - y * y).sqrt();
     assert!((d - exact).abs() < 1e-4, "union depth {d}, exact {exact}");
 }
+
+#[test]
+fn clipping_planes_remove_what_lies_on_the_side_their_normal_points_to() {
+    // Two planes in the coordinate system current where each is given: camera space for the
+    // first (x > 0.5 is clipped), the sphere's centre for the second (z < 10 in camera space,
+    // the half towards the eye, is clipped), so the eye sees into the unit sphere's back half.
+    let options = "Format 200 200 1\nProjection \"orthographic\"\nScreenWindow -2 2 -2 2\nClippingPlane 0.5 0 0 1 0 0\nTranslate 0 0 10\nClippingPlane 0 0 0 0 0 -1\n";
+    let rib = format!("{options}WorldBegin\nSphere 1 -1 1 360\nWorldEnd\n");
+    let scene = rib_parser::load_bytes("clip.rib", rib.into_bytes(), &Default::default()).unwrap().scene;
+    assert_eq!(scene.render.clipping_planes.len(), 2);
+    let out =
+        render(&scene, &RenderOptions { spp: Some(1), depth: true, threads: Some(2), ..Default::default() })
+            .unwrap();
+    let depth = out.depth.unwrap().values;
+    let hits = depth.iter().filter(|v| v.is_finite()).count();
+    // The unit disc less its segment beyond x = 0.5: pi - (acos(0.5) - 0.5 sqrt(0.75)).
+    let segment = 0.5f64.acos() - 0.5 * 0.75f64.sqrt();
+    assert_area(hits, std::f64::consts::PI - segment, "clipped sphere");
+    // Nothing right of x = 0.5, and the centre pixel sees the back of the sphere.
+    for j in 0..200 {
+        for i in 0..200 {
+            let x = -2.0 + (i as f64 + 0.5) * PIXEL;
+            assert!(x < 0.5 || !depth[j * 200 + i].is_finite(), "pixel ({i}, {j}) at x = {x} is not clipped");
+        }
+    }
+    let centre = f64::from(depth[100 * 200 + 100]);
+    let exact = 10.0 + (1.0 - 2.0 * 0.01f64 * 0.01).sqrt();
+    assert!((centre - exact).abs() < 1e-4, "depth {centre}, exact {exact}");
+}

@@ -75,3 +75,27 @@ fn a_closed_shutter_or_a_still_block_renders_as_the_still_scene() {
     // The still square covers exactly its half of the image.
     assert!(still.iter().enumerate().all(|(k, a)| *a == if k % 32 < 16 { 1.0 } else { 0.0 }), "{still:?}");
 }
+
+#[test]
+fn a_camera_moving_by_d_sees_what_a_still_camera_sees_of_objects_moving_by_minus_d() {
+    // The camera slides by -1 along x during the shutter (its `camera_from_world` adds +t to
+    // x), so the still square sweeps across the image exactly as the square that slides by +1
+    // does before a still camera: same samples, same rays up to rounding.
+    let moving_camera = "Format 32 2 1\nPixelFilter \"box\" 1 1\nProjection \"orthographic\"\nScreenWindow -1 1 -0.0625 0.0625\nShutter 0 1\nMotionBegin [0 1]\nTranslate 0 0 5\nTranslate 1 0 5\nMotionEnd\n";
+    let from_camera = coverage(&format!("{moving_camera}{}", square("")), 256, 2);
+    let from_square = coverage(&format!("{}{}", camera("Shutter 0 1"), square(SLIDE)), 256, 2);
+    let worst = from_camera.iter().zip(&from_square).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    eprintln!("worst pixel difference {worst}");
+    assert!(worst <= 1.0 / 256.0, "worst pixel difference {worst}");
+    // And both are the closed form of the sliding square: coverage 1 - |x|.
+    for (k, a) in from_camera.iter().enumerate() {
+        let x = -1.0 + (k % 32) as f64 / 16.0 + 1.0 / 32.0;
+        assert!((f64::from(*a) - (1.0 - x.abs())).abs() < 0.02, "pixel {k}: {a}");
+    }
+    // A closed shutter renders the camera at its first key, with no warning about it.
+    let closed = moving_camera.replace("Shutter 0 1", "Shutter 0 0");
+    assert_eq!(
+        coverage(&format!("{closed}{}", square("")), 16, 2),
+        coverage(&format!("{}{}", camera("Shutter 0 1"), square("")), 16, 2)
+    );
+}

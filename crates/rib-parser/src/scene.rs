@@ -271,6 +271,13 @@ pub struct RenderSettings {
     pub surface_integrator: Option<ShaderCall>,
     /// `Shutter open close`.
     pub shutter: Option<(f32, f32)>,
+    /// `camera_from_world` at each key time (scene times) of a `MotionBegin` block around the
+    /// camera transformation; `None` when the camera does not move. `CameraSettings`'
+    /// `camera_from_world` is its value at shutter open.
+    pub camera_motion: Option<Arc<crate::motion::TransformMotion>>,
+    /// `ClippingPlane` requests (RenderMan 3.2), in camera space: everything on the side of a
+    /// plane its normal points to is removed from the scene.
+    pub clipping_planes: Vec<ClippingPlane>,
     /// `DepthOfField fstop focallength focaldistance`; `None` is a pinhole camera.
     pub depth_of_field: Option<DepthOfField>,
     /// `Imager "name" params` (`"background"` sets the colour where rays miss).
@@ -278,6 +285,14 @@ pub struct RenderSettings {
     /// `MakeTexture`, `MakeLatLongEnvironment` and `MakeCubeFaceEnvironment` requests, in order:
     /// renderers that read images directly resolve a texture name through them.
     pub textures: Vec<MadeTexture>,
+}
+
+/// A user clipping plane through `point` with `normal` (camera space): geometry on the side
+/// `normal` points to (`(p - point) . normal > 0`) is clipped away.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClippingPlane {
+    pub point: DVec3,
+    pub normal: DVec3,
 }
 
 /// What a `Make...` request makes.
@@ -313,6 +328,8 @@ impl Default for RenderSettings {
             hider: None,
             surface_integrator: None,
             shutter: None,
+            camera_motion: None,
+            clipping_planes: Vec::new(),
             depth_of_field: None,
             imager: None,
             textures: Vec::new(),
@@ -713,7 +730,8 @@ impl Scene {
     /// motion blur.
     pub fn has_motion_blur(&self) -> bool {
         let open = self.render.shutter.is_some_and(|(open, close)| close > open);
-        open && (self.shapes.iter().any(|s| s.motion.is_some())
+        open && (self.render.camera_motion.is_some()
+            || self.shapes.iter().any(|s| s.motion.is_some())
             || self.instances.iter().any(|i| i.motion.is_some()))
     }
 }

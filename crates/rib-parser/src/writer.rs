@@ -155,7 +155,18 @@ impl Writer {
             self.line(format!("FrameBegin {n}"));
         }
         self.options(scene);
-        self.line(format!("Transform {}", matrix(&scene.camera.camera_from_world)));
+        match &scene.render.camera_motion {
+            // The keys read back as the same motion, and its value at shutter open as the camera.
+            Some(motion) => {
+                let times: Vec<String> = motion.times().iter().map(|t| f(*t as f32)).collect();
+                self.line(format!("MotionBegin [{}]", times.join(" ")));
+                for m in motion.matrices() {
+                    self.line(format!("Transform {}", matrix(m)));
+                }
+                self.line("MotionEnd");
+            }
+            None => self.line(format!("Transform {}", matrix(&scene.camera.camera_from_world))),
+        }
         self.line("WorldBegin");
         // Attribute state outside every block is RenderMan's default; lights are declared
         // first so that shapes can name them in Illuminate.
@@ -271,6 +282,19 @@ impl Writer {
         }
         if let Some(i) = &r.imager {
             self.line(format!("Imager {}{}", s(&i.name), param_list(&i.params)));
+        }
+        // Options are written in camera space, where the planes are kept.
+        for plane in &r.clipping_planes {
+            let (p, n) = (plane.point, plane.normal);
+            self.line(format!(
+                "ClippingPlane {} {} {} {} {} {}",
+                d(p.x),
+                d(p.y),
+                d(p.z),
+                d(n.x),
+                d(n.y),
+                d(n.z)
+            ));
         }
         if let Some((open, close)) = r.shutter {
             self.line(format!("Shutter {} {}", f(open), f(close)));

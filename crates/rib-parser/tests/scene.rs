@@ -318,3 +318,70 @@ fn skew_turns_the_first_vector_by_the_angle() {
     assert_eq!(m.transform_vector3(DVec3::Z), DVec3::Z);
     assert!(load_err("WorldBegin Skew 95 0 1 0 1 0 0 WorldEnd").contains("skews past the axis"));
 }
+
+#[test]
+fn a_motion_block_around_the_camera_moves_the_camera() {
+    let l = load(
+        "Shutter 0 1\nMotionBegin [0 1]\nTranslate 0 0 5\nTranslate 1 0 5\nMotionEnd\nScale 1 -1 1\nWorldBegin\nSphere 1 -1 1 360\nWorldEnd\n",
+    );
+    assert_eq!(l.diagnostics.warning_count(), 0, "{}", l.render_warnings());
+    let s = &l.scene;
+    let motion = s.render.camera_motion.as_ref().expect("a moving camera");
+    // Transformations after the block apply to every key; the camera is the key at shutter open.
+    let key = |x: f64| {
+        DMat4::from_translation(DVec3::new(x, 0.0, 5.0)) * DMat4::from_scale(DVec3::new(1.0, -1.0, 1.0))
+    };
+    assert_eq!(motion.times(), &[0.0, 1.0]);
+    assert_eq!(motion.matrices(), &[key(0.0), key(1.0)]);
+    assert_eq!(s.camera.camera_from_world, key(0.0));
+    assert!(s.has_motion_blur());
+    // Without an open shutter nothing blurs; the keys are still kept.
+    let l = load("MotionBegin [0 1]\nTranslate 0 0 5\nTranslate 1 0 5\nMotionEnd\nWorldBegin\nWorldEnd\n");
+    assert!(l.scene.render.camera_motion.is_some() && !l.scene.has_motion_blur());
+    // Written back and read again, the same motion.
+    let again = load(&rib_parser::writer::write_scene(s));
+    assert_eq!(again.scene.render.camera_motion, s.render.camera_motion);
+}
+
+#[test]
+fn clipping_planes_are_kept_in_camera_space() {
+    let l = load(
+        "ClippingPlane 0.5 0 0 1 0 0\nTranslate 0 0 10\nScale 2 1 1\nClippingPlane 1 0 0 1 1 0\nWorldBegin\nClippingPlane 0 0 0 0 0 1\nWorldEnd\n",
+    );
+    let planes = &l.scene.render.clipping_planes;
+    assert_eq!(planes.len(), 2, "the one inside the world is ignored");
+    assert!(l.render_warnings().contains("ClippingPlane inside WorldBegin"), "{}", l.render_warnings());
+    assert_eq!(planes[0], ClippingPlane { point: DVec3::new(0.5, 0.0, 0.0), normal: DVec3::X });
+    // The point moves with the transformation, the normal by its inverse transpose.
+    assert_eq!(planes[1].point, DVec3::new(2.0, 0.0, 10.0));
+    assert!(planes[1].normal.abs_diff_eq(DVec3::new(0.5, 1.0, 0.0), 1e-15), "{}", planes[1].normal);
+    assert!(load_err("ClippingPlane 0 0 0 0 0 0\nWorldBegin\nWorldEnd\n").contains("normal"));
+}
+
+#[test]
+fn geometry_teapot_is_32_bezier_patches_and_other_names_are_named() {
+    let l = load(
+        "Basis \"b-spline\" 1 \"b-spline\" 1\nWorldBegin\nGeometry \"teapot\" \"constant float Kd\" [0.5] \"varying float s\" [0 1 0 1]\nGeometry \"bunny\"\nWorldEnd\n",
+    );
+    let patches: Vec<&PatchMesh> = l
+        .scene
+        .shapes
+        .iter()
+        .map(|s| match &*s.shape {
+            Shape::Patches(p) => p,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(patches.len(), 32);
+    for p in &patches {
+        assert_eq!(
+            (p.kind, p.nu, p.nv, p.u_basis, p.v_basis),
+            (PatchKind::Bicubic, 4, 4, rib_parser::basis::bezier_basis(), rib_parser::basis::bezier_basis())
+        );
+        assert!(p.primvars.get("Kd").is_some() && p.primvars.get("s").is_none());
+    }
+    let warnings = l.render_warnings();
+    assert!(warnings.contains("Geometry \"bunny\" is not supported"), "{warnings}");
+    assert!(warnings.contains("parameter \"s\""), "{warnings}");
+    assert!(!warnings.contains("\"teapot\" is not supported"), "{warnings}");
+}

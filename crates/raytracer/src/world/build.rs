@@ -1,9 +1,10 @@
 //! Building the world from a scene: materials, shapes placed into bottom-level BVHs (see
 //! `placement.rs`) per definition, instances, lights (see `lighting.rs`) and light sets.
 
+use super::clipping::render_clipping_planes;
 use super::csg::Csg;
 use super::lighting::{self, area_light_params, background, emitter_shape};
-use super::motion::{motion_box, shutter_motion};
+use super::motion::{camera_shutter_motion, motion_box, shutter_motion};
 use super::placement::{
     BlasBuilder, Geometry, MAX_WORLD_TRIANGLES, PixelFootprint, definition_seams, place_geometry,
     transformed_box,
@@ -425,7 +426,8 @@ impl World {
             bounds.1 = bounds.1.max(bb.1);
             instance_boxes.push(bb);
         }
-        let motion_blur = instances.iter().any(|i| i.motion.is_some());
+        let camera_motion = camera_shutter_motion(scene, &render_from_world);
+        let motion_blur = camera_motion.is_some() || instances.iter().any(|i| i.motion.is_some());
         let (tlas, instances) = if instances.is_empty() || (instances.len() == 1 && instances[0].identity) {
             (None, instances)
         } else {
@@ -495,6 +497,8 @@ impl World {
             bounds,
             stats,
             motion_blur,
+            camera_motion,
+            clipping_planes: render_clipping_planes(scene, &render_from_world),
             background: background(scene),
             footprint,
         })

@@ -11,6 +11,7 @@
 //! keep their object space and are intersected in `f64`.
 
 mod build;
+mod clipping;
 mod csg;
 mod lighting;
 mod motion;
@@ -223,6 +224,12 @@ pub struct World {
     pub stats: WorldStats,
     /// Whether something moves while the shutter is open (camera rays then need a time sample).
     pub motion_blur: bool,
+    /// A moving camera: at each shutter fraction, the map that carries a camera ray at shutter
+    /// open to the same ray at that time (render space); `None` when the camera stays.
+    pub camera_motion: Option<Arc<TransformMotion>>,
+    /// `ClippingPlane`s in render space: every ray query first narrows its range to the kept
+    /// side ([`clipping::clip_ray`]).
+    clipping_planes: Vec<clipping::RenderClippingPlane>,
     /// `Imager "background"`: composited under each camera sample by its alpha, as RenderMan's
     /// `Ci += (1 - alpha) * background` (reflections and lighting do not see it).
     pub background: Vec3,
@@ -313,6 +320,13 @@ impl World {
 
     /// The closest hit along `ray` within `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let clipped;
+        let ray = if self.clipping_planes.is_empty() {
+            ray
+        } else {
+            clipped = clipping::clip_ray(&self.clipping_planes, ray)?;
+            &clipped
+        };
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
         match &self.tlas {
@@ -453,6 +467,14 @@ impl World {
     /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
     pub fn transmittance(&self, ray: &Ray) -> Vec3 {
         let mut tr = Vec3::ONE;
+        let clipped;
+        let ray = if self.clipping_planes.is_empty() {
+            ray
+        } else {
+            let Some(r) = clipping::clip_ray(&self.clipping_planes, ray) else { return tr };
+            clipped = r;
+            &clipped
+        };
         match &self.tlas {
             None => {
                 if let Some(inst) = self.instances.first() {

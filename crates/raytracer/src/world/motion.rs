@@ -44,6 +44,22 @@ pub(super) fn shutter_motion(
     Some(Arc::new(moving))
 }
 
+/// The camera's motion over the shutter as a map of render space: at shutter fraction `t`,
+/// the matrix that carries a camera ray at shutter open (render space, whose origin is the eye
+/// at shutter open) to the same camera ray at `t`:
+/// `render_from_world * world_from_camera(t) * camera_from_world(open) * world_from_render`.
+/// `None` when the camera does not move while the shutter is open.
+pub(super) fn camera_shutter_motion(
+    scene: &Scene,
+    render_from_world: &DMat4,
+) -> Option<Arc<TransformMotion>> {
+    let camera_from_world_open = scene.camera.camera_from_world;
+    let world_from_render = render_from_world.inverse();
+    let world_from_camera = scene.render.camera_motion.as_ref()?.map(|m| m.inverse())?;
+    let moving = shutter_motion(scene, &Some(Arc::new(world_from_camera)), render_from_world)?;
+    moving.map(|m| m * camera_from_world_open * world_from_render).map(Arc::new)
+}
+
 /// A box holding `[lo, hi]` wherever `motion` carries it during the shutter: the transformed
 /// boxes at 64 steps per key interval (and at open and close), grown by the farthest any
 /// corner moves in one step, which bounds how far the path between two steps strays.

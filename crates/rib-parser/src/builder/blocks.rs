@@ -56,13 +56,21 @@ impl SceneBuilder {
             return;
         }
         self.push_block(BlockKind::World, cx);
-        if self.gs.motion.take().is_some() {
-            cx.warn(
-                DiagnosticKind::Unsupported,
-                "camera motion blur (a MotionBegin block around the camera transformation) is not supported: the camera at shutter open is used",
-            );
-        }
         self.camera_from_world = snap_affine(self.gs.ctm);
+        // A moving camera: its keys must be cameras too (affine, invertible), else the camera
+        // at shutter open is used.
+        self.opts.render.camera_motion = self.gs.motion.take().and_then(|motion| {
+            let moving = motion.map(snap_affine)?;
+            if moving.matrices().iter().all(|m| m.row(3) == DVec4::W && m.determinant() != 0.0) {
+                Some(Arc::new(moving))
+            } else {
+                cx.warn(
+                    DiagnosticKind::Unsupported,
+                    "a key of the camera's motion block is projective or singular: the camera at shutter open is used",
+                );
+                None
+            }
+        });
         let mut settings = self.opts.camera.clone();
         settings.camera_from_world = self.camera_from_world;
         if self.camera_from_world.row(3) != DVec4::W {

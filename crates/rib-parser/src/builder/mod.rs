@@ -460,6 +460,10 @@ impl RibTarget for SceneBuilder {
         SceneBuilder::clipping(self, near, far, cx)
     }
 
+    fn clipping_plane(&mut self, point: DVec3, normal: DVec3, cx: &mut Cx<'_>) {
+        SceneBuilder::clipping_plane(self, point, normal, cx)
+    }
+
     fn shutter(&mut self, open: f32, close: f32, cx: &mut Cx<'_>) {
         SceneBuilder::shutter(self, open, close, cx)
     }

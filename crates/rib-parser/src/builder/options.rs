@@ -8,6 +8,10 @@ use crate::diagnostics::DiagnosticKind;
 use crate::scene::*;
 use crate::target::Cx;
 use depth_remap::{Clipping, CropWindow, Projection, ScreenWindow};
+use glam::DVec3;
+
+/// At most this many `ClippingPlane`s: each costs every ray a test.
+pub const MAX_CLIPPING_PLANES: usize = 64;
 
 impl SceneBuilder {
     /// Options may only change outside the world block.
@@ -143,6 +147,35 @@ impl SceneBuilder {
             return;
         }
         self.opts.camera.clipping = Clipping { near, far };
+    }
+
+    /// `ClippingPlane x y z nx ny nz`: the point and normal are in the current coordinate
+    /// system (before `WorldBegin`, where options are given, the current transformation maps it
+    /// to camera space), kept in camera space.
+    pub(super) fn clipping_plane(&mut self, point: DVec3, normal: DVec3, cx: &mut Cx<'_>) {
+        if !self.option_allowed("ClippingPlane", cx) {
+            return;
+        }
+        if self.opts.render.clipping_planes.len() >= MAX_CLIPPING_PLANES {
+            cx.warn(
+                DiagnosticKind::BadValue,
+                format!(
+                    "ClippingPlane: more than {MAX_CLIPPING_PLANES} clipping planes; this one is ignored"
+                ),
+            );
+            return;
+        }
+        let camera_from_current = self.gs.ctm;
+        let camera_point = camera_from_current.transform_point3(point);
+        let camera_normal = camera_from_current.inverse().transpose().transform_vector3(normal);
+        if !(camera_point.is_finite() && camera_normal.is_finite() && camera_normal != DVec3::ZERO) {
+            cx.error(
+                DiagnosticKind::BadValue,
+                "ClippingPlane: the point must be finite and the normal finite and not zero (in camera space)",
+            );
+            return;
+        }
+        self.opts.render.clipping_planes.push(ClippingPlane { point: camera_point, normal: camera_normal });
     }
 
     pub(super) fn shutter(&mut self, open: f32, close: f32, cx: &mut Cx<'_>) {
