@@ -68,12 +68,19 @@ fn moving_instances_and_the_first_sample_fallbacks() {
     let text = loaded.render_warnings();
     assert!(text.contains("deformation motion blur"), "{text}");
 
-    // A moving camera is placed at shutter open, with a warning.
+    // A moving camera keeps its keys (tests/scene.rs has the rest); a projective key cannot be
+    // a camera, so the camera at shutter open is used, with a warning.
     let loaded = load(
         "MotionBegin [0 1]\nTranslate 0 0 5\nTranslate 1 0 5\nMotionEnd\nWorldBegin\nSphere 1 -1 1 360\nWorldEnd\n",
     );
+    assert!(loaded.scene.render.camera_motion.is_some());
+    assert!(!loaded.render_warnings().contains("warning"), "{}", loaded.render_warnings());
+    let loaded = load(
+        "Translate 0 0 5\nMotionBegin [0 1]\nConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\nConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0.5 0 0 0 1]\nMotionEnd\nWorldBegin\nSphere 1 -1 1 360\nWorldEnd\n",
+    );
+    assert!(loaded.scene.render.camera_motion.is_none());
     let text = loaded.render_warnings();
-    assert!(text.contains("camera motion blur"), "{text}");
+    assert!(text.contains("camera's motion block is projective or singular"), "{text}");
 }
 
 #[test]
