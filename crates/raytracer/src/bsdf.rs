@@ -211,19 +211,33 @@ pub struct Bsdf {
     /// Geometric normal, on the same side as `frame.z`.
     pub ng: Vec3,
     lobes: [Lobe; 4],
+    /// Each lobe's flags and sampling weight, computed once when it is added: every
+    /// evaluation and sample reads them, several times per path vertex.
+    lobe_flags: [LobeFlags; 4],
+    lobe_weights: [f32; 4],
     count: usize,
 }
 
 impl Bsdf {
     /// An empty BSDF (black) with the given frame.
     pub fn new(frame: Frame, ng: Vec3) -> Bsdf {
-        Bsdf { frame, ng, lobes: [Lobe::Lambert { r: Vec3::ZERO }; 4], count: 0 }
+        Bsdf {
+            frame,
+            ng,
+            lobes: [Lobe::Lambert { r: Vec3::ZERO }; 4],
+            lobe_flags: [LobeFlags::NONE; 4],
+            lobe_weights: [0.0; 4],
+            count: 0,
+        }
     }
 
     /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped).
     pub fn add(&mut self, lobe: Lobe) {
-        if self.count < self.lobes.len() && lobe.sampling_weight() > 0.0 {
+        let weight = lobe.sampling_weight();
+        if self.count < self.lobes.len() && weight > 0.0 {
             self.lobes[self.count] = lobe;
+            self.lobe_flags[self.count] = lobe.flags();
+            self.lobe_weights[self.count] = weight;
             self.count += 1;
         }
     }
@@ -236,29 +250,54 @@ impl Bsdf {
         self.count == 0
     }
 
+    /// The flags of the lobes, one per lobe.
+    fn flags_of_lobes(&self) -> &[LobeFlags] {
+        &self.lobe_flags[..self.count]
+    }
+
     /// The union of the lobes' flags.
     pub fn flags(&self) -> LobeFlags {
-        self.lobes().iter().fold(LobeFlags::NONE, |acc, l| acc | l.flags())
+        self.flags_of_lobes().iter().fold(LobeFlags::NONE, |acc, &l| acc | l)
     }
 
     /// True when some lobe has a density (diffuse or glossy): light sampling can help.
     pub fn has_non_specular(&self) -> bool {
-        self.lobes().iter().any(|l| !l.flags().is_specular())
+        self.flags_of_lobes().iter().any(|l| !l.is_specular())
     }
 
     /// Number of lobes passing `mask`.
     pub fn count_matching(&self, mask: LobeFlags) -> usize {
-        self.lobes().iter().filter(|l| l.flags().allowed_by(mask)).count()
+        self.flags_of_lobes().iter().filter(|l| l.allowed_by(mask)).count()
     }
 
     /// Evaluates the non-specular lobes allowed by `mask` for world directions `wo`, `wi`.
     pub fn f(&self, wo_world: Vec3, wi_world: Vec3, mask: LobeFlags) -> Vec3 {
         let wo = self.frame.to_local(wo_world);
         let wi = self.frame.to_local(wi_world);
-        // Reflection or transmission is decided by the geometric normal (no light leaks through
-        // interpolated shading normals).
-        let reflect = wi_world.dot(self.ng) * wo_world.dot(self.ng) > 0.0;
-        self.f_local(wo, wi, reflect, mask)
+        self.f_local(wo, wi, self.reflects(wo_world, wi_world), mask)
+    }
+
+    /// Density of sampling `wi` with [`Bsdf::sample`] restricted to `mask` (non-specular lobes).
+    pub fn pdf(&self, wo_world: Vec3, wi_world: Vec3, mask: LobeFlags) -> f32 {
+        let wo = self.frame.to_local(wo_world);
+        let wi = self.frame.to_local(wi_world);
+        self.pdf_local(wo, wi, self.total_weight(mask), mask)
+    }
+
+    /// [`Bsdf::f`] and [`Bsdf::pdf`] together, as direct lighting with MIS needs them: the
+    /// directions go into the shading frame once and each lobe is evaluated once (a glossy
+    /// lobe's half vector and power serve both). Bit for bit the values of the two calls.
+    pub fn f_and_pdf(&self, wo_world: Vec3, wi_world: Vec3, mask: LobeFlags) -> (Vec3, f32) {
+        let wo = self.frame.to_local(wo_world);
+        let wi = self.frame.to_local(wi_world);
+        self.f_pdf_local(wo, wi, self.reflects(wo_world, wi_world), self.total_weight(mask), mask)
+    }
+
+    /// Reflection or transmission is decided by the geometric normal (no light leaks through
+    /// interpolated shading normals).
+    #[inline]
+    fn reflects(&self, wo_world: Vec3, wi_world: Vec3) -> bool {
+        wi_world.dot(self.ng) * wo_world.dot(self.ng) > 0.0
     }
 
     fn f_local(&self, wo: Vec3, wi: Vec3, reflect: bool, mask: LobeFlags) -> Vec3 {
@@ -267,8 +306,7 @@ impl Bsdf {
         }
         let wants = if reflect { LobeFlags::REFLECTION } else { LobeFlags::TRANSMISSION };
         let mut f = Vec3::ZERO;
-        for lobe in self.lobes() {
-            let flags = lobe.flags();
+        for (lobe, &flags) in self.lobes().iter().zip(self.flags_of_lobes()) {
             if flags.is_specular() || !flags.allowed_by(mask) || !flags.intersects(wants) {
                 continue;
             }
@@ -277,38 +315,63 @@ impl Bsdf {
         f
     }
 
-    /// Density of sampling `wi` with [`Bsdf::sample`] restricted to `mask` (non-specular lobes).
-    pub fn pdf(&self, wo_world: Vec3, wi_world: Vec3, mask: LobeFlags) -> f32 {
-        let wo = self.frame.to_local(wo_world);
-        let wi = self.frame.to_local(wi_world);
-        self.pdf_local(wo, wi, self.weights(mask).0, mask)
-    }
-
     fn pdf_local(&self, wo: Vec3, wi: Vec3, total_weight: f32, mask: LobeFlags) -> f32 {
         if wo.z == 0.0 || total_weight <= 0.0 {
             return 0.0;
         }
         let mut pdf = 0.0;
-        for lobe in self.lobes() {
-            let flags = lobe.flags();
+        for i in 0..self.count {
+            let flags = self.lobe_flags[i];
             if !flags.allowed_by(mask) || flags.is_specular() {
                 continue;
             }
-            pdf += lobe.sampling_weight() / total_weight * lobe_pdf(lobe, wo, wi);
+            pdf += self.lobe_weights[i] / total_weight * lobe_pdf(&self.lobes[i], wo, wi);
         }
         pdf
     }
 
-    fn weights(&self, mask: LobeFlags) -> (f32, usize) {
-        let mut total = 0.0;
-        let mut n = 0;
-        for lobe in self.lobes() {
-            if lobe.flags().allowed_by(mask) {
-                total += lobe.sampling_weight();
-                n += 1;
+    /// `f_local` and `pdf_local` in one pass over the lobes, summing in the same order (so the
+    /// results are bit-identical to the two separate calls).
+    fn f_pdf_local(
+        &self,
+        wo: Vec3,
+        wi: Vec3,
+        reflect: bool,
+        total_weight: f32,
+        mask: LobeFlags,
+    ) -> (Vec3, f32) {
+        if wo.z == 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let with_pdf = total_weight > 0.0;
+        let wants = if reflect { LobeFlags::REFLECTION } else { LobeFlags::TRANSMISSION };
+        let mut f = Vec3::ZERO;
+        let mut pdf = 0.0;
+        for i in 0..self.count {
+            let flags = self.lobe_flags[i];
+            if flags.is_specular() || !flags.allowed_by(mask) {
+                continue;
+            }
+            let (lobe_value, lobe_density) = lobe_f_pdf(&self.lobes[i], wo, wi);
+            if flags.intersects(wants) {
+                f += lobe_value;
+            }
+            if with_pdf {
+                pdf += self.lobe_weights[i] / total_weight * lobe_density;
             }
         }
-        (total, n)
+        (f, pdf)
+    }
+
+    /// The summed sampling weight of the lobes allowed by `mask`.
+    fn total_weight(&self, mask: LobeFlags) -> f32 {
+        let mut total = 0.0;
+        for i in 0..self.count {
+            if self.lobe_flags[i].allowed_by(mask) {
+                total += self.lobe_weights[i];
+            }
+        }
+        total
     }
 
     /// Samples a direction from the lobes allowed by `mask`: a lobe is picked in proportion to
@@ -326,26 +389,27 @@ impl Bsdf {
         if wo.z == 0.0 || !wo.is_finite() {
             return None;
         }
-        let (total, _) = self.weights(mask);
+        let total = self.total_weight(mask);
         if !(total > 0.0) {
             return None;
         }
-        // Pick a lobe in proportion to its weight.
+        // Pick a lobe in proportion to its weight (every stored weight is positive).
         let mut target = u_lobe * total;
         let mut chosen = None;
-        for lobe in self.lobes() {
-            let w = lobe.sampling_weight();
-            if !lobe.flags().allowed_by(mask) || w <= 0.0 {
+        for i in 0..self.count {
+            if !self.lobe_flags[i].allowed_by(mask) {
                 continue;
             }
-            chosen = Some(lobe);
+            let w = self.lobe_weights[i];
+            chosen = Some(i);
             if target < w {
                 break;
             }
             target -= w;
         }
-        let lobe = chosen?;
-        let p_lobe = lobe.sampling_weight() / total;
+        let chosen = chosen?;
+        let lobe = &self.lobes[chosen];
+        let p_lobe = self.lobe_weights[chosen] / total;
         match *lobe {
             Lobe::SpecularReflection { r } => {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
@@ -357,7 +421,7 @@ impl Bsdf {
                     f: r / cos,
                     wi: self.frame.from_local(wi),
                     pdf: p_lobe,
-                    flags: lobe.flags(),
+                    flags: self.lobe_flags[chosen],
                     eta: 1.0,
                 })
             }
@@ -428,15 +492,15 @@ impl Bsdf {
                     return None;
                 }
                 let wi_world = self.frame.from_local(wi);
-                // The density of the whole allowed non-specular part (what MIS needs): the
-                // lobe choice above also counted the specular lobes' weights.
-                let pdf = self.pdf_local(wo, wi, total, non_specular(mask));
+                // The value and density of the whole allowed non-specular part (what MIS
+                // needs), in one pass: the lobe choice above also counted the specular lobes'
+                // weights.
+                let reflect = self.reflects(wo_world, wi_world);
+                let (f, pdf) = self.f_pdf_local(wo, wi, reflect, total, non_specular(mask));
                 if !(pdf > 0.0) {
                     return None;
                 }
-                let reflect = wi_world.dot(self.ng) * wo_world.dot(self.ng) > 0.0;
-                let f = self.f_local(wo, wi, reflect, non_specular(mask));
-                Some(BsdfSample { f, wi: wi_world, pdf, flags: lobe.flags(), eta: 1.0 })
+                Some(BsdfSample { f, wi: wi_world, pdf, flags: self.lobe_flags[chosen], eta: 1.0 })
             }
         }
     }
@@ -535,6 +599,42 @@ fn lobe_f(lobe: &Lobe, wo: Vec3, wi: Vec3) -> Vec3 {
     }
 }
 
+/// [`lobe_f`] and [`lobe_pdf`] of one lobe together: the glossy lobe's half vector and
+/// `cos^e` are computed once. Bit for bit the values of the two functions.
+fn lobe_f_pdf(lobe: &Lobe, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    match *lobe {
+        Lobe::Lambert { r } => {
+            if same_hemisphere(wo, wi) {
+                (r * FRAC_1_PI, cosine_hemisphere_pdf(wi.z.abs()))
+            } else {
+                (Vec3::ZERO, 0.0)
+            }
+        }
+        Lobe::Blinn { ks, exponent } => {
+            // Both nonzero when in the same hemisphere.
+            if !same_hemisphere(wo, wi) {
+                return (Vec3::ZERO, 0.0);
+            }
+            let wh = (wo + wi).normalize_or_zero();
+            if wh == Vec3::ZERO {
+                return (Vec3::ZERO, 0.0);
+            }
+            let cos_h = wh.z.abs();
+            let power = cos_h.powf(exponent);
+            let o_dot_h = wo.dot(wh).abs();
+            let pdf =
+                if o_dot_h == 0.0 { 0.0 } else { (exponent + 1.0) * power / (2.0 * PI * 4.0 * o_dot_h) };
+            // `lobe_f` flips the half vector to +z; its cosine is then `cos_h` unless it is zero.
+            let wh_up = if wh.z < 0.0 { -wh } else { wh };
+            let d = if wh_up.z <= 0.0 { 0.0 } else { (exponent + 2.0) * (0.5 * FRAC_1_PI) * power };
+            let (cos_o, cos_i) = (cos_theta(wo).abs(), cos_theta(wi).abs());
+            let f = ks * (d * v_cavity_g(wo, wi, wh_up) / (4.0 * cos_o * cos_i));
+            (f, pdf)
+        }
+        Lobe::SpecularReflection { .. } | Lobe::Dielectric { .. } => (Vec3::ZERO, 0.0),
+    }
+}
+
 fn lobe_pdf(lobe: &Lobe, wo: Vec3, wi: Vec3) -> f32 {
     match *lobe {
         Lobe::Lambert { .. } => {
@@ -624,6 +724,101 @@ mod tests {
             }
         }
         sum / n as f32
+    }
+
+    /// The lobe sets the materials build: matte, plastic, metal, shinymetal, mirror, glass,
+    /// and a diffuse lobe under a mirror.
+    fn material_like_bsdfs(frame: Frame, ng: Vec3) -> Vec<Bsdf> {
+        let sets: [&[Lobe]; 7] = [
+            &[Lobe::Lambert { r: Vec3::new(0.7, 0.5, 0.2) }],
+            &[Lobe::Lambert { r: Vec3::splat(0.45) }, Lobe::Blinn { ks: Vec3::splat(0.5), exponent: 10.0 }],
+            &[Lobe::Blinn { ks: Vec3::new(0.9, 0.6, 0.3), exponent: 250.0 }],
+            &[
+                Lobe::Blinn { ks: Vec3::splat(0.3), exponent: 1.0 },
+                Lobe::SpecularReflection { r: Vec3::splat(0.6) },
+            ],
+            &[Lobe::SpecularReflection { r: Vec3::ONE }],
+            &[Lobe::Dielectric { eta: 1.5, r: Vec3::ONE, t: Vec3::ONE }],
+            &[Lobe::Lambert { r: Vec3::splat(0.3) }, Lobe::SpecularReflection { r: Vec3::splat(0.6) }],
+        ];
+        sets.iter()
+            .map(|lobes| {
+                let mut b = Bsdf::new(frame, ng);
+                for &l in *lobes {
+                    b.add(l);
+                }
+                b
+            })
+            .collect()
+    }
+
+    fn bits(f: Vec3, pdf: f32) -> [u32; 4] {
+        [f.x.to_bits(), f.y.to_bits(), f.z.to_bits(), pdf.to_bits()]
+    }
+
+    /// The one-pass evaluation (`f_and_pdf`, and the pass `sample` makes after choosing a
+    /// direction) gives exactly the bits of the separate `f` and `pdf` evaluations, for every
+    /// material's lobes, over directions on both sides, with a shading normal tilted off the
+    /// geometric one, under every mask.
+    #[test]
+    fn one_pass_evaluation_is_bit_identical_to_separate_f_and_pdf() {
+        use crate::sampling::sample_uniform_sphere;
+        let ns = Vec3::new(0.2, -0.1, 1.0).normalize();
+        let frame = Frame::from_z_and_tangent(ns, Vec3::X);
+        let masks = [LobeFlags::ALL, LobeFlags::NON_SPECULAR, LobeFlags::DIFFUSE | LobeFlags::REFLECTION];
+        let mut rng = Rng::new(5, 9);
+        let mut nonzero = 0;
+        for bsdf in material_like_bsdfs(frame, Vec3::Z) {
+            for _ in 0..4000 {
+                let wo = sample_uniform_sphere(rng.uniform2());
+                let wi = sample_uniform_sphere(rng.uniform2());
+                for mask in masks {
+                    let (f, pdf) = bsdf.f_and_pdf(wo, wi, mask);
+                    assert_eq!(bits(f, pdf), bits(bsdf.f(wo, wi, mask), bsdf.pdf(wo, wi, mask)), "{bsdf:?}");
+                    let (lo, li) = (frame.to_local(wo), frame.to_local(wi));
+                    for reflect in [false, true] {
+                        let total = bsdf.total_weight(mask);
+                        let (f, pdf) = bsdf.f_pdf_local(lo, li, reflect, total, non_specular(mask));
+                        let separate = (
+                            bsdf.f_local(lo, li, reflect, non_specular(mask)),
+                            bsdf.pdf_local(lo, li, total, non_specular(mask)),
+                        );
+                        assert_eq!(bits(f, pdf), bits(separate.0, separate.1));
+                    }
+                    nonzero += usize::from(pdf > 0.0);
+                }
+                for lobe in bsdf.lobes() {
+                    let (f, pdf) = lobe_f_pdf(lobe, frame.to_local(wo), frame.to_local(wi));
+                    let (lo, li) = (frame.to_local(wo), frame.to_local(wi));
+                    assert_eq!(bits(f, pdf), bits(lobe_f(lobe, lo, li), lobe_pdf(lobe, lo, li)));
+                }
+            }
+        }
+        // The directions exercised the lobes, not only their zero branches.
+        assert!(nonzero > 10_000, "{nonzero}");
+    }
+
+    /// A sampled non-specular direction carries the value and density that `f` and `pdf` give
+    /// for it.
+    #[test]
+    fn samples_carry_f_and_pdf_of_the_whole_bsdf() {
+        let mut rng = Rng::new(2, 8);
+        for bsdf in material_like_bsdfs(frame(), Vec3::Z) {
+            for _ in 0..2000 {
+                let wo = crate::sampling::sample_uniform_sphere(rng.uniform2());
+                let Some(s) =
+                    bsdf.sample(wo, rng.uniform(), rng.uniform2(), TransportMode::Radiance, LobeFlags::ALL)
+                else {
+                    continue;
+                };
+                if !s.is_specular() {
+                    assert_eq!(
+                        bits(s.f, s.pdf),
+                        bits(bsdf.f(wo, s.wi, LobeFlags::ALL), bsdf.pdf(wo, s.wi, LobeFlags::ALL))
+                    );
+                }
+            }
+        }
     }
 
     #[test]

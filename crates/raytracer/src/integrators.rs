@@ -202,7 +202,13 @@ pub fn direct_from_light(
     let mut total = Vec3::ZERO;
     let wo = si.wo;
     if let Some(ls) = light.sample_li(&light_context(si), sampler.uniform2()) {
-        let f = bsdf.f(wo, ls.wi, mask) * ls.wi.dot(bsdf.frame.z).abs();
+        // MIS needs the BSDF's density toward the light as well as its value: one evaluation.
+        let (f, bsdf_pdf) = if mis && !ls.is_delta {
+            bsdf.f_and_pdf(wo, ls.wi, mask)
+        } else {
+            (bsdf.f(wo, ls.wi, mask), 0.0)
+        };
+        let f = f * ls.wi.dot(bsdf.frame.z).abs();
         if f != Vec3::ZERO && ls.li != Vec3::ZERO {
             let shadow = match ls.p_light {
                 Some((p, err, n)) => si.spawn_ray_to(p, err, n),
@@ -215,7 +221,7 @@ pub fn direct_from_light(
                     total += f * ls.li * tr / pick_probability;
                 } else {
                     let light_pdf = pick_probability * ls.pdf;
-                    let w = if mis { power_heuristic(light_pdf, bsdf.pdf(wo, ls.wi, mask)) } else { 1.0 };
+                    let w = if mis { power_heuristic(light_pdf, bsdf_pdf) } else { 1.0 };
                     total += f * ls.li * tr * (w / light_pdf);
                 }
             }
