@@ -199,6 +199,13 @@ impl Material {
         }
     }
 
+    /// True when the material reads a texture at the surface's texture coordinates (the
+    /// world computes `st` and its footprint only then): [`Material::color_at`] is the one
+    /// reader.
+    pub fn reads_texture_coordinates(&self) -> bool {
+        matches!(self.surface, Surface::Plastic { texture: Some(_), .. })
+    }
+
     /// The surface colour at texture coordinates `st`, the texture filtered over `st_width`
     /// (the footprint of a pixel in texture space; 0 reads the finest level).
     pub fn color_at(&self, st: Vec2, st_width: f32) -> Vec3 {

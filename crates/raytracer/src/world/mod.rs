@@ -155,10 +155,11 @@ pub struct SurfaceInteraction {
     /// Normal pointing out of the solid (for dielectrics).
     pub n_outward: Vec3,
     pub dpdu: Vec3,
-    /// Texture coordinates.
+    /// Texture coordinates (zero where the material reads no texture: they are computed only
+    /// for materials that do, see [`Material::reads_texture_coordinates`]).
     pub st: Vec2,
     /// About how far `st` changes across one pixel's footprint here (for filtered texture
-    /// lookups; 0 when the camera is not known).
+    /// lookups; 0 when the camera is not known or the material reads no texture).
     pub st_width: f32,
     /// Direction toward the ray's origin.
     pub wo: Vec3,
@@ -581,13 +582,24 @@ impl World {
         });
     }
 
-    /// Evaluates the surface at a hit.
+    /// Evaluates the surface at a hit. Texture coordinates and their footprint (`st`,
+    /// `st_width`) are computed only for materials that read a texture; they are zero for the
+    /// others.
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let inst = &self.instances[hit.instance as usize];
         let blas = &self.blases[inst.blas as usize];
-        let (p_blas, err_blas, ng_blas, ns_blas, n_outward_blas, dpdu_blas, st, shape);
+        let shape = match hit.detail {
+            HitDetail::Triangle(i, _) => blas.triangles[i as usize].shape,
+            HitDetail::Quadric(i, _) => blas.quadrics[i as usize].shape,
+        };
+        let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
+        let wants_st = self.material(attributes).reads_texture_coordinates();
+        let (p_blas, err_blas, ng_blas, dpdu_blas);
+        // `None` when the normal is the geometric one (computed and normalised once).
+        let (ns_blas, n_outward_blas): (Option<DVec3>, Option<DVec3>);
+        let mut st = Vec2::ZERO;
         // Texture-space units per BLAS-space unit around the hit (isotropic).
-        let st_per_length: f64;
+        let mut st_per_length = 0.0f64;
         match hit.detail {
             HitDetail::Triangle(i, b) => {
                 let tri = &blas.triangles[i as usize];
@@ -596,7 +608,6 @@ impl World {
                 err_blas = err;
                 let ng = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).as_dvec3();
                 ng_blas = ng;
-                shape = tri.shape;
                 let s = &blas.shapes[tri.shape as usize];
                 let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
                 let vidx = mesh.map(|m| m.triangles[tri.index as usize]);
@@ -606,20 +617,22 @@ impl World {
                         let n = normals[v[0] as usize] * bw[0]
                             + normals[v[1] as usize] * bw[1]
                             + normals[v[2] as usize] * bw[2];
-                        if n.length_squared() > 0.0 && n.is_finite() { n.as_dvec3() } else { ng }
+                        (n.length_squared() > 0.0 && n.is_finite()).then(|| n.as_dvec3())
                     }
-                    _ => ng,
+                    _ => None,
                 };
-                n_outward_blas = ng;
-                let area = 0.5 * ng.length();
-                (st, st_per_length) = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
-                    (Some(sts), Some(v)) => {
-                        let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
-                        let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
-                        (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
-                    }
-                    _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
-                };
+                n_outward_blas = None;
+                if wants_st {
+                    let area = 0.5 * ng.length();
+                    (st, st_per_length) = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
+                        (Some(sts), Some(v)) => {
+                            let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
+                            let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
+                            (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
+                        }
+                        _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
+                    };
+                }
                 dpdu_blas = (tri.p[1] - tri.p[0]).as_dvec3();
             }
             HitDetail::Quadric(i, h) => {
@@ -638,40 +651,48 @@ impl World {
                 err_blas = transform_point_error(m, h.p) + DVec3::splat(1e-9 * extent * scale);
                 let normal_matrix = &q.object_from_blas;
                 ng_blas = transform_normal(normal_matrix, h.n);
-                ns_blas = ng_blas;
-                n_outward_blas = transform_normal(normal_matrix, h.n * q.quadric.orientation);
+                ns_blas = None;
+                n_outward_blas = Some(transform_normal(normal_matrix, h.n * q.quadric.orientation));
                 dpdu_blas = m.transform_vector3(h.dpdu);
-                st = h.uv.as_vec2();
-                st_per_length = 1.0 / dpdu_blas.length();
-                shape = q.shape;
+                if wants_st {
+                    st = h.uv.as_vec2();
+                    st_per_length = 1.0 / dpdu_blas.length();
+                }
             }
         }
         // BLAS space to render space (where a moving instance is at the ray's time).
-        let (render_from_blas, blas_from_render) = Self::placement(inst, ray.time);
-        let (p64, err64, to_render_n): (DVec3, DVec3, Option<&DMat4>) = if inst.identity {
-            (p_blas, err_blas, None)
-        } else {
-            let m = &render_from_blas;
-            let p = m.transform_point3(p_blas);
-            let abs = DMat4::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs(), glam::DVec4::ZERO);
-            let err = abs.transform_vector3(err_blas) + transform_point_error(m, p_blas);
-            (p, err, Some(&blas_from_render))
+        let placement = (!inst.identity).then(|| Self::placement(inst, ray.time));
+        let (p64, err64) = match &placement {
+            None => (p_blas, err_blas),
+            Some((m, _)) => {
+                let p = m.transform_point3(p_blas);
+                let abs = DMat4::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs(), glam::DVec4::ZERO);
+                let err = abs.transform_vector3(err_blas) + transform_point_error(m, p_blas);
+                (p, err)
+            }
         };
-        let map_n = |n: DVec3| match to_render_n {
-            Some(inv) => transform_normal(inv, n),
+        let map_n = |n: DVec3| match &placement {
+            Some((_, inv)) => transform_normal(inv, n),
             None => n,
         };
-        let mut ng = map_n(ng_blas).normalize_or_zero().as_vec3();
-        let mut ns = map_n(ns_blas).normalize_or_zero().as_vec3();
-        let mut n_outward = map_n(n_outward_blas).normalize_or_zero().as_vec3();
+        let ng_unit = map_n(ng_blas).normalize_or_zero().as_vec3();
+        let mut ng = ng_unit;
+        let mut ns = match ns_blas {
+            Some(n) => map_n(n).normalize_or_zero().as_vec3(),
+            None => ng_unit,
+        };
+        let mut n_outward = match n_outward_blas {
+            Some(n) => map_n(n).normalize_or_zero().as_vec3(),
+            None => ng_unit,
+        };
         // On a solid's boundary the outward side is where the ray is not inside the solid.
         if let Some(entering) = hit.csg_entering
             && (n_outward.dot(ray.direction) < 0.0) != entering
         {
             n_outward = -n_outward;
         }
-        let dpdu = match to_render_n {
-            Some(_) => render_from_blas.transform_vector3(dpdu_blas).as_vec3(),
+        let dpdu = match &placement {
+            Some((m, _)) => m.transform_vector3(dpdu_blas).as_vec3(),
             None => dpdu_blas.as_vec3(),
         };
         let (_, reverse) = self.sidedness(inst, blas, shape);
@@ -689,10 +710,13 @@ impl World {
             ns = ng;
         }
         let (p, p_error) = round_point(p64, err64);
-        let pixel = self.footprint.width_at(p64.length());
-        let st_width = (pixel * st_per_length) as f32;
-        let st_width = if st_width.is_finite() { st_width } else { 0.0 };
-        let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
+        let st_width = if wants_st {
+            let pixel = self.footprint.width_at(p64.length());
+            let st_width = (pixel * st_per_length) as f32;
+            if st_width.is_finite() { st_width } else { 0.0 }
+        } else {
+            0.0
+        };
         let emitter = inst.emitters.get(shape as usize).copied().filter(|&e| e != u32::MAX);
         let wo = -ray.direction.normalize_or(Vec3::Z);
         SurfaceInteraction {
