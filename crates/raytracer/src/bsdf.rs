@@ -320,18 +320,18 @@ impl Bsdf {
             return 0.0;
         }
         let mut pdf = 0.0;
-        for i in 0..self.count {
-            let flags = self.lobe_flags[i];
+        for ((lobe, &flags), &weight) in self.lobes().iter().zip(&self.lobe_flags).zip(&self.lobe_weights) {
             if !flags.allowed_by(mask) || flags.is_specular() {
                 continue;
             }
-            pdf += self.lobe_weights[i] / total_weight * lobe_pdf(&self.lobes[i], wo, wi);
+            pdf += weight / total_weight * lobe_pdf(lobe, wo, wi);
         }
         pdf
     }
 
     /// `f_local` and `pdf_local` in one pass over the lobes, summing in the same order (so the
-    /// results are bit-identical to the two separate calls).
+    /// results are bit-identical to the two separate calls). A BSDF of one lobe (matte, metal:
+    /// the commonest) evaluates that lobe directly.
     fn f_pdf_local(
         &self,
         wo: Vec3,
@@ -345,19 +345,29 @@ impl Bsdf {
         }
         let with_pdf = total_weight > 0.0;
         let wants = if reflect { LobeFlags::REFLECTION } else { LobeFlags::TRANSMISSION };
+        if self.count == 1 {
+            let flags = self.lobe_flags[0];
+            if flags.is_specular() || !flags.allowed_by(mask) {
+                return (Vec3::ZERO, 0.0);
+            }
+            let (lobe_value, lobe_density) = lobe_f_pdf(&self.lobes[0], wo, wi);
+            // The sums of the general loop below, from zero, so that the bits are the same.
+            let f = if flags.intersects(wants) { Vec3::ZERO + lobe_value } else { Vec3::ZERO };
+            let pdf = if with_pdf { 0.0 + self.lobe_weights[0] / total_weight * lobe_density } else { 0.0 };
+            return (f, pdf);
+        }
         let mut f = Vec3::ZERO;
         let mut pdf = 0.0;
-        for i in 0..self.count {
-            let flags = self.lobe_flags[i];
+        for ((lobe, &flags), &weight) in self.lobes().iter().zip(&self.lobe_flags).zip(&self.lobe_weights) {
             if flags.is_specular() || !flags.allowed_by(mask) {
                 continue;
             }
-            let (lobe_value, lobe_density) = lobe_f_pdf(&self.lobes[i], wo, wi);
+            let (lobe_value, lobe_density) = lobe_f_pdf(lobe, wo, wi);
             if flags.intersects(wants) {
                 f += lobe_value;
             }
             if with_pdf {
-                pdf += self.lobe_weights[i] / total_weight * lobe_density;
+                pdf += weight / total_weight * lobe_density;
             }
         }
         (f, pdf)
@@ -366,9 +376,9 @@ impl Bsdf {
     /// The summed sampling weight of the lobes allowed by `mask`.
     fn total_weight(&self, mask: LobeFlags) -> f32 {
         let mut total = 0.0;
-        for i in 0..self.count {
-            if self.lobe_flags[i].allowed_by(mask) {
-                total += self.lobe_weights[i];
+        for (&flags, &weight) in self.flags_of_lobes().iter().zip(&self.lobe_weights) {
+            if flags.allowed_by(mask) {
+                total += weight;
             }
         }
         total
@@ -396,11 +406,10 @@ impl Bsdf {
         // Pick a lobe in proportion to its weight (every stored weight is positive).
         let mut target = u_lobe * total;
         let mut chosen = None;
-        for i in 0..self.count {
-            if !self.lobe_flags[i].allowed_by(mask) {
+        for (i, (&flags, &w)) in self.flags_of_lobes().iter().zip(&self.lobe_weights).enumerate() {
+            if !flags.allowed_by(mask) {
                 continue;
             }
-            let w = self.lobe_weights[i];
             chosen = Some(i);
             if target < w {
                 break;
@@ -610,29 +619,34 @@ fn lobe_f_pdf(lobe: &Lobe, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
                 (Vec3::ZERO, 0.0)
             }
         }
-        Lobe::Blinn { ks, exponent } => {
-            // Both nonzero when in the same hemisphere.
-            if !same_hemisphere(wo, wi) {
-                return (Vec3::ZERO, 0.0);
-            }
-            let wh = (wo + wi).normalize_or_zero();
-            if wh == Vec3::ZERO {
-                return (Vec3::ZERO, 0.0);
-            }
-            let cos_h = wh.z.abs();
-            let power = cos_h.powf(exponent);
-            let o_dot_h = wo.dot(wh).abs();
-            let pdf =
-                if o_dot_h == 0.0 { 0.0 } else { (exponent + 1.0) * power / (2.0 * PI * 4.0 * o_dot_h) };
-            // `lobe_f` flips the half vector to +z; its cosine is then `cos_h` unless it is zero.
-            let wh_up = if wh.z < 0.0 { -wh } else { wh };
-            let d = if wh_up.z <= 0.0 { 0.0 } else { (exponent + 2.0) * (0.5 * FRAC_1_PI) * power };
-            let (cos_o, cos_i) = (cos_theta(wo).abs(), cos_theta(wi).abs());
-            let f = ks * (d * v_cavity_g(wo, wi, wh_up) / (4.0 * cos_o * cos_i));
-            (f, pdf)
-        }
+        Lobe::Blinn { ks, exponent } => blinn_f_pdf(ks, exponent, wo, wi),
         Lobe::SpecularReflection { .. } | Lobe::Dielectric { .. } => (Vec3::ZERO, 0.0),
     }
+}
+
+/// The glossy lobe's value and density. Kept out of line: inlined into the loop over lobes,
+/// the compiler hoisted the half vector's normalisation above the loop, so a matte surface
+/// paid for it on every evaluation.
+#[inline(never)]
+fn blinn_f_pdf(ks: Vec3, exponent: f32, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    // Both nonzero when in the same hemisphere.
+    if !same_hemisphere(wo, wi) {
+        return (Vec3::ZERO, 0.0);
+    }
+    let wh = (wo + wi).normalize_or_zero();
+    if wh == Vec3::ZERO {
+        return (Vec3::ZERO, 0.0);
+    }
+    let cos_h = wh.z.abs();
+    let power = cos_h.powf(exponent);
+    let o_dot_h = wo.dot(wh).abs();
+    let pdf = if o_dot_h == 0.0 { 0.0 } else { (exponent + 1.0) * power / (2.0 * PI * 4.0 * o_dot_h) };
+    // `lobe_f` flips the half vector to +z; its cosine is then `cos_h` unless it is zero.
+    let wh_up = if wh.z < 0.0 { -wh } else { wh };
+    let d = if wh_up.z <= 0.0 { 0.0 } else { (exponent + 2.0) * (0.5 * FRAC_1_PI) * power };
+    let (cos_o, cos_i) = (cos_theta(wo).abs(), cos_theta(wi).abs());
+    let f = ks * (d * v_cavity_g(wo, wi, wh_up) / (4.0 * cos_o * cos_i));
+    (f, pdf)
 }
 
 fn lobe_pdf(lobe: &Lobe, wo: Vec3, wi: Vec3) -> f32 {

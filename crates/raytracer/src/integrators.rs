@@ -296,6 +296,11 @@ pub fn sample_one_light(
 /// emission of lights, which the integrators weight themselves).
 pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
     let set = world.light_set(si.attributes);
+    if !material.has_surface_terms() {
+        // The sum below with its three terms zero, bit for bit (NaN under an infinite ambient
+        // light, as before).
+        return Vec3::ZERO + Vec3::ZERO * set.ambient + Vec3::ZERO;
+    }
     material.self_emission(si.ns, si.wo, si.st, si.st_width)
         + material.ambient_reflectance(si.st, si.st_width) * set.ambient
         + material.environment_reflection(si.ns, si.wo)

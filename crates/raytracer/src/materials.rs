@@ -199,6 +199,19 @@ impl Material {
         }
     }
 
+    /// True when [`Material::self_emission`], [`Material::ambient_reflectance`] or
+    /// [`Material::environment_reflection`] can be nonzero (most materials have none of them,
+    /// and a path vertex skips them then).
+    pub fn has_surface_terms(&self) -> bool {
+        self.ka > 0.0
+            || matches!(
+                self.surface,
+                Surface::Constant
+                    | Surface::DefaultSurface { .. }
+                    | Surface::ShinyMetal { environment: Some(_), .. }
+            )
+    }
+
     /// True when the material reads a texture at the surface's texture coordinates (the
     /// world computes `st` and its footprint only then): [`Material::color_at`] is the one
     /// reader.
