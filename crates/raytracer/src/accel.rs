@@ -42,18 +42,18 @@ impl TraversalRay {
             return None;
         }
         // Flush tiny components to +0 so that the sign used to pick the near plane and the sign
-        // of the reciprocal always agree.
-        let limit = 1.0 / BIG;
-        let clean = |d: f32| if d.abs() < limit { 0.0 } else { d };
-        let d = Vec3A::new(clean(direction.x), clean(direction.y), clean(direction.z));
+        // of the reciprocal always agree. One vector division gives the three reciprocals.
+        let d = Vec3A::from(direction);
+        let tiny = d.abs().cmplt(Vec3A::splat(1.0 / BIG));
+        let d = Vec3A::select(tiny, Vec3A::ZERO, d);
         if d == Vec3A::ZERO {
             return None;
         }
-        let inv = |d: f32| if d == 0.0 { BIG } else { 1.0 / d };
-        let inv_direction = Vec3A::new(inv(d.x), inv(d.y), inv(d.z));
-        let oct_inv4 = (if d.x < 0.0 { 0 } else { 0x0404_0404 })
-            | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
-            | (if d.z < 0.0 { 0 } else { 0x0101_0101 });
+        let inv_direction = Vec3A::select(tiny, Vec3A::splat(BIG), Vec3A::ONE / d);
+        let negative = d.cmplt(Vec3A::ZERO).bitmask();
+        let oct_inv4 = (if negative & 1 != 0 { 0 } else { 0x0404_0404 })
+            | (if negative & 2 != 0 { 0 } else { 0x0202_0202 })
+            | (if negative & 4 != 0 { 0 } else { 0x0101_0101 });
         Some(TraversalRay {
             origin: origin.into(),
             direction: direction.into(),
@@ -62,6 +62,13 @@ impl TraversalRay {
             t_min,
             t_max,
         })
+    }
+
+    /// The reciprocal direction used by the node test (`1e20` with the sign of zero for
+    /// components below `1e-20`).
+    #[inline(always)]
+    pub fn inv_direction(&self) -> Vec3A {
+        self.inv_direction
     }
 }
 

@@ -6,6 +6,7 @@
 //! two `f32` values are exact and the single rounded difference keeps its exact sign: a ray
 //! through a shared edge or vertex is reported by at least one of the triangles that share it.
 
+use crate::accel::TraversalRay;
 use crate::math::gamma;
 use glam::{DVec3, Vec3};
 
@@ -60,6 +61,38 @@ impl RayShear {
             sy: -d[1] / d[2],
             sz: 1.0 / d[2],
         })
+    }
+
+    /// The shear of a ray already prepared for traversal, reusing its reciprocal direction for
+    /// `sz`; the same values as [`RayShear::new`] bit for bit. `Sx` and `Sy` stay divisions:
+    /// `-d_x * (1 / d_z)` can differ from `-d_x / d_z` in the last bit, which would move every
+    /// sheared vertex and so change hits on edges and the last bits of `t`.
+    #[inline]
+    pub fn for_traversal(ray: &TraversalRay) -> RayShear {
+        let direction = Vec3::from(ray.direction);
+        let a = direction.abs();
+        let kz = if a.x > a.y {
+            if a.x > a.z { 0 } else { 2 }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        // The largest component is never flushed to zero by the traversal ray (a ray whose
+        // components are all flushed has no traversal ray), so its reciprocal is `1 / d_z`.
+        let inv_dz = ray.inv_direction()[kz];
+        let origin = Vec3::from(ray.origin);
+        RayShear {
+            origin,
+            direction,
+            kz: kz as u8,
+            origin_permuted: [origin[kx], origin[ky], origin[kz]],
+            sx: -direction[kx] / direction[kz],
+            sy: -direction[ky] / direction[kz],
+            sz: inv_dz,
+        }
     }
 
     /// Translated, permuted and sheared vertex (z not yet scaled).
@@ -192,6 +225,29 @@ mod tests {
             let target = Vec3::new(s, s, 0.0);
             let d = target - o;
             assert!(hit(o, d, a).is_some() || hit(o, d, b).is_some(), "leak at {s}");
+        }
+    }
+
+    use crate::accel::TraversalRay;
+    use crate::sampling::{Rng, sample_uniform_sphere};
+
+    /// The shear made from a traversal ray is the one `RayShear::new` makes, bit for bit.
+    #[test]
+    fn shear_for_traversal_is_the_same() {
+        let mut rng = Rng::new(12, 3);
+        for k in 0..5000 {
+            let o = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 10.0 - 5.0;
+            let mut d = sample_uniform_sphere(rng.uniform2()) * 10f32.powf(rng.uniform() * 8.0 - 4.0);
+            // Axis-aligned and tiny components too.
+            d[k % 3] = [0.0, -0.0, 1e-25, d[k % 3]][(k / 3) % 4];
+            let (Some(a), Some(ray)) = (RayShear::new(o, d), TraversalRay::new(o, d, 0.0, 1.0)) else {
+                continue;
+            };
+            let b = RayShear::for_traversal(&ray);
+            assert_eq!(
+                (a.kz, a.origin_permuted, a.sx.to_bits(), a.sy.to_bits(), a.sz.to_bits()),
+                (b.kz, b.origin_permuted, b.sx.to_bits(), b.sy.to_bits(), b.sz.to_bits())
+            );
         }
     }
 }

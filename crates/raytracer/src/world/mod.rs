@@ -121,6 +121,15 @@ struct Instance {
     emitters: Vec<u32>,
 }
 
+/// A render-space ray query, prepared once: its traversal ray (`None` when the ray has no
+/// usable direction) and, made on first use, its shear; both serve every instance placed
+/// without a transform.
+struct RayQuery<'a> {
+    ray: &'a Ray,
+    render: Option<&'a TraversalRay>,
+    render_shear: &'a mut Option<RayShear>,
+}
+
 /// Where a ray hit, before the surface is evaluated.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
@@ -330,18 +339,24 @@ impl World {
         };
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
+        // Prepared once and shared by every instance placed without a transform.
+        let render = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max);
+        let mut render_shear = None;
         match &self.tlas {
             None => {
                 if let Some(inst) = self.instances.first() {
-                    self.intersect_instance(0, inst, ray, &mut t_max, &mut best);
+                    let mut query =
+                        RayQuery { ray, render: render.as_ref(), render_shear: &mut render_shear };
+                    self.intersect_instance(0, inst, &mut query, &mut t_max, &mut best);
                 }
             }
             Some(tlas) => {
-                let mut tray = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
+                let mut tray = render?;
+                let mut query = RayQuery { ray, render: render.as_ref(), render_shear: &mut render_shear };
                 tlas.closest(&mut tray, |r, slot| {
                     let inst = &self.instances[slot as usize];
                     let mut t = r.t_max;
-                    self.intersect_instance(slot, inst, ray, &mut t, &mut best);
+                    self.intersect_instance(slot, inst, &mut query, &mut t, &mut best);
                     (t < r.t_max).then_some(t)
                 });
             }
@@ -378,31 +393,49 @@ impl World {
         }
     }
 
+    /// The traversal ray and shear of `query` in an instance's BLAS space, for `(t_min,
+    /// t_max)`: those of the render-space ray when the instance has no transform.
+    #[inline]
+    fn blas_ray(inst: &Instance, query: &mut RayQuery, t_max: f32) -> Option<(TraversalRay, RayShear)> {
+        let ray = query.ray;
+        if inst.identity {
+            let render = query.render?;
+            let shear = *query.render_shear.get_or_insert_with(|| RayShear::for_traversal(render));
+            let mut tray = *render;
+            tray.t_max = t_max;
+            return Some((tray, shear));
+        }
+        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
+        let tray = TraversalRay::new(o, d, ray.t_min, t_max)?;
+        Some((tray, RayShear::for_traversal(&tray)))
+    }
+
     fn intersect_instance(
         &self,
         instance: u32,
         inst: &Instance,
-        ray: &Ray,
+        query: &mut RayQuery,
         t_max: &mut f32,
         best: &mut Option<Hit>,
     ) {
         let blas = &self.blases[inst.blas as usize];
+        let ray = query.ray;
         let t_min = ray.t_min;
-        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
         if let Some(csg) = &blas.csg {
+            let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
             if let Some((t, detail, entering)) = csg::intersect(blas, csg, o, d, t_min, *t_max) {
                 *best = Some(Hit { t, instance, detail, csg_entering: Some(entering) });
                 *t_max = t;
             }
             return;
         }
-        let Some(shear) = RayShear::new(o, d) else { return };
-        let Some(mut tray) = TraversalRay::new(o, d, t_min, *t_max) else { return };
-        let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
-        blas.bvh.closest(&mut tray, |r, slot| match blas.prims[slot as usize] {
+        let Some((mut tray, shear)) = Self::blas_ray(inst, query, *t_max) else { return };
+        let (o64, d64) = (Vec3::from(tray.origin).as_dvec3(), Vec3::from(tray.direction).as_dvec3());
+        // Tests BVH slot `slot` against the ray whose closest hit so far is at `t_max`.
+        let mut test = |t_max: f32, slot: u32| match blas.prims[slot as usize] {
             Prim::Triangle(i) => {
                 let tri = &blas.triangles[i as usize];
-                let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], r.t_max)?;
+                let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max)?;
                 if h.t <= t_min {
                     return None;
                 }
@@ -419,10 +452,10 @@ impl World {
                 let oo = q.object_from_blas.transform_point3(o64);
                 let od = q.object_from_blas.transform_vector3(d64);
                 let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
-                let limit = f64::from(r.t_max);
+                let limit = f64::from(t_max);
                 let h = q.quadric.intersect(oo, od, f64::from(t_min), limit, |h| {
                     let t32 = h.t as f32;
-                    if !(t32 > t_min && t32 < r.t_max) {
+                    if !(t32 > t_min && t32 < t_max) {
                         return false;
                     }
                     if one_sided {
@@ -437,7 +470,8 @@ impl World {
                 *best = Some(Hit { t, instance, detail: HitDetail::Quadric(i, h), csg_entering: None });
                 Some(t)
             }
-        });
+        };
+        blas.bvh.closest(&mut tray, |r, slot| test(r.t_max, slot));
         *t_max = tray.t_max;
     }
 
@@ -476,18 +510,21 @@ impl World {
             clipped = r;
             &clipped
         };
+        let render = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max);
+        let mut render_shear = None;
+        let mut query = RayQuery { ray, render: render.as_ref(), render_shear: &mut render_shear };
         match &self.tlas {
             None => {
                 if let Some(inst) = self.instances.first() {
-                    self.transmittance_instance(inst, ray, &mut tr);
+                    self.transmittance_instance(inst, &mut query, &mut tr);
                 }
             }
             Some(tlas) => {
-                let Some(tray) = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max) else {
+                let Some(tray) = render else {
                     return tr;
                 };
                 tlas.any(&tray, |_, slot| {
-                    self.transmittance_instance(&self.instances[slot as usize], ray, &mut tr);
+                    self.transmittance_instance(&self.instances[slot as usize], &mut query, &mut tr);
                     tr == Vec3::ZERO
                 });
             }
@@ -501,10 +538,11 @@ impl World {
         if m.blocks_shadows() || m.opacity == Vec3::ONE { None } else { Some(Vec3::ONE - m.opacity) }
     }
 
-    fn transmittance_instance(&self, inst: &Instance, ray: &Ray, tr: &mut Vec3) {
+    fn transmittance_instance(&self, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
         let blas = &self.blases[inst.blas as usize];
-        let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
+        let ray = query.ray;
         if let Some(csg) = &blas.csg {
+            let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
             // The first boundary crossing of the solid decides (a semi-transparent solid
             // attenuates once).
             if let Some((_, detail, _)) = csg::intersect(blas, csg, o, d, ray.t_min, ray.t_max) {
@@ -520,11 +558,11 @@ impl World {
             }
             return;
         }
-        let Some(shear) = RayShear::new(o, d) else { return };
-        let Some(tray) = TraversalRay::new(o, d, ray.t_min, ray.t_max) else { return };
-        let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
+        let Some((tray, shear)) = Self::blas_ray(inst, query, ray.t_max) else { return };
+        let (o64, d64) = (Vec3::from(tray.origin).as_dvec3(), Vec3::from(tray.direction).as_dvec3());
         let (t_min, t_max) = (ray.t_min, ray.t_max);
-        blas.bvh.any(&tray, |_, slot| {
+        // Whether slot `slot` stops the segment's light (after attenuating `tr`).
+        let mut blocks = |slot: u32| {
             match blas.prims[slot as usize] {
                 Prim::Triangle(i) => {
                     let tri = &blas.triangles[i as usize];
@@ -579,7 +617,8 @@ impl World {
                     *tr == Vec3::ZERO
                 }
             }
-        });
+        };
+        blas.bvh.any(&tray, |_, slot| blocks(slot));
     }
 
     /// Evaluates the surface at a hit. Texture coordinates and their footprint (`st`,
