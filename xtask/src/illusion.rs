@@ -64,7 +64,7 @@ fn scenes(root: &Path) -> Vec<IllusionScene> {
             rib: root.join("examples/caustics/caustics.rib"),
             placements: vec![
                 p([-0.3, -0.79, 0.5], 0.2, "on the floor, in front of the mirror sphere"),
-                p([0.25, -0.74, -0.5], 0.25, "on the floor, between the spheres"),
+                p([-0.6, 0.1, -0.4], 0.2, "floating by the red wall"),
                 p([0.0, 0.2, 0.4], 0.2, "floating"),
             ],
         },
