@@ -1,0 +1,67 @@
+//! The layout of the frame bind group every compositing pass reads: the frame uniform, the
+//! backdrop's colour and depths, the light layers and their area samples, and the reflection
+//! probes with their sampler.
+
+/// A layout entry for a float texture the shaders read.
+pub(super) fn texture_layout_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    view_dimension: wgpu::TextureViewDimension,
+    filterable: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// The frame bind group's layout (`composite.wgsl`, group 0).
+pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let texture_entry = |binding: u32, visibility: wgpu::ShaderStages| {
+        texture_layout_entry(binding, visibility, wgpu::TextureViewDimension::D2, false)
+    };
+    let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("frame"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: vf,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            texture_entry(1, wgpu::ShaderStages::FRAGMENT),
+            texture_entry(2, wgpu::ShaderStages::FRAGMENT),
+            texture_entry(3, wgpu::ShaderStages::FRAGMENT),
+            texture_layout_entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::TextureViewDimension::D2Array, false),
+            wgpu::BindGroupLayoutEntry {
+                binding: 5,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            texture_layout_entry(6, wgpu::ShaderStages::FRAGMENT, wgpu::TextureViewDimension::D2Array, true),
+            texture_layout_entry(7, wgpu::ShaderStages::FRAGMENT, wgpu::TextureViewDimension::D2Array, false),
+            wgpu::BindGroupLayoutEntry {
+                binding: 8,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    })
+}
