@@ -249,14 +249,7 @@ fn an_area_light_lights_a_live_sphere_over_its_samples() {
     let gpu = gpu();
     let (w, h) = (512u32, 512u32);
     let n = (w * h) as usize;
-    let corners = [
-        DVec3::new(-0.23, 0.99, -0.18),
-        DVec3::new(0.23, 0.99, -0.18),
-        DVec3::new(0.23, 0.99, 0.2),
-        DVec3::new(-0.23, 0.99, 0.2),
-    ];
-    let triangles = [[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]];
-    let samples = viewer::light_layers::area_samples(&triangles, 64);
+    let samples = cornell_emitter_samples();
     let light = cornell_light();
     let LiveLight::Area { radiance, area, .. } = light else { unreachable!() };
     let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();

@@ -108,14 +108,7 @@ fn probes_that_saw_only_the_lights_add_nothing() {
 #[test]
 fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
     let centre = DVec3::new(0.05, 0.5, 0.0);
-    let corners = [
-        DVec3::new(-0.23, 0.99, -0.18),
-        DVec3::new(0.23, 0.99, -0.18),
-        DVec3::new(0.23, 0.99, 0.2),
-        DVec3::new(-0.23, 0.99, 0.2),
-    ];
-    let triangles = [[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]];
-    let samples = viewer::light_layers::area_samples(&triangles, 64);
+    let samples = cornell_emitter_samples();
     let light = cornell_light();
     let LiveLight::Area { radiance, area, .. } = light else { unreachable!() };
     let layered = |probes: Option<sidecar::ProbeGrid>| {

@@ -55,6 +55,19 @@ pub fn cornell_light() -> LiveLight {
     }
 }
 
+/// 64 samples of the Cornell box's emitter (`light_layers::area_samples` of its two triangles),
+/// as the light layers bring them.
+pub fn cornell_emitter_samples() -> Vec<viewer::AreaSample> {
+    let corners = [
+        DVec3::new(-0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, 0.2),
+        DVec3::new(-0.23, 0.99, 0.2),
+    ];
+    let triangles = [[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]];
+    viewer::light_layers::area_samples(&triangles, 64)
+}
+
 /// A deterministic image in which neighbouring pixels differ and every byte value occurs.
 pub fn noise_image(width: u32, height: u32) -> Rgba8Image {
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
