@@ -430,49 +430,116 @@ impl World {
             return;
         }
         let Some((mut tray, shear)) = Self::blas_ray(inst, query, *t_max) else { return };
-        let (o64, d64) = (Vec3::from(tray.origin).as_dvec3(), Vec3::from(tray.direction).as_dvec3());
-        // Tests BVH slot `slot` against the ray whose closest hit so far is at `t_max`.
-        let mut test = |t_max: f32, slot: u32| match blas.prims[slot as usize] {
-            Prim::Triangle(i) => {
-                let tri = &blas.triangles[i as usize];
-                let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max)?;
-                if h.t <= t_min {
-                    return None;
-                }
-                let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (h.front == reverse) {
-                    return None;
-                }
-                *best =
-                    Some(Hit { t: h.t, instance, detail: HitDetail::Triangle(i, h.b), csg_entering: None });
-                Some(h.t)
-            }
-            Prim::Quadric(i) => {
-                let q = &blas.quadrics[i as usize];
-                let oo = q.object_from_blas.transform_point3(o64);
-                let od = q.object_from_blas.transform_vector3(d64);
-                let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
-                let limit = f64::from(t_max);
-                let h = q.quadric.intersect(oo, od, f64::from(t_min), limit, |h| {
-                    let t32 = h.t as f32;
-                    if !(t32 > t_min && t32 < t_max) {
-                        return false;
-                    }
-                    if one_sided {
-                        let front = h.n.dot(od) < 0.0;
-                        if front == reverse {
-                            return false;
+        let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
+        // Tests BVH slot `slot` against the ray whose closest hit so far is at `r.t_max`; inlined
+        // into the traversal loop (a call per primitive costs more than the test's setup).
+        blas.bvh.closest(
+            &mut tray,
+            #[inline(always)]
+            |r, slot| {
+                let t_max = r.t_max;
+                match blas.prims[slot as usize] {
+                    Prim::Triangle(i) => {
+                        let tri = &blas.triangles[i as usize];
+                        let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max)?;
+                        if h.t <= t_min {
+                            return None;
                         }
+                        let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
+                        if one_sided && (h.front == reverse) {
+                            return None;
+                        }
+                        *best = Some(Hit {
+                            t: h.t,
+                            instance,
+                            detail: HitDetail::Triangle(i, h.b),
+                            csg_entering: None,
+                        });
+                        Some(h.t)
                     }
-                    true
-                })?;
-                let t = h.t as f32;
-                *best = Some(Hit { t, instance, detail: HitDetail::Quadric(i, h), csg_entering: None });
-                Some(t)
-            }
-        };
-        blas.bvh.closest(&mut tray, |r, slot| test(r.t_max, slot));
+                    Prim::Quadric(i) => {
+                        let h = self.quadric_hit(inst, blas, i, (origin, direction), (t_min, t_max))?;
+                        let t = h.t as f32;
+                        *best =
+                            Some(Hit { t, instance, detail: HitDetail::Quadric(i, h), csg_entering: None });
+                        Some(t)
+                    }
+                }
+            },
+        );
         *t_max = tray.t_max;
+    }
+
+    /// The first crossing of quadric `i` of `blas` by the BLAS-space ray `(origin, direction)`
+    /// with its `f32` parameter in `(t_min, t_max)` and on a side the instance sees. Out of line:
+    /// kept out of the traversal loop, which inlines the triangle test.
+    #[inline(never)]
+    fn quadric_hit(
+        &self,
+        inst: &Instance,
+        blas: &Blas,
+        i: u32,
+        (origin, direction): (Vec3, Vec3),
+        (t_min, t_max): (f32, f32),
+    ) -> Option<QuadricHit> {
+        let q = &blas.quadrics[i as usize];
+        let oo = q.object_from_blas.transform_point3(origin.as_dvec3());
+        let od = q.object_from_blas.transform_vector3(direction.as_dvec3());
+        let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
+        q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
+            let t32 = h.t as f32;
+            if !(t32 > t_min && t32 < t_max) {
+                return false;
+            }
+            if one_sided {
+                let front = h.n.dot(od) < 0.0;
+                if front == reverse {
+                    return false;
+                }
+            }
+            true
+        })
+    }
+
+    /// Crosses quadric `i` of `blas` along the BLAS-space segment `(origin, direction)`,
+    /// `(t_min, t_max)`, attenuating `tr` at each crossing on a side the instance sees; true
+    /// when the segment is blocked. Out of line, as [`World::quadric_hit`].
+    #[inline(never)]
+    fn quadric_blocks(
+        &self,
+        inst: &Instance,
+        blas: &Blas,
+        i: u32,
+        (origin, direction): (Vec3, Vec3),
+        (t_min, t_max): (f32, f32),
+        tr: &mut Vec3,
+    ) -> bool {
+        let q = &blas.quadrics[i as usize];
+        let oo = q.object_from_blas.transform_point3(origin.as_dvec3());
+        let od = q.object_from_blas.transform_vector3(direction.as_dvec3());
+        let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
+        let attributes = inst.attributes.unwrap_or(blas.shapes[q.shape as usize].attributes);
+        let attenuation = self.attenuation(attributes);
+        let mut blocked = false;
+        // Visit every crossing (a closed quadric is crossed twice).
+        q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
+            let t32 = h.t as f32;
+            if !(t32 > t_min && t32 < t_max) {
+                return false;
+            }
+            if one_sided && ((h.n.dot(od) < 0.0) == reverse) {
+                return false;
+            }
+            match attenuation {
+                None => blocked = true,
+                Some(a) => *tr *= a,
+            }
+            blocked
+        });
+        if blocked {
+            *tr = Vec3::ZERO;
+        }
+        *tr == Vec3::ZERO
     }
 
     /// For benchmarks: the BVH and the triangles (in BVH slot order) of a one-level world
@@ -559,11 +626,14 @@ impl World {
             return;
         }
         let Some((tray, shear)) = Self::blas_ray(inst, query, ray.t_max) else { return };
-        let (o64, d64) = (Vec3::from(tray.origin).as_dvec3(), Vec3::from(tray.direction).as_dvec3());
+        let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         let (t_min, t_max) = (ray.t_min, ray.t_max);
-        // Whether slot `slot` stops the segment's light (after attenuating `tr`).
-        let mut blocks = |slot: u32| {
-            match blas.prims[slot as usize] {
+        // Whether slot `slot` stops the segment's light (after attenuating `tr`); inlined into the
+        // traversal loop, as in `intersect_instance`.
+        blas.bvh.any(
+            &tray,
+            #[inline(always)]
+            |_, slot| match blas.prims[slot as usize] {
                 Prim::Triangle(i) => {
                     let tri = &blas.triangles[i as usize];
                     let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
@@ -589,36 +659,10 @@ impl World {
                     }
                 }
                 Prim::Quadric(i) => {
-                    let q = &blas.quadrics[i as usize];
-                    let oo = q.object_from_blas.transform_point3(o64);
-                    let od = q.object_from_blas.transform_vector3(d64);
-                    let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
-                    let attributes = inst.attributes.unwrap_or(blas.shapes[q.shape as usize].attributes);
-                    let attenuation = self.attenuation(attributes);
-                    let mut blocked = false;
-                    // Visit every crossing (a closed quadric is crossed twice).
-                    q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
-                        let t32 = h.t as f32;
-                        if !(t32 > t_min && t32 < t_max) {
-                            return false;
-                        }
-                        if one_sided && ((h.n.dot(od) < 0.0) == reverse) {
-                            return false;
-                        }
-                        match attenuation {
-                            None => blocked = true,
-                            Some(a) => *tr *= a,
-                        }
-                        blocked
-                    });
-                    if blocked {
-                        *tr = Vec3::ZERO;
-                    }
-                    *tr == Vec3::ZERO
+                    self.quadric_blocks(inst, blas, i, (origin, direction), (t_min, t_max), tr)
                 }
-            }
-        };
-        blas.bvh.any(&tray, |_, slot| blocks(slot));
+            },
+        );
     }
 
     /// Evaluates the surface at a hit. Texture coordinates and their footprint (`st`,
