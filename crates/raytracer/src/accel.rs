@@ -38,31 +38,36 @@ pub struct TraversalRay {
 
 impl TraversalRay {
     /// `None` when the origin or direction is not finite or the direction is zero.
+    #[inline]
     pub fn new(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<TraversalRay> {
-        if !origin.is_finite() || !direction.is_finite() || direction == Vec3::ZERO || t_max.is_nan() {
+        let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
+        // Lane-wise checks (glam's `Vec3::is_finite` tests one component at a time).
+        if !(o.is_finite() && d.is_finite()) || t_max.is_nan() {
             return None;
         }
         // Flush tiny components to +0 so that the sign used to pick the near plane and the sign
         // of the reciprocal always agree. One vector division gives the three reciprocals.
-        let d = Vec3A::from(direction);
         let tiny = d.abs().cmplt(Vec3A::splat(1.0 / BIG));
-        let d = Vec3A::select(tiny, Vec3A::ZERO, d);
-        if d == Vec3A::ZERO {
+        let flushed = Vec3A::select(tiny, Vec3A::ZERO, d);
+        if flushed.cmpeq(Vec3A::ZERO).all() {
             return None;
         }
-        let inv_direction = Vec3A::select(tiny, Vec3A::splat(BIG), Vec3A::ONE / d);
-        let negative = d.cmplt(Vec3A::ZERO).bitmask();
-        let oct_inv4 = (if negative & 1 != 0 { 0 } else { 0x0404_0404 })
-            | (if negative & 2 != 0 { 0 } else { 0x0202_0202 })
-            | (if negative & 4 != 0 { 0 } else { 0x0101_0101 });
-        Some(TraversalRay {
-            origin: origin.into(),
-            direction: direction.into(),
-            inv_direction,
-            oct_inv4,
-            t_min,
-            t_max,
-        })
+        let inv_direction = Vec3A::select(tiny, Vec3A::splat(BIG), Vec3A::ONE / flushed);
+        // obvhs' octant code: per byte, 4 when x is not negative, 2 for y, 1 for z.
+        const OCT_INV4: [u32; 8] = {
+            let mut table = [0u32; 8];
+            let mut negative = 0;
+            while negative < 8 {
+                let positive = (if negative & 1 == 0 { 4 } else { 0 })
+                    | (if negative & 2 == 0 { 2 } else { 0 })
+                    | (if negative & 4 == 0 { 1 } else { 0 });
+                table[negative] = positive * 0x0101_0101;
+                negative += 1;
+            }
+            table
+        };
+        let oct_inv4 = OCT_INV4[(flushed.cmplt(Vec3A::ZERO).bitmask() & 7) as usize];
+        Some(TraversalRay { origin: o, direction: d, inv_direction, oct_inv4, t_min, t_max })
     }
 
     /// The reciprocal direction used by the node test (`1e20` with the sign of zero for
@@ -341,7 +346,9 @@ impl Bvh {
                     stack.push(group_base, group_bits);
                 }
                 let slot_index = (offset - 24) ^ oct;
-                let relative = (hits & !(u32::MAX << slot_index)).count_ones();
+                // The interior children stored before this one: a popcount of the low byte
+                // (`imask`) below the slot; x86-64's baseline has no popcount instruction.
+                let relative = u32::from(POPCOUNT8[(hits & !(u32::MAX << slot_index) & 0xff) as usize]);
                 let child = &nodes[(group_base + relative) as usize];
                 on_node();
                 let hit_mask = intersect_node(child, ray, &test);
@@ -413,6 +420,17 @@ impl Bvh {
         (nodes, prims)
     }
 }
+
+/// The number of set bits of each byte value.
+const POPCOUNT8: [u8; 256] = {
+    let mut table = [0u8; 256];
+    let mut i = 0;
+    while i < 256 {
+        table[i] = (i as u32).count_ones() as u8;
+        i += 1;
+    }
+    table
+};
 
 /// The traversal stack of node groups (first child index, visit bits).
 trait GroupStack {

@@ -69,28 +69,32 @@ impl RayShear {
     /// sheared vertex and so change hits on edges and the last bits of `t`.
     #[inline]
     pub fn for_traversal(ray: &TraversalRay) -> RayShear {
-        let direction = Vec3::from(ray.direction);
-        let a = direction.abs();
-        let kz = if a.x > a.y {
-            if a.x > a.z { 0 } else { 2 }
+        let d = Vec3::from(ray.direction);
+        let o = Vec3::from(ray.origin);
+        let a = d.abs();
+        // The permutation written out per case (indexing a vector by a variable axis compiles
+        // to a chain of selects per component).
+        let (kz, d, origin_permuted) = if a.x > a.y {
+            if a.x > a.z {
+                (0, [d.y, d.z, d.x], [o.y, o.z, o.x])
+            } else {
+                (2, [d.x, d.y, d.z], [o.x, o.y, o.z])
+            }
         } else if a.y > a.z {
-            1
+            (1, [d.z, d.x, d.y], [o.z, o.x, o.y])
         } else {
-            2
+            (2, [d.x, d.y, d.z], [o.x, o.y, o.z])
         };
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
         // The largest component is never flushed to zero by the traversal ray (a ray whose
         // components are all flushed has no traversal ray), so its reciprocal is `1 / d_z`.
         let inv_dz = ray.inv_direction()[kz];
-        let origin = Vec3::from(ray.origin);
         RayShear {
-            origin,
-            direction,
+            origin: o,
+            direction: Vec3::from(ray.direction),
             kz: kz as u8,
-            origin_permuted: [origin[kx], origin[ky], origin[kz]],
-            sx: -direction[kx] / direction[kz],
-            sy: -direction[ky] / direction[kz],
+            origin_permuted,
+            sx: -d[0] / d[2],
+            sy: -d[1] / d[2],
             sz: inv_dz,
         }
     }
@@ -113,7 +117,7 @@ impl RayShear {
 
 /// Intersects the triangle `(p0, p1, p2)` with the ray described by `shear` for parameters in
 /// `(0, t_max)`. Degenerate (zero-area) triangles are never hit.
-#[inline]
+#[inline(always)]
 pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max: f32) -> Option<TriangleHit> {
     let a = shear.transform(p0);
     let b = shear.transform(p1);

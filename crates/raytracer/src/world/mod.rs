@@ -395,7 +395,7 @@ impl World {
 
     /// The traversal ray and shear of `query` in an instance's BLAS space, for `(t_min,
     /// t_max)`: those of the render-space ray when the instance has no transform.
-    #[inline]
+    #[inline(always)]
     fn blas_ray(inst: &Instance, query: &mut RayQuery, t_max: f32) -> Option<(TraversalRay, RayShear)> {
         let ray = query.ray;
         if inst.identity {
