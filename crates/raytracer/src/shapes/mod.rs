@@ -5,4 +5,4 @@ pub mod roots;
 pub mod triangle;
 
 pub use quadric::{DegenerateQuadric, Quadric, QuadricHit, QuadricShape};
-pub use triangle::{RayShear, TriangleHit, barycentric_point, intersect_triangle};
+pub use triangle::{RayShear, TriangleHit, barycentric_point, hits_front, intersect_triangle};

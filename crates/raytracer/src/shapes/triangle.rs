@@ -11,13 +11,19 @@ use crate::math::gamma;
 use glam::{DVec3, Vec3};
 
 /// A ray-triangle hit: the ray parameter and the barycentric coordinates of the hit point
-/// (`b0 + b1 + b2 = 1` in `f64`), plus the sign of the determinant (which side was hit).
+/// (`b0 + b1 + b2 = 1` in `f64`). Which side was hit is [`hits_front`], asked only for
+/// one-sided shapes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
     pub t: f32,
     pub b: [f64; 3],
-    /// True when the ray hits the side the triangle's normal `(p1 - p0) x (p2 - p0)` points to.
-    pub front: bool,
+}
+
+/// True when a ray along `direction` hits the side the normal `(p1 - p0) x (p2 - p0)` of the
+/// triangle `(p0, p1, p2)` points to (from the geometric normal, as `f32`).
+#[inline]
+pub fn hits_front(p0: Vec3, p1: Vec3, p2: Vec3, direction: Vec3) -> bool {
+    (p1 - p0).cross(p2 - p0).dot(direction) < 0.0
 }
 
 /// Precomputed per-ray values of the watertight test (the permutation and shear).
@@ -173,10 +179,7 @@ pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max:
     if !(t32 > delta_t) || !(t32 < t_max as f32 || t_max.is_infinite()) {
         return None;
     }
-    // Which side was hit, from the geometric normal (only computed for accepted hits).
-    let n = (p1 - p0).cross(p2 - p0);
-    let front = n.dot(shear.direction) < 0.0;
-    Some(TriangleHit { t: t32, b: [e0 * inv_det, e1 * inv_det, e2 * inv_det], front })
+    Some(TriangleHit { t: t32, b: [e0 * inv_det, e1 * inv_det, e2 * inv_det] })
 }
 
 /// The hit point `b0 p0 + b1 p1 + b2 p2` in `f64`, with an absolute bound on its `f64` error.
@@ -205,9 +208,9 @@ mod tests {
         let p = barycentric_point(h.b, tri[0], tri[1], tri[2]).0;
         assert!((p - DVec3::new(0.25, 0.25, 0.0)).length() < 1e-7);
         // Normal is +z; a ray coming from +z hits the front.
-        assert!(h.front);
-        let back = hit(Vec3::new(0.25, 0.25, -2.0), Vec3::Z, tri).unwrap();
-        assert!(!back.front);
+        assert!(hits_front(tri[0], tri[1], tri[2], -Vec3::Z));
+        assert!(hit(Vec3::new(0.25, 0.25, -2.0), Vec3::Z, tri).is_some());
+        assert!(!hits_front(tri[0], tri[1], tri[2], Vec3::Z));
         assert!(hit(Vec3::new(0.75, 0.75, 2.0), -Vec3::Z, tri).is_none());
         // Behind the origin.
         assert!(hit(Vec3::new(0.25, 0.25, -2.0), -Vec3::Z, tri).is_none());

@@ -27,7 +27,7 @@ use crate::lights::{Light, LightSet};
 use crate::materials::Material;
 use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
 
-use crate::shapes::{Quadric, QuadricHit, RayShear, barycentric_point, intersect_triangle};
+use crate::shapes::{Quadric, QuadricHit, RayShear, barycentric_point, hits_front, intersect_triangle};
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use rib_parser::motion::TransformMotion;
 use rib_parser::scene::AttributesId;
@@ -446,7 +446,7 @@ impl World {
                             return None;
                         }
                         let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                        if one_sided && (h.front == reverse) {
+                        if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
                             return None;
                         }
                         *best = Some(Hit {
@@ -643,7 +643,7 @@ impl World {
                         return false;
                     }
                     let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                    if one_sided && (h.front == reverse) {
+                    if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
                         return false;
                     }
                     let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);
