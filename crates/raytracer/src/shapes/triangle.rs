@@ -164,15 +164,18 @@ pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max:
     // size of the *unscaled* z (|Sx|, |Sy| <= 1); pbrt uses the z already scaled by 1/d_z, which
     // is only an upper bound for directions of length about one and rejects valid hits of short
     // ray directions (a shadow ray `p_light - p` in a scene a millimetre across).
-    let max_zt = (az.abs()).max(bz.abs()).max(cz.abs()) as f32;
+    // The bounds below take maxima of finite, non-negative values: a non-finite coordinate
+    // would have made an edge function, so `det`, non-finite. `greater` is then the same as
+    // `max`, without `max`'s NaN handling (four more instructions per maximum on x86-64).
+    let max_zt = greater(greater(az.abs(), bz.abs()), cz.abs()) as f32;
     let delta_z = gamma(3) * max_zt;
-    let max_z_unscaled = a[2].abs().max(b[2].abs()).max(c[2].abs());
-    let max_xt = (ax.abs()).max(bx.abs()).max(cx.abs()) as f32;
-    let max_yt = (ay.abs()).max(by.abs()).max(cy.abs()) as f32;
+    let max_z_unscaled = greater(greater(a[2].abs(), b[2].abs()), c[2].abs());
+    let max_xt = greater(greater(ax.abs(), bx.abs()), cx.abs()) as f32;
+    let max_yt = greater(greater(ay.abs(), by.abs()), cy.abs()) as f32;
     let delta_x = gamma(5) * (max_xt + max_z_unscaled);
     let delta_y = gamma(5) * (max_yt + max_z_unscaled);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = e0.abs().max(e1.abs()).max(e2.abs()) as f32;
+    let max_e = greater(greater(e0.abs(), e1.abs()), e2.abs()) as f32;
     let delta_t =
         3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * (inv_det.abs() as f32);
     let t32 = t as f32;
@@ -180,6 +183,13 @@ pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max:
         return None;
     }
     Some(TriangleHit { t: t32, b: [e0 * inv_det, e1 * inv_det, e2 * inv_det] })
+}
+
+/// The larger of `a` and `b` (`b` when they compare equal or either is NaN: one `maxss` or
+/// `maxsd`).
+#[inline(always)]
+fn greater<T: PartialOrd>(a: T, b: T) -> T {
+    if a > b { a } else { b }
 }
 
 /// The hit point `b0 p0 + b1 p1 + b2 p2` in `f64`, with an absolute bound on its `f64` error.
