@@ -1,0 +1,153 @@
+//! Shadow queries: the fraction of light passing along a segment, stopping at the first surface
+//! that blocks it (any-hit traversal).
+
+use super::{Blas, HitDetail, Instance, Prim, Ray, RayQuery, World, clipping, csg};
+use crate::accel::TraversalRay;
+use crate::shapes::{hits_front, intersect_triangle};
+use glam::Vec3;
+use rib_parser::scene::AttributesId;
+
+impl World {
+    /// Fraction of light passing along the segment `ray` (origin + t direction, `t` in
+    /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
+    /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
+    pub fn transmittance(&self, ray: &Ray) -> Vec3 {
+        let mut tr = Vec3::ONE;
+        let clipped;
+        let ray = if self.clipping_planes.is_empty() {
+            ray
+        } else {
+            let Some(r) = clipping::clip_ray(&self.clipping_planes, ray) else { return tr };
+            clipped = r;
+            &clipped
+        };
+        let render = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max);
+        let mut render_shear = None;
+        let mut query = RayQuery { ray, render: render.as_ref(), render_shear: &mut render_shear };
+        match &self.tlas {
+            None => {
+                if let Some(inst) = self.instances.first() {
+                    self.transmittance_instance(inst, &mut query, &mut tr);
+                }
+            }
+            Some(tlas) => {
+                let Some(tray) = render else {
+                    return tr;
+                };
+                tlas.any(&tray, |_, slot| {
+                    self.transmittance_instance(&self.instances[slot as usize], &mut query, &mut tr);
+                    tr == Vec3::ZERO
+                });
+            }
+        }
+        tr
+    }
+
+    /// Attenuation by one surface crossing: `None` means fully blocked.
+    fn attenuation(&self, attributes: AttributesId) -> Option<Vec3> {
+        let m = self.material(attributes);
+        if m.blocks_shadows() || m.opacity == Vec3::ONE { None } else { Some(Vec3::ONE - m.opacity) }
+    }
+
+    fn transmittance_instance(&self, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
+        let blas = &self.blases[inst.blas as usize];
+        let ray = query.ray;
+        if let Some(csg) = &blas.csg {
+            let (o, d) = Self::to_blas(inst, ray.origin, ray.direction, ray.time);
+            // The first boundary crossing of the solid decides (a semi-transparent solid
+            // attenuates once).
+            if let Some((_, detail, _)) = csg::intersect(blas, csg, o, d, ray.t_min, ray.t_max) {
+                let shape = match detail {
+                    HitDetail::Triangle(i, _) => blas.triangles[i as usize].shape,
+                    HitDetail::Quadric(i, _) => blas.quadrics[i as usize].shape,
+                };
+                let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
+                match self.attenuation(attributes) {
+                    None => *tr = Vec3::ZERO,
+                    Some(a) => *tr *= a,
+                }
+            }
+            return;
+        }
+        let Some((tray, shear)) = Self::blas_ray(inst, query, ray.t_max) else { return };
+        let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
+        let (t_min, t_max) = (ray.t_min, ray.t_max);
+        // Whether slot `slot` stops the segment's light (after attenuating `tr`); inlined into the
+        // traversal loop, as in `intersect_instance`.
+        blas.bvh.any(
+            &tray,
+            #[inline(always)]
+            |_, slot| match blas.prims[slot as usize] {
+                Prim::Triangle(i) => {
+                    let tri = &blas.triangles[i as usize];
+                    let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
+                        return false;
+                    };
+                    if h.t <= t_min {
+                        return false;
+                    }
+                    let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
+                    if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
+                        return false;
+                    }
+                    let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);
+                    match self.attenuation(attributes) {
+                        None => {
+                            *tr = Vec3::ZERO;
+                            true
+                        }
+                        Some(a) => {
+                            *tr *= a;
+                            *tr == Vec3::ZERO
+                        }
+                    }
+                }
+                Prim::Quadric(i) => {
+                    self.quadric_blocks(inst, blas, i, (origin, direction), (t_min, t_max), tr)
+                }
+            },
+        );
+    }
+
+    /// Crosses quadric `i` of `blas` along the BLAS-space segment `(origin, direction)`,
+    /// `(t_min, t_max)`, attenuating `tr` at each crossing on a side the instance sees; true
+    /// when the segment is blocked. Out of line, as `World::quadric_hit`, so that the traversal
+    /// loop inlines the triangle test.
+    #[inline(never)]
+    fn quadric_blocks(
+        &self,
+        inst: &Instance,
+        blas: &Blas,
+        i: u32,
+        (origin, direction): (Vec3, Vec3),
+        (t_min, t_max): (f32, f32),
+        tr: &mut Vec3,
+    ) -> bool {
+        let q = &blas.quadrics[i as usize];
+        let oo = q.object_from_blas.transform_point3(origin.as_dvec3());
+        let od = q.object_from_blas.transform_vector3(direction.as_dvec3());
+        let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
+        let attributes = inst.attributes.unwrap_or(blas.shapes[q.shape as usize].attributes);
+        let attenuation = self.attenuation(attributes);
+        let mut blocked = false;
+        // Visit every crossing (a closed quadric is crossed twice).
+        q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
+            let t32 = h.t as f32;
+            if !(t32 > t_min && t32 < t_max) {
+                return false;
+            }
+            if one_sided && ((h.n.dot(od) < 0.0) == reverse) {
+                return false;
+            }
+            match attenuation {
+                None => blocked = true,
+                Some(a) => *tr *= a,
+            }
+            blocked
+        });
+        if blocked {
+            *tr = Vec3::ZERO;
+        }
+        *tr == Vec3::ZERO
+    }
+}
