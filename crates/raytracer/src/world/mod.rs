@@ -434,12 +434,14 @@ impl World {
         let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         // Tests BVH slot `slot` against the ray whose closest hit so far is at `r.t_max`; inlined
         // into the traversal loop (a call per primitive costs more than the test's setup).
+        // In a BLAS of triangles alone, slot `k` holds triangle `k` (`BlasBuilder::finish`).
+        let triangles_only = blas.quadrics.is_empty();
         blas.bvh.closest(
             &mut tray,
             #[inline(always)]
             |r, slot| {
                 let t_max = r.t_max;
-                match blas.prims[slot as usize] {
+                match if triangles_only { Prim::Triangle(slot) } else { blas.prims[slot as usize] } {
                     Prim::Triangle(i) => {
                         let tri = &blas.triangles[i as usize];
                         let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max)?;

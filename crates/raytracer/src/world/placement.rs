@@ -335,3 +335,49 @@ pub(super) fn transformed_box(m: &DMat4, lo: DVec3, hi: DVec3) -> (Vec3, Vec3) {
         ),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::diagnostics::Diagnostics;
+    use crate::world::{PixelFootprint, Prim, World};
+    use glam::DVec3;
+
+    /// The traversal's shortcut for BLASes of triangles alone relies on this: there, BVH slot
+    /// `k` holds triangle `k` (for the world's BLAS, a one-triangle definition with its
+    /// duplicate slot, and a definition mixing a quadric and triangles, which keeps `prims`).
+    #[test]
+    fn triangle_only_blases_hold_triangle_k_in_slot_k() {
+        let mut rib = String::from("WorldBegin\n");
+        for i in 0..40 {
+            let (x, z) = ((i % 7) as f32, (i / 7) as f32);
+            rib += &format!("Polygon \"P\" [{x} 0 {z} {} 0 {z} {x} 1 {}]\n", x + 1.5, z + 0.5);
+        }
+        rib += "ObjectBegin 1\nSphere 1 -1 1 360\nPolygon \"P\" [0 0 0 1 0 0 0 1 0]\n\
+                Polygon \"P\" [0 0 1 1 0 1 0 1 1]\nObjectEnd\n\
+                ObjectBegin 2\nPolygon \"P\" [0 0 0 1 0 0 0 1 0]\nObjectEnd\n\
+                ObjectInstance 1\nObjectInstance 2\nWorldEnd\n";
+        let scene = rib_parser::load_bytes("slots.rib", rib.into_bytes(), &Default::default())
+            .unwrap_or_else(|e| panic!("{}", e.render()))
+            .scene;
+        let world = World::build(
+            &scene,
+            DVec3::new(0.0, 0.0, -5.0),
+            PixelFootprint::Unknown,
+            &mut Diagnostics::default(),
+        )
+        .expect("the world builds");
+        let (mut triangles_only, mut mixed) = (0, 0);
+        for blas in &world.blases {
+            if blas.quadrics.is_empty() {
+                triangles_only += 1;
+                for (k, prim) in blas.prims.iter().enumerate() {
+                    assert_eq!(*prim, Prim::Triangle(k as u32));
+                }
+                assert_eq!(blas.prims.len(), blas.triangles.len());
+            } else {
+                mixed += 1;
+            }
+        }
+        assert_eq!((triangles_only, mixed), (2, 1));
+    }
+}

@@ -74,10 +74,12 @@ impl World {
         let (t_min, t_max) = (ray.t_min, ray.t_max);
         // Whether slot `slot` stops the segment's light (after attenuating `tr`); inlined into the
         // traversal loop, as in `intersect_instance`.
+        // In a BLAS of triangles alone, slot `k` holds triangle `k` (`BlasBuilder::finish`).
+        let triangles_only = blas.quadrics.is_empty();
         blas.bvh.any(
             &tray,
             #[inline(always)]
-            |_, slot| match blas.prims[slot as usize] {
+            |_, slot| match if triangles_only { Prim::Triangle(slot) } else { blas.prims[slot as usize] } {
                 Prim::Triangle(i) => {
                     let tri = &blas.triangles[i as usize];
                     let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
