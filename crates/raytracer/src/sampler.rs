@@ -26,7 +26,9 @@ pub const SOBOL_PAIRS: u32 = 8;
 #[derive(Clone, Debug)]
 pub struct Sampler {
     pixel_seed: u64,
-    index: u32,
+    /// The sample index, bit-reversed once here instead of once per pair (the first step of
+    /// the index's Owen scrambling).
+    index_reversed: u32,
     pair: u32,
     /// The unused half of the last pair, for one-dimensional requests.
     spare: Option<f32>,
@@ -41,12 +43,6 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0xc7af_e638);
     x ^= x.wrapping_mul(0x8d22_f6e6);
     x
-}
-
-/// Nested uniform scrambling of a 32-bit fixed-point number in base 2.
-#[inline]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
 /// The direction numbers of the second dimension of the Sobol sequence, bit-reversed
@@ -83,9 +79,32 @@ fn sobol_1_reversed(i: u32) -> u32 {
         ^ t[3][(i >> 24) as usize]
 }
 
+/// Each byte value with its eight bits reversed.
+const REVERSED_BYTES: [u8; 256] = {
+    let mut table = [0u8; 256];
+    let mut b = 0;
+    while b < 256 {
+        table[b] = (b as u8).reverse_bits();
+        b += 1;
+    }
+    table
+};
+
+/// `x.reverse_bits() >> 8`: the top 24 bits of the reversal are the low three bytes of `x`,
+/// each reversed, so three table lookups replace the 17-instruction reversal and the shift
+/// (x86-64 has no bit-reversal instruction).
 #[inline]
-fn to_unit(x: u32) -> f32 {
-    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+fn reverse_low_24(x: u32) -> u32 {
+    let r = &REVERSED_BYTES;
+    u32::from(r[(x & 0xff) as usize]) << 16
+        | u32::from(r[(x >> 8 & 0xff) as usize]) << 8
+        | u32::from(r[(x >> 16 & 0xff) as usize])
+}
+
+/// The fixed-point number `x.reverse_bits()` in `[0, 1)`, with 24 bits (exact in `f32`).
+#[inline]
+fn reversed_to_unit(x: u32) -> f32 {
+    reverse_low_24(x) as f32 * (1.0 / 16_777_216.0)
 }
 
 impl Sampler {
@@ -95,7 +114,7 @@ impl Sampler {
         let pixel_seed = mix64(seed ^ mix64(((x as u64) << 32) ^ (y as u64 & 0xffff_ffff) ^ 0x5851_f42d));
         Sampler {
             pixel_seed,
-            index,
+            index_reversed: index.reverse_bits(),
             pair: 0,
             spare: None,
             rng: Rng::for_pixel_sample(seed, x as u32, y as u32, index),
@@ -104,7 +123,7 @@ impl Sampler {
 
     /// A sampler that only uses its PCG stream (for work that is not per pixel, e.g. photons).
     pub fn from_rng(rng: Rng) -> Sampler {
-        Sampler { pixel_seed: 0, index: 0, pair: SOBOL_PAIRS, spare: None, rng }
+        Sampler { pixel_seed: 0, index_reversed: 0, pair: SOBOL_PAIRS, spare: None, rng }
     }
 
     /// The next two dimensions.
@@ -119,12 +138,13 @@ impl Sampler {
         // Three scramble seeds from one hash (the Laine-Karras permutation mixes them further).
         let (s0, s1) = (h as u32, (h >> 32) as u32);
         let s2 = s0.rotate_left(13) ^ s1.wrapping_mul(0x9e37_79b9);
-        // A shuffled index, then both coordinates scrambled; dimension 0 of Sobol is the index
+        // A shuffled index (nested uniform scrambling of the index: reversed, permuted,
+        // reversed back), then both coordinates scrambled; dimension 0 of Sobol is the index
         // bit-reversed, so its scramble needs no reversal going in.
-        let i = owen_scramble(self.index, s0);
-        let x = laine_karras(i, s1).reverse_bits();
-        let y = laine_karras(sobol_1_reversed(i), s2).reverse_bits();
-        Vec2::new(to_unit(x), to_unit(y))
+        let i = laine_karras(self.index_reversed, s0).reverse_bits();
+        let x = laine_karras(i, s1);
+        let y = laine_karras(sobol_1_reversed(i), s2);
+        Vec2::new(reversed_to_unit(x), reversed_to_unit(y))
     }
 
     /// The next dimension (half of a pair; the other half serves the next call).
@@ -166,6 +186,38 @@ mod tests {
                 }
                 assert!(cells.iter().all(|&c| c == 1), "pixel {pixel:?} pair {pair}: {cells:?}");
             }
+        }
+    }
+
+    /// The points are those of the plain definition: Owen scrambling as reversal, permutation
+    /// and reversal, `u32::reverse_bits` and a 24-bit fixed-point conversion.
+    #[test]
+    fn points_match_the_definition() {
+        let owen_scramble = |x: u32, seed: u32| laine_karras(x.reverse_bits(), seed).reverse_bits();
+        let to_unit = |x: u32| (x >> 8) as f32 * (1.0 / 16_777_216.0);
+        let mut rng = crate::sampling::Rng::new(5, 9);
+        for _ in 0..200 {
+            let (seed, x, y) = (
+                u64::from(rng.next_u32()),
+                i64::from(rng.next_u32() as i16),
+                i64::from(rng.next_u32() as i16),
+            );
+            let index = if rng.next_u32().is_multiple_of(2) { rng.next_u32() % 64 } else { rng.next_u32() };
+            let mut s = Sampler::new(seed, x, y, index);
+            for d in 0..SOBOL_PAIRS {
+                let h = mix64(s.pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                let (s0, s1) = (h as u32, (h >> 32) as u32);
+                let s2 = s0.rotate_left(13) ^ s1.wrapping_mul(0x9e37_79b9);
+                let i = owen_scramble(index, s0);
+                let expected = Vec2::new(
+                    to_unit(laine_karras(i, s1).reverse_bits()),
+                    to_unit(laine_karras(sobol_1_reversed(i), s2).reverse_bits()),
+                );
+                assert_eq!(s.uniform2(), expected, "pair {d} of sample {index}");
+            }
+        }
+        for v in (0..=u32::from(u16::MAX)).map(|v| v.wrapping_mul(0x9e37_79b9)).chain([0, u32::MAX]) {
+            assert_eq!(reverse_low_24(v), v.reverse_bits() >> 8, "{v:#x}");
         }
     }
 

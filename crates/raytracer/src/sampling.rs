@@ -190,33 +190,32 @@ impl Distribution1D {
 
     /// Picks an item with probability proportional to its weight; returns the index, its
     /// probability and `u` remapped to `[0, 1)` within the item.
+    #[inline]
     pub fn sample(&self, u: f32) -> Option<(usize, f32, f32)> {
         if self.total <= 0.0 {
             return None;
         }
-        if self.weights.len() == 1 {
+        let weights = &self.weights[..];
+        let n = weights.len();
+        if n == 1 {
             return Some((0, 1.0, u));
         }
         let u = f64::from(u);
-        // First index whose cdf is > u, minus one.
-        let n = self.weights.len();
-        let mut lo = 0usize;
-        let mut hi = n;
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if self.cdf[mid + 1] <= u { lo = mid + 1 } else { hi = mid }
-        }
-        let mut i = lo.min(n - 1);
+        let cdf = &self.cdf[..n + 1];
+        // One less than the first index whose cdf is > u, at most n - 1 (the cdf does not
+        // decrease, so any binary search finds the same index).
+        let mut i = cdf[1..n].partition_point(|&c| c <= u);
         // Never return a zero-weight item (possible at the ends through rounding).
-        while self.weights[i] == 0.0 && i > 0 {
+        while weights[i] == 0.0 && i > 0 {
             i -= 1;
         }
-        while self.weights[i] == 0.0 && i + 1 < n {
+        while weights[i] == 0.0 && i + 1 < n {
             i += 1;
         }
-        let p = self.pmf(i);
-        let width = self.cdf[i + 1] - self.cdf[i];
-        let remapped = if width > 0.0 { ((u - self.cdf[i]) / width).clamp(0.0, 1.0) } else { 0.5 };
+        let p = self.pmf[i];
+        let (c0, c1) = (cdf[i], cdf[i + 1]);
+        let width = c1 - c0;
+        let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, 1.0) } else { 0.5 };
         Some((i, p, (remapped as f32).min(1.0 - f32::EPSILON / 2.0)))
     }
 
@@ -292,6 +291,44 @@ mod tests {
         let mut r = Rng::new(7, 0);
         let mean: f32 = (0..100_000).map(|_| r.uniform()).sum::<f32>() / 100_000.0;
         assert!((mean - 0.5).abs() < 0.01, "mean {mean}");
+    }
+
+    /// Sampling picks the item and remaps `u` exactly as the textbook binary search over the
+    /// cdf does, zero weights (also at the ends) included.
+    #[test]
+    fn distribution_sampling_matches_a_plain_binary_search() {
+        let reference = |d: &Distribution1D, u: f32| {
+            let (u, n) = (f64::from(u), d.weights.len());
+            let (mut lo, mut hi) = (0usize, n);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if d.cdf[mid + 1] <= u { lo = mid + 1 } else { hi = mid }
+            }
+            let mut i = lo.min(n - 1);
+            while d.weights[i] == 0.0 && i > 0 {
+                i -= 1;
+            }
+            while d.weights[i] == 0.0 && i + 1 < n {
+                i += 1;
+            }
+            let width = d.cdf[i + 1] - d.cdf[i];
+            let r = if width > 0.0 { ((u - d.cdf[i]) / width).clamp(0.0, 1.0) } else { 0.5 };
+            (i, d.pmf(i), (r as f32).min(1.0 - f32::EPSILON / 2.0))
+        };
+        let mut rng = Rng::new(3, 1);
+        for n in 2..12 {
+            for _ in 0..50 {
+                let w: Vec<f32> =
+                    (0..n).map(|_| if rng.uniform() < 0.3 { 0.0 } else { rng.uniform() * 10.0 }).collect();
+                let d = Distribution1D::new(&w);
+                for u in (0..64).map(|_| rng.uniform()).chain([0.0, 1.0 - f32::EPSILON / 2.0]) {
+                    match d.sample(u) {
+                        Some(s) => assert_eq!(s, reference(&d, u), "weights {w:?}, u {u}"),
+                        None => assert!(d.total() <= 0.0),
+                    }
+                }
+            }
+        }
     }
 
     #[test]
