@@ -6,7 +6,7 @@ use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{Integrator, RayCounters};
 use crate::light_layers;
 use crate::render::{Frame, TILE};
-use crate::sampler::Sampler;
+use crate::sampler::PixelSampler;
 use crate::world::World;
 use glam::DVec2;
 use rayon::prelude::*;
@@ -130,8 +130,9 @@ fn layered_tile(
     let mut counters = RayCounters::default();
     for py in sy0..sy1 {
         for px in sx0..sx1 {
+            let pixel_sampler = PixelSampler::new(frame.seed, px, py);
             for s in 0..frame.spp {
-                let mut sampler = Sampler::new(frame.seed, px, py, s);
+                let mut sampler = pixel_sampler.sample(s);
                 // The first pair of dimensions places the sample in the pixel (stratified).
                 let jitter = sampler.uniform2();
                 let x = px as f64 + f64::from(jitter.x);

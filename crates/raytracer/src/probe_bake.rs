@@ -4,7 +4,7 @@
 //! distance to the first surface through each octahedral visibility texel.
 
 use crate::integrators::{Integrator, RayCounters};
-use crate::sampler::Sampler;
+use crate::sampler::PixelSampler;
 use crate::world::{Ray, World};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -102,10 +102,11 @@ pub fn bake_probes(
             let mut projector = ShProjector::default();
             // A different rotation of the direction set per probe avoids aliasing across the grid.
             let twist = index as f32 * 2.399_963;
+            let pixel_sampler = PixelSampler::new(seed ^ 0x70b3_5eed, index as i64, -1);
             for (k, d) in
                 fibonacci_sphere(limits.radiance_rays.max(1) as usize, twist).into_iter().enumerate()
             {
-                let mut sampler = Sampler::new(seed ^ 0x70b3_5eed, index as i64, -1, k as u32);
+                let mut sampler = pixel_sampler.sample(k as u32);
                 let r = integrator.li(world, Ray::new(p, Vec3::from_array(d)), &mut sampler, &mut counters);
                 let rgb = if r.rgb.is_finite() { r.rgb } else { Vec3::ZERO };
                 projector.add(d, rgb.to_array());

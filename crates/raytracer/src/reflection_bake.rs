@@ -7,7 +7,7 @@
 
 use crate::integrators::{Integrator, RayCounters};
 use crate::probe_bake::grid_layout;
-use crate::sampler::Sampler;
+use crate::sampler::PixelSampler;
 use crate::world::{Ray, World};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -74,8 +74,9 @@ pub fn bake_reflections(
             for i in 0..side {
                 let texel = j * side + i;
                 let mut sum = Vec3::ZERO;
+                let pixel_sampler = PixelSampler::new(seed ^ 0x7ef1_ec75, probe as i64, texel as i64);
                 for k in 0..rays {
-                    let mut sampler = Sampler::new(seed ^ 0x7ef1_ec75, probe as i64, texel as i64, k);
+                    let mut sampler = pixel_sampler.sample(k);
                     let jitter = sampler.uniform2();
                     let d = octahedral_direction([
                         (i as f32 + jitter.x) / side as f32,

@@ -11,7 +11,7 @@ use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{Integrator, IntegratorKind, PrepareContext, RayCounters};
 use crate::layered_render::{LayerPlan, assemble, render_layered};
 use crate::lens::ThinLens;
-use crate::sampler::Sampler;
+use crate::sampler::PixelSampler;
 use crate::world::{PixelFootprint, Ray, World, WorldError, WorldStats};
 use depth_remap::camera::WorldRay;
 use depth_remap::{Camera, CameraError};
@@ -634,8 +634,9 @@ fn render_tile(
                 }));
                 continue;
             }
+            let pixel_sampler = PixelSampler::new(seed, px, py);
             for s in 0..spp as u32 {
-                let mut sampler = Sampler::new(seed, px, py, first_sample.wrapping_add(s));
+                let mut sampler = pixel_sampler.sample(first_sample.wrapping_add(s));
                 // The first pair of dimensions places the sample in the pixel (stratified).
                 let jitter = sampler.uniform2();
                 let x = px as f64 + f64::from(jitter.x);

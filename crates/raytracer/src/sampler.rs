@@ -22,10 +22,47 @@ use glam::Vec2;
 /// stratification and the scrambling costs more than PCG.
 pub const SOBOL_PAIRS: u32 = 8;
 
+/// What the samplers of one pixel share: the scramble seeds of every pair of dimensions and
+/// the key of the PCG streams, hashed once per pixel instead of once per sample and pair.
+#[derive(Clone, Debug)]
+pub struct PixelSampler {
+    seeds: [[u32; 3]; SOBOL_PAIRS as usize],
+    rng_key: u64,
+}
+
+impl PixelSampler {
+    /// The samplers of pixel `(x, y)` (full-frame coordinates; pixels outside the frame,
+    /// sampled for wide filters, are fine).
+    pub fn new(seed: u64, x: i64, y: i64) -> PixelSampler {
+        let pixel_seed = mix64(seed ^ mix64(((x as u64) << 32) ^ (y as u64 & 0xffff_ffff) ^ 0x5851_f42d));
+        let seeds = std::array::from_fn(|d| {
+            let h = mix64(pixel_seed ^ (d as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            // Three scramble seeds from one hash (the Laine-Karras permutation mixes them
+            // further).
+            let (s0, s1) = (h as u32, (h >> 32) as u32);
+            [s0, s1, s0.rotate_left(13) ^ s1.wrapping_mul(0x9e37_79b9)]
+        });
+        PixelSampler { seeds, rng_key: Rng::pixel_key(seed, x as u32, y as u32) }
+    }
+
+    /// The sampler of sample `index` of this pixel.
+    #[inline]
+    pub fn sample(&self, index: u32) -> Sampler {
+        Sampler {
+            seeds: self.seeds,
+            index_reversed: index.reverse_bits(),
+            pair: 0,
+            spare: None,
+            rng: Rng::for_pixel_key_sample(self.rng_key, index),
+        }
+    }
+}
+
 /// Random numbers for one sample of one pixel.
 #[derive(Clone, Debug)]
 pub struct Sampler {
-    pixel_seed: u64,
+    /// The pixel's scramble seeds (see [`PixelSampler`]).
+    seeds: [[u32; 3]; SOBOL_PAIRS as usize],
     /// The sample index, bit-reversed once here instead of once per pair (the first step of
     /// the index's Owen scrambling).
     index_reversed: u32,
@@ -111,19 +148,18 @@ impl Sampler {
     /// The sampler of sample `index` of pixel `(x, y)` (full-frame coordinates; pixels outside
     /// the frame, sampled for wide filters, are fine).
     pub fn new(seed: u64, x: i64, y: i64, index: u32) -> Sampler {
-        let pixel_seed = mix64(seed ^ mix64(((x as u64) << 32) ^ (y as u64 & 0xffff_ffff) ^ 0x5851_f42d));
-        Sampler {
-            pixel_seed,
-            index_reversed: index.reverse_bits(),
-            pair: 0,
-            spare: None,
-            rng: Rng::for_pixel_sample(seed, x as u32, y as u32, index),
-        }
+        PixelSampler::new(seed, x, y).sample(index)
     }
 
     /// A sampler that only uses its PCG stream (for work that is not per pixel, e.g. photons).
     pub fn from_rng(rng: Rng) -> Sampler {
-        Sampler { pixel_seed: 0, index_reversed: 0, pair: SOBOL_PAIRS, spare: None, rng }
+        Sampler {
+            seeds: [[0; 3]; SOBOL_PAIRS as usize],
+            index_reversed: 0,
+            pair: SOBOL_PAIRS,
+            spare: None,
+            rng,
+        }
     }
 
     /// The next two dimensions.
@@ -132,12 +168,8 @@ impl Sampler {
         if self.pair >= SOBOL_PAIRS {
             return self.rng.uniform2();
         }
-        let d = self.pair;
+        let [s0, s1, s2] = self.seeds[self.pair as usize];
         self.pair += 1;
-        let h = mix64(self.pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        // Three scramble seeds from one hash (the Laine-Karras permutation mixes them further).
-        let (s0, s1) = (h as u32, (h >> 32) as u32);
-        let s2 = s0.rotate_left(13) ^ s1.wrapping_mul(0x9e37_79b9);
         // A shuffled index (nested uniform scrambling of the index: reversed, permuted,
         // reversed back), then both coordinates scrambled; dimension 0 of Sobol is the index
         // bit-reversed, so its scramble needs no reversal going in.
@@ -204,8 +236,10 @@ mod tests {
             );
             let index = if rng.next_u32().is_multiple_of(2) { rng.next_u32() % 64 } else { rng.next_u32() };
             let mut s = Sampler::new(seed, x, y, index);
+            let pixel_seed = mix64(seed ^ mix64(((x as u64) << 32) ^ (y as u64 & 0xffff_ffff) ^ 0x5851_f42d));
+            let mut rng_stream = crate::sampling::Rng::for_pixel_sample(seed, x as u32, y as u32, index);
             for d in 0..SOBOL_PAIRS {
-                let h = mix64(s.pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                let h = mix64(pixel_seed ^ u64::from(d).wrapping_mul(0x9e37_79b9_7f4a_7c15));
                 let (s0, s1) = (h as u32, (h >> 32) as u32);
                 let s2 = s0.rotate_left(13) ^ s1.wrapping_mul(0x9e37_79b9);
                 let i = owen_scramble(index, s0);
@@ -214,6 +248,10 @@ mod tests {
                     to_unit(laine_karras(sobol_1_reversed(i), s2).reverse_bits()),
                 );
                 assert_eq!(s.uniform2(), expected, "pair {d} of sample {index}");
+            }
+            // Then the sample's PCG stream.
+            for _ in 0..4 {
+                assert_eq!(s.uniform2(), rng_stream.uniform2());
             }
         }
         for v in (0..=u32::from(u16::MAX)).map(|v| v.wrapping_mul(0x9e37_79b9)).chain([0, u32::MAX]) {

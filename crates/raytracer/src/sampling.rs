@@ -27,7 +27,17 @@ impl Rng {
 
     /// A generator for one pixel sample: independent of every other (pixel, sample) pair.
     pub fn for_pixel_sample(seed: u64, x: u32, y: u32, sample: u32) -> Rng {
-        let key = mix64(seed ^ mix64((u64::from(x) << 32) | u64::from(y)));
+        Rng::for_pixel_key_sample(Rng::pixel_key(seed, x, y), sample)
+    }
+
+    /// The part of [`Rng::for_pixel_sample`] that depends only on the pixel.
+    pub fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
+        mix64(seed ^ mix64((u64::from(x) << 32) | u64::from(y)))
+    }
+
+    /// [`Rng::for_pixel_sample`] from the pixel's [`Rng::pixel_key`].
+    #[inline]
+    pub fn for_pixel_key_sample(key: u64, sample: u32) -> Rng {
         Rng::new(mix64(key ^ u64::from(sample).wrapping_mul(0x9e37_79b9_7f4a_7c15)), key)
     }
 
