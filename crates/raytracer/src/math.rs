@@ -18,27 +18,41 @@ pub fn gamma(n: i32) -> f32 {
 }
 
 /// The smallest `f32` greater than `v` (infinity stays infinity).
+///
+/// On the bits, with one well-predicted branch for the usual case (a positive finite value or
+/// +0, as error bounds are): +inf stays, -0 goes to the smallest subnormal, everything else
+/// (negative values and NaNs) steps its bits down.
 #[inline]
 pub fn next_float_up(v: f32) -> f32 {
-    if v.is_infinite() && v > 0.0 {
-        return v;
-    }
-    let v = if v == -0.0 { 0.0 } else { v };
     let bits = v.to_bits();
-    let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
-    f32::from_bits(bits)
+    f32::from_bits(if bits < 0x7f80_0000 {
+        bits + 1
+    } else if bits == 0x7f80_0000 {
+        bits
+    } else if bits == 0x8000_0000 {
+        1
+    } else {
+        bits - 1
+    })
 }
 
 /// The largest `f32` smaller than `v` (negative infinity stays).
+///
+/// On the bits: a positive value (+inf included) steps down, either zero goes to the negative
+/// subnormal closest to it, -inf stays, everything else (negative values and NaNs) steps up.
 #[inline]
 pub fn next_float_down(v: f32) -> f32 {
-    if v.is_infinite() && v < 0.0 {
-        return v;
-    }
-    let v = if v == 0.0 { -0.0 } else { v };
     let bits = v.to_bits();
-    let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
-    f32::from_bits(bits)
+    f32::from_bits(if bits.wrapping_sub(1) < 0x7f80_0000 {
+        bits - 1
+    } else if bits & 0x7fff_ffff == 0 {
+        0x8000_0001
+    } else if bits == 0xff80_0000 {
+        bits
+    } else {
+        // Wrapping, as release builds of the float-level definition did for the NaN 0xffffffff.
+        bits.wrapping_add(1)
+    })
 }
 
 /// Rounds an `f64` point to `f32` and returns it with a per-component bound on the error of the
@@ -192,6 +206,35 @@ pub fn is_black(c: Vec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bit-level next-float functions agree with the float-level definitions on the
+    /// special values and on every 251st bit pattern (NaNs of both signs included).
+    #[test]
+    fn next_float_matches_the_float_definition() {
+        let up = |v: f32| {
+            if v.is_infinite() && v > 0.0 {
+                return v;
+            }
+            let v = if v == -0.0 { 0.0 } else { v };
+            let bits = v.to_bits();
+            f32::from_bits(if v >= 0.0 { bits.wrapping_add(1) } else { bits.wrapping_sub(1) })
+        };
+        let down = |v: f32| {
+            if v.is_infinite() && v < 0.0 {
+                return v;
+            }
+            let v = if v == 0.0 { -0.0 } else { v };
+            let bits = v.to_bits();
+            f32::from_bits(if v > 0.0 { bits.wrapping_sub(1) } else { bits.wrapping_add(1) })
+        };
+        let specials = [0u32, 1, 0x7f7f_ffff, 0x7f80_0000, 0x7f80_0001, 0x7fc0_0000, 0x7fff_ffff];
+        let specials = specials.iter().flat_map(|&b| [b, b | 0x8000_0000]);
+        for bits in (0..=u32::MAX).step_by(251).chain(specials) {
+            let v = f32::from_bits(bits);
+            assert_eq!(next_float_up(v).to_bits(), up(v).to_bits(), "up {bits:#x}");
+            assert_eq!(next_float_down(v).to_bits(), down(v).to_bits(), "down {bits:#x}");
+        }
+    }
 
     #[test]
     fn next_float_steps_one_ulp() {
