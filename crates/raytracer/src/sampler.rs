@@ -11,7 +11,8 @@
 //! longer pays) the numbers come from a PCG stream.
 //!
 //! Everything depends only on `(seed, pixel, sample index)`, so images do not depend on tiling
-//! or threads.
+//! or threads. The part that depends only on `(seed, pixel)` (the scramble seeds of every pair,
+//! the PCG key) is hashed once per pixel by a [`PixelSampler`], which makes the pixel's samplers.
 
 use crate::sampling::{Rng, mix64};
 use glam::Vec2;
