@@ -177,6 +177,16 @@ fn sweep_box(keys: &[Shape]) -> (DVec3, DVec3) {
     (DVec3::new(-r, -r, z0), DVec3::new(r, r, z1))
 }
 
+/// The render-space box of a deforming BLAS's one shape at every time.
+pub(super) fn instance_box(inst: &Instance, blas: &Blas) -> (Vec3, Vec3) {
+    let (lo, hi) = blas.bounds;
+    match &inst.motion {
+        Some(motion) => super::motion::motion_box(motion, lo.as_dvec3(), hi.as_dvec3()),
+        None if inst.identity => (lo, hi),
+        None => transformed_box(&inst.render_from_blas, lo.as_dvec3(), hi.as_dvec3()),
+    }
+}
+
 /// The deformation over the shutter interval (key times mapped to shutter fractions as
 /// [`Ray::time`] uses them), or `None` when the shape keeps its shape while the shutter is open
 /// (no keys, a closed shutter, or every key inside it and the shapes at open and close equal).

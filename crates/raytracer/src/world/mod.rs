@@ -293,13 +293,7 @@ impl World {
                 continue;
             }
             if blas.deforming.is_some() {
-                // One shape, held by the BLAS's bounds at every time.
-                let (lo, hi) = blas.bounds;
-                out.push(match &inst.motion {
-                    Some(motion) => motion::motion_box(motion, lo.as_dvec3(), hi.as_dvec3()),
-                    None if inst.identity => (lo, hi),
-                    None => placement::transformed_box(&inst.render_from_blas, lo.as_dvec3(), hi.as_dvec3()),
-                });
+                out.push(deformation::instance_box(inst, blas));
                 continue;
             }
             let mut boxes: Vec<Option<(Vec3, Vec3)>> = vec![None; blas.shapes.len()];
