@@ -180,3 +180,18 @@ fn a_tessellated_patch_deforms_as_the_polygon_does() {
         assert!((f64::from(p[3]) - (1.0 - x.abs())).abs() < 0.02, "pixel {k}: {}", p[3]);
     }
 }
+
+#[test]
+fn a_deformation_under_a_moving_transformation_composes_with_it() {
+    // The square's vertices slide by +1 while its transformation slides it by -1: it stays
+    // where the still square is (up to rounding at its edges).
+    let cam = camera(32, 2, "Shutter 0 1");
+    let still = coverage(&format!("{cam}{}", world(&square(-1.0, 0.0))), 64);
+    let body = format!(
+        "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate -1 0 0\nMotionEnd\n{}",
+        keys("0 1", &[square(-1.0, 0.0), square(0.0, 1.0)])
+    );
+    let both = coverage(&format!("{cam}{}", world(&body)), 64);
+    let worst = both.iter().zip(&still).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(worst <= 1.0 / 64.0, "worst pixel difference {worst}");
+}
