@@ -117,7 +117,8 @@ impl World {
         // Geometry, placed (and for meshes tessellated) per placement.
         // World shapes are placed in render space, where the eye is the origin; object
         // definitions in their own space (no camera distance).
-        let mut triangle_count = 0usize;
+        // Every triangle placed so far, a deforming shape's counted once per key.
+        let triangle_count = std::cell::Cell::new(0usize);
         // Separate patches of the world that share an edge get bitwise-equal vertices along it,
         // so the watertight triangle test closes the seam.
         let mut seams =
@@ -126,7 +127,7 @@ impl World {
                             blas_from_object: &DMat4,
                             in_render_space: bool,
                             diagnostics: &mut Diagnostics| {
-            if triangle_count >= MAX_WORLD_TRIANGLES && !is_quadric(&entity.shape) {
+            if triangle_count.get() >= MAX_WORLD_TRIANGLES && !is_quadric(&entity.shape) {
                 let kind = shape_kind(&entity.shape);
                 let why = format!("the world already has {MAX_WORLD_TRIANGLES} triangles");
                 diagnostics.warn_once(Some(&entity.loc), format!("{kind} skipped: {why}"));
@@ -142,7 +143,7 @@ impl World {
                         {
                             seams.weld(m);
                         }
-                        triangle_count += m.indices.len();
+                        triangle_count.set(triangle_count.get() + m.indices.len());
                     }
                     Some(g)
                 }
@@ -343,8 +344,14 @@ impl World {
                 continue;
             }
             let fp = if motion.is_none() { Some(&footprint) } else { None };
-            let blas = match deforming_blas(&deformation, entity.attributes, &blas_from_object, fp, scene) {
-                Ok(blas) => blas,
+            let budget = MAX_WORLD_TRIANGLES.saturating_sub(triangle_count.get());
+            let placed =
+                deforming_blas(&deformation, entity.attributes, &blas_from_object, fp, budget, scene);
+            let blas = match placed {
+                Ok((blas, keyed_triangles)) => {
+                    triangle_count.set(triangle_count.get() + keyed_triangles);
+                    blas
+                }
                 Err(why) => {
                     let kind = shape_kind(&entity.shape);
                     diagnostics.warn_once(

@@ -207,15 +207,17 @@ pub(super) fn shutter_deformation(
     moves.then_some(keyed)
 }
 
-/// A BLAS holding the deforming shape of `entity` placed with `blas_from_object`, tessellated for
-/// `footprint` when given, or why its keys cannot be interpolated.
+/// A BLAS holding the deforming shape placed with `blas_from_object`, tessellated for
+/// `footprint` when given, and the number of triangles of all its keys (at most `budget`), or
+/// why its keys cannot be interpolated.
 pub(super) fn deforming_blas(
     deformation: &Deformation,
     attributes: AttributesId,
     blas_from_object: &DMat4,
     footprint: Option<&PixelFootprint>,
+    budget: usize,
     scene: &Scene,
-) -> Result<Blas, String> {
+) -> Result<(Blas, usize), String> {
     let shapes = deformation.shapes();
     let times = deformation.times().to_vec();
     let mut builder = BlasBuilder::new();
@@ -250,14 +252,24 @@ pub(super) fn deforming_blas(
             builder.quadrics.push(q);
         }
         builder.push_shape(attributes, None, scene);
-        return Ok(builder.finish_deforming(deforming));
+        return Ok((builder.finish_deforming(deforming), 0));
     }
     // Meshes: every key with one tolerance, the finest any key asks for.
     let tolerance = common_tolerance(shapes, blas_from_object, footprint);
+    // Every key's triangles count against the world's budget: a hostile file with many keys
+    // cannot make more than that.
+    let mut left = budget;
     let mut meshes = Vec::with_capacity(shapes.len());
     for shape in shapes {
-        match place_geometry_with(shape, blas_from_object, footprint, tolerance)? {
-            Geometry::Mesh(m) => meshes.push(m),
+        let cap = tolerance.max_triangles.min(left as u64);
+        if cap == 0 {
+            return Err(format!("its keys would make more than the world's {MAX_WORLD_TRIANGLES} triangles"));
+        }
+        match place_geometry_with(shape, blas_from_object, footprint, tolerance.with_max_triangles(cap))? {
+            Geometry::Mesh(m) => {
+                left = left.saturating_sub(m.indices.len());
+                meshes.push(m);
+            }
             _ => return Err("its keys are not meshes".into()),
         }
     }
@@ -290,12 +302,13 @@ pub(super) fn deforming_blas(
     }
     let mesh = KeyedMesh { triangles: open.indices.clone(), positions, normals };
     let deforming = Deforming { times, mesh: Some(mesh), quadrics: Vec::new() };
+    let keyed_triangles = budget - left;
     builder.push_shape(
         attributes,
         Some(MeshShading { triangles: open.indices, normals: open.normals, st: open.st }),
         scene,
     );
-    Ok(builder.finish_deforming(deforming))
+    Ok((builder.finish_deforming(deforming), keyed_triangles))
 }
 
 /// Every vertex of the keys `(i, j)` interpolated `f` of the way.
