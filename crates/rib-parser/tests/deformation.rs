@@ -88,3 +88,19 @@ fn a_deforming_shape_round_trips_through_the_writer() {
     assert_eq!(again.scene.shapes[0].shape, loaded.scene.shapes[0].shape);
     assert_eq!(again.scene.shapes[0].deformation, loaded.scene.shapes[0].deformation);
 }
+
+#[test]
+fn float_primitive_variables_are_interpolated_and_the_others_are_the_first_keys() {
+    let loaded = load(
+        "Shutter 0 1\nWorldBegin\nMotionBegin [0 1]\n\
+         Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 0 1 0 0 1 0 0 1] \"uniform string name\" [\"a\"]\n\
+         Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 1 0 0 1 0 0 1 0] \"uniform string name\" [\"b\"]\n\
+         MotionEnd\nWorldEnd\n",
+    );
+    assert!(!loaded.render_warnings().contains("warning"), "{}", loaded.render_warnings());
+    let d = loaded.scene.shapes[0].deformation.as_ref().expect("the normals deform");
+    let Shape::Polygons(m) = d.at(0.25) else { panic!("a polygon") };
+    assert_eq!(m.primvars.floats("N").unwrap()[..3], [0.0, 0.25, 0.75]);
+    let name = m.primvars.get("name").unwrap();
+    assert_eq!(name.values, rib_parser::scene::ParamValues::Strings(vec!["a".into()]));
+}
