@@ -19,12 +19,13 @@
 //! shape, as the haptics do.
 
 use super::placement::{
-    BlasBuilder, Geometry, PixelFootprint, common_tolerance, place_geometry_with, transformed_box,
+    BlasBuilder, Geometry, PixelFootprint, common_tolerance, place_geometry_with, ribbon_facing,
+    transformed_box,
 };
 use super::*;
 use rib_parser::deformation::{Deformation, key_segment, lerp_shape};
 use rib_parser::scene::{Scene, Shape};
-use tessellate::is_quadric;
+use tessellate::{curve_ribbons_keys, is_quadric};
 
 /// The keys of a deforming BLAS (one shape), aligned with its triangles (by their mesh index)
 /// and quadrics (by index).
@@ -260,7 +261,27 @@ pub(super) fn deforming_blas(
     // cannot make more than that.
     let mut left = budget;
     let mut meshes = Vec::with_capacity(shapes.len());
-    for shape in shapes {
+    let curves: Vec<&rib_parser::scene::Curves> =
+        shapes.iter().filter_map(|s| if let Shape::Curves(c) = &**s { Some(c) } else { None }).collect();
+    if let (Some(footprint), true) = (footprint, curves.len() == shapes.len()) {
+        // Ribbons facing the eye, every key sampled alike (tessellate::curve_ribbons_keys).
+        let cap = tolerance.max_triangles.min(left as u64);
+        let keyed = curve_ribbons_keys(
+            &curves,
+            blas_from_object,
+            ribbon_facing(footprint),
+            &tolerance.with_max_triangles(cap),
+        )
+        .map_err(|e| e.to_string())?;
+        for m in keyed {
+            left = left.checked_sub(m.indices.len()).ok_or_else(|| {
+                format!("its keys would make more than the world's {MAX_WORLD_TRIANGLES} triangles")
+            })?;
+            meshes.push(m);
+        }
+    }
+    let tessellate_each = meshes.is_empty();
+    for shape in shapes.iter().filter(|_| tessellate_each) {
         let cap = tolerance.max_triangles.min(left as u64);
         if cap == 0 {
             return Err(format!("its keys would make more than the world's {MAX_WORLD_TRIANGLES} triangles"));

@@ -161,14 +161,9 @@ pub(super) fn place_geometry_with(
     let mesh = match shape {
         // Seen from the eye (the render-space origin), curves are ribbons facing it; in an
         // object definition, where no eye is known, round tubes.
-        Shape::Curves(curves) if footprint.is_some() => {
-            let facing = match footprint {
-                Some(PixelFootprint::Orthographic { view_direction, .. }) => {
-                    RibbonFacing::Direction(-*view_direction)
-                }
-                _ => RibbonFacing::Eye(DVec3::ZERO),
-            };
-            curve_ribbons(curves, blas_from_object, facing, &tolerance).map_err(|e| e.to_string())?
+        Shape::Curves(curves) if let Some(footprint) = footprint => {
+            curve_ribbons(curves, blas_from_object, ribbon_facing(footprint), &tolerance)
+                .map_err(|e| e.to_string())?
         }
         _ => tessellate_placed(shape, blas_from_object, false, &tolerance).map_err(|e| e.to_string())?,
     };
@@ -176,6 +171,15 @@ pub(super) fn place_geometry_with(
         return Err("it has no area".into());
     }
     Ok(Geometry::Mesh(mesh))
+}
+
+/// Which way curve ribbons face for a camera: toward the eye (the render-space origin), or
+/// against an orthographic camera's view direction.
+pub(super) fn ribbon_facing(footprint: &PixelFootprint) -> RibbonFacing {
+    match footprint {
+        PixelFootprint::Orthographic { view_direction, .. } => RibbonFacing::Direction(-*view_direction),
+        _ => RibbonFacing::Eye(DVec3::ZERO),
+    }
 }
 
 /// `Points` as exact spheres of diameter `width` (RenderMan's default 1) around each point.
