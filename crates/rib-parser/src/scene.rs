@@ -726,12 +726,12 @@ pub enum Shape {
 
 impl Scene {
     /// Whether something moves while the shutter is open (`Shutter open close` with
-    /// `close > open` and a shape or instance with transformation motion): the image then has
+    /// `close > open` and a shape or instance with transformation or deformation motion): the image then has
     /// motion blur.
     pub fn has_motion_blur(&self) -> bool {
         let open = self.render.shutter.is_some_and(|(open, close)| close > open);
         open && (self.render.camera_motion.is_some()
-            || self.shapes.iter().any(|s| s.motion.is_some())
+            || self.shapes.iter().any(|s| s.motion.is_some() || s.deformation.is_some())
             || self.instances.iter().any(|i| i.motion.is_some()))
     }
 }
@@ -745,6 +745,10 @@ pub struct ShapeEntity {
     /// `world_from_object` at each key time of a `MotionBegin` block around its
     /// transformations (scene times, as `Shutter` gives them); `None` when it does not move.
     pub motion: Option<Arc<crate::motion::TransformMotion>>,
+    /// The shape at each key time of a `MotionBegin` block around one geometry request per
+    /// time (scene times); `shape` is then its value at shutter open. `None` when it keeps its
+    /// shape.
+    pub deformation: Option<Arc<crate::deformation::Deformation>>,
     pub attributes: AttributesId,
     /// True when the shape was given inside `SolidBegin`/`SolidEnd`; for world shapes the
     /// operations are in [`Scene::solids`].
