@@ -98,11 +98,12 @@ pub(super) struct MeshUniform {
 }
 
 /// The scene's indirect light at world point `p` as radiance SH, packed for the shaders (zero
-/// without probes): the probes' radiance SH there minus the SH of the lights' direct light as
-/// the shaders add it per fragment (unshadowed; an area light over `samples[k]`, its emitter
-/// samples, where the shaders integrate it over them), so direct light keeps its exact
-/// per-fragment falloff and the probes add what the lights alone miss (bounce light, the
-/// scene's colour).
+/// without probes): the probes' radiance SH there, which the shaders add to the lights' direct
+/// light (computed per fragment, with its exact falloff). Probes that hold the light emitters
+/// send them straight (`emitters_seen`, files from before the bake left it out) first lose the
+/// area lights' direct light at `p` (over `samples[k]`, their emitter samples, where the shaders
+/// integrate them over those); delta lights are never in a probe, so nothing of theirs is
+/// subtracted.
 pub(super) fn indirect_sh(
     probes: Option<&sidecar::ProbeGrid>,
     lights: &[LiveLight],
@@ -114,6 +115,15 @@ pub(super) fn indirect_sh(
         return [[0.0; 4]; 9];
     }
     let mut sh = grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]);
+    if grid.emitters_seen {
+        subtract_area_lights(&mut sh, lights, samples, p);
+    }
+    sh.map(|c| [c[0], c[1], c[2], 0.0])
+}
+
+/// Subtracts from radiance SH `sh` at `p` the area lights' direct light there, as the shaders
+/// add it (unshadowed).
+fn subtract_area_lights(sh: &mut [[f32; 3]; 9], lights: &[LiveLight], samples: &[Vec<AreaSample>], p: DVec3) {
     let mut subtract = |dir: DVec3, e: glam::Vec3| {
         let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
         for (c, yi) in sh.iter_mut().zip(y) {
@@ -123,8 +133,9 @@ pub(super) fn indirect_sh(
         }
     };
     for (k, light) in lights.iter().enumerate() {
-        match (light, samples.get(k).filter(|s| !s.is_empty())) {
-            (LiveLight::Area { radiance, area, two_sided, .. }, Some(samples)) => {
+        let LiveLight::Area { radiance, area, two_sided, .. } = light else { continue };
+        match samples.get(k).filter(|s| !s.is_empty()) {
+            Some(samples) => {
                 let total: f64 = samples.iter().map(|s| s.area).sum();
                 for s in samples {
                     let v = s.position - p;
@@ -137,51 +148,31 @@ pub(super) fn indirect_sh(
                     }
                 }
             }
-            _ => {
-                if let Some((dir, e)) = direct_at(light, p) {
+            None => {
+                if let Some((dir, e)) = area_light_at_centroid(light, p) {
                     subtract(dir, e);
                 }
             }
         }
     }
-    sh.map(|c| [c[0], c[1], c[2], 0.0])
 }
 
-/// Direction toward a light and the irradiance it gives a surface facing it at `p`, as
-/// `composite.wgsl`'s `shade` computes it (`None` for ambient light).
-fn direct_at(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
-    let toward = |position: DVec3| {
-        let v = position - p;
-        let d2 = v.length_squared().max(1e-30);
-        (v / d2.sqrt(), d2)
+/// Direction toward an area light seen as one point at its centroid, and the irradiance it
+/// gives a surface facing it at `p`, as `composite.wgsl`'s `shade` computes it without the
+/// light's emitter samples (`None` for other lights).
+fn area_light_at_centroid(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
+    let LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } = light else { return None };
+    let v = *centroid - p;
+    let d2 = v.length_squared().max(1e-30);
+    let l = v / d2.sqrt();
+    let lobe = match normal {
+        Some(n) => {
+            let c = n.dot(-l) as f32;
+            if *two_sided { c.abs() } else { c.max(0.0) }
+        }
+        None => 0.25,
     };
-    match light {
-        LiveLight::Ambient { .. } => None,
-        LiveLight::Distant { direction, colour } => Some((-direction.normalize_or_zero(), *colour)),
-        LiveLight::Point { position, colour } => {
-            let (l, d2) = toward(*position);
-            Some((l, *colour / d2 as f32))
-        }
-        LiveLight::Spot { position, axis, colour, cone_angle, cone_delta_angle, beam_distribution } => {
-            let (l, d2) = toward(*position);
-            let cos = (-l).dot(axis.normalize_or_zero()) as f32;
-            let (lo, hi) = (cone_angle.cos(), (cone_angle - cone_delta_angle).cos());
-            let t = ((cos - lo) / (hi - lo)).clamp(0.0, 1.0);
-            let smooth = t * t * (3.0 - 2.0 * t);
-            Some((l, *colour * cos.max(0.0).powf(*beam_distribution) * smooth / d2 as f32))
-        }
-        LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } => {
-            let (l, d2) = toward(*centroid);
-            let lobe = match normal {
-                Some(n) => {
-                    let c = n.dot(-l) as f32;
-                    if *two_sided { c.abs() } else { c.max(0.0) }
-                }
-                None => 0.25,
-            };
-            Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
-        }
-    }
+    Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
 }
 
 pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
