@@ -166,3 +166,72 @@ fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
         (0..added.1.len()).filter(|&k| added.1[k] == 255 && added.0[4 * k] > 1.05 * without.0[4 * k]);
     assert!(brighter.count() > 1000);
 }
+
+/// Each fragment of a live object gets the probe field's irradiance at its own point and
+/// normal, as `sidecar::ProbeGrid::irradiance` evaluates it (DDGI weights over the 8 probes of
+/// its cell): a white Lambertian sphere (no lights) spanning a 3x3x3 grid of probes, each with
+/// its own light and a wall hiding some of them, has radiance `E(p, n) / pi` at every pixel.
+#[test]
+fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
+    let gpu = gpu();
+    let texels = sidecar::VISIBILITY_TEXELS * sidecar::VISIBILITY_TEXELS;
+    let (centre, radius) = (DVec3::new(0.05, -0.1, 0.1), 0.45);
+    let mut grid = uniform_probe([0.0; 3]);
+    grid.counts = [3, 3, 3];
+    grid.spacing = [0.4, 0.35, 0.45];
+    grid.origin = [-0.35, -0.45, -0.35];
+    grid.radiance_sh = (0..27)
+        .map(|p| {
+            let mut sh = [[0.0f32; 3]; 9];
+            sh[0] = [0.5 + 0.1 * (p % 3) as f32, 0.3 + 0.05 * (p / 9) as f32, 0.4];
+            sh[1] = [0.2 * ((p / 3) % 3) as f32 - 0.2, 0.1, -0.05];
+            sh[3] = [0.1, -0.1 * (p % 2) as f32, 0.15];
+            sh[6] = [0.05, 0.02, -0.03];
+            sh
+        })
+        .collect();
+    // Probes with odd index see a surface 0.3 away in every direction: the sphere's points
+    // beyond it are hidden from them.
+    grid.visibility =
+        (0..27 * texels).map(|t| if (t / texels) % 2 == 1 { [0.3, 0.09] } else { [10.0, 100.0] }).collect();
+    let mut scene = cornell_scene(vec![]);
+    scene.set_probes(grid.clone());
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let mut c = Compositor::new(
+        &gpu,
+        &scene,
+        CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() },
+    )
+    .unwrap();
+    c.render(&live).unwrap();
+    let linear = c.read_back_linear().unwrap();
+    let mask = c.read_back().unwrap().mask;
+    let camera = scene.camera();
+    let (w, _) = scene.size();
+    let (mut checked, mut spread) = (0, (f32::INFINITY, 0.0f32));
+    for (k, &m) in mask.iter().enumerate() {
+        let (i, j) = ((k as u32) % w, (k as u32) / w);
+        let ray = camera.pixel_centre_world_ray(i, j);
+        let Some(t) = ray_sphere(ray.origin, ray.direction, centre, radius) else { continue };
+        let p = ray.origin + t * ray.direction;
+        let n = (p - centre) / radius;
+        // Skip the silhouette, where f32 and f64 may disagree on the hit.
+        if m != 255 || n.dot(-ray.direction) < 0.05 {
+            continue;
+        }
+        let e = grid.irradiance(p.as_vec3().to_array(), n.as_vec3().to_array());
+        for (ch, e) in e.iter().enumerate() {
+            let (got, want) = (linear.rgba[4 * k + ch], e / std::f32::consts::PI);
+            assert!(
+                (got - want).abs() <= 2e-3 * want.max(0.05),
+                "pixel ({i}, {j}) channel {ch}: {got} vs {want}"
+            );
+        }
+        spread = (spread.0.min(e[0]), spread.1.max(e[0]));
+        checked += 1;
+    }
+    assert!(checked > 5000, "{checked}");
+    // The field varies over the sphere: one SH for the whole object would not pass.
+    assert!(spread.1 > 1.5 * spread.0, "{spread:?}");
+}

@@ -74,8 +74,6 @@ pub(super) struct FrameUniform {
     pub(super) shadow_spheres: [[f32; 4]; MAX_SHADOW_SPHERES],
     /// Rotation from camera to world space (for the probes' world-space SH).
     pub(super) world_from_camera: [[f32; 4]; 4],
-    /// The cursor sphere's radiance SH from the irradiance probes.
-    pub(super) sphere_sh: [[f32; 4]; 9],
     /// Per light: its layer slice (`u32::MAX`: none), first area sample, sample count.
     pub(super) shadow_slots: [[u32; 4]; MAX_LIGHTS],
     /// Camera space to world space, points (the reflection probes' lookups are in world space).
@@ -84,6 +82,10 @@ pub(super) struct FrameUniform {
     pub(super) reflection_origin: [f32; 4],
     pub(super) reflection_spacing: [f32; 4],
     pub(super) reflection_counts: [u32; 4],
+    /// The irradiance probes' grid: origin (w 1 when bound), spacing, counts.
+    pub(super) irradiance_origin: [f32; 4],
+    pub(super) irradiance_spacing: [f32; 4],
+    pub(super) irradiance_counts: [u32; 4],
     pub(super) lights: [GpuLight; MAX_LIGHTS],
 }
 
@@ -93,37 +95,16 @@ pub(super) struct MeshUniform {
     pub(super) camera_from_object: [[f32; 4]; 4],
     pub(super) normal_from_object: [[f32; 4]; 4],
     pub(super) material: GpuMaterial,
-    /// The mesh's radiance SH from the irradiance probes.
-    pub(super) sh: [[f32; 4]; 9],
-}
-
-/// The scene's indirect light at world point `p` as radiance SH, packed for the shaders (zero
-/// without probes): the probes' radiance SH there, which the shaders add to the lights' direct
-/// light (computed per fragment, with its exact falloff). Probes that hold the light emitters
-/// send them straight (`emitters_seen`, files from before the bake left it out) first lose the
-/// area lights' direct light at `p` (over `samples[k]`, their emitter samples, where the shaders
-/// integrate them over those); delta lights are never in a probe, so nothing of theirs is
-/// subtracted.
-pub(super) fn indirect_sh(
-    probes: Option<&sidecar::ProbeGrid>,
-    lights: &[LiveLight],
-    samples: &[Vec<AreaSample>],
-    p: DVec3,
-) -> [[f32; 4]; 9] {
-    let Some(grid) = probes else { return [[0.0; 4]; 9] };
-    if !p.is_finite() {
-        return [[0.0; 4]; 9];
-    }
-    let mut sh = grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]);
-    if grid.emitters_seen {
-        subtract_area_lights(&mut sh, lights, samples, p);
-    }
-    sh.map(|c| [c[0], c[1], c[2], 0.0])
 }
 
 /// Subtracts from radiance SH `sh` at `p` the area lights' direct light there, as the shaders
 /// add it (unshadowed).
-fn subtract_area_lights(sh: &mut [[f32; 3]; 9], lights: &[LiveLight], samples: &[Vec<AreaSample>], p: DVec3) {
+pub(super) fn subtract_area_lights(
+    sh: &mut [[f32; 3]; 9],
+    lights: &[LiveLight],
+    samples: &[Vec<AreaSample>],
+    p: DVec3,
+) {
     let mut subtract = |dir: DVec3, e: glam::Vec3| {
         let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
         for (c, yi) in sh.iter_mut().zip(y) {
@@ -306,7 +287,7 @@ impl Compositor {
                 self.lights.len().min(MAX_LIGHTS) as u32,
                 shadow_on,
                 u32::from(sphere.is_some()),
-                u32::from(self.probes.is_some()),
+                u32::from(self.irradiance.origin[3] == 1.0),
             ],
             shadow_light,
             shadow_params,
@@ -315,17 +296,14 @@ impl Compositor {
             layer_info: [self.layers.info[0], self.layers.info[1], self.layers.info[2], sphere_count as u32],
             shadow_spheres,
             world_from_camera: mat4_f32(DMat4::from_mat3(linear.inverse())),
-            sphere_sh: indirect_sh(
-                self.probes.as_deref(),
-                &self.lights,
-                &self.layers.world_samples,
-                sphere.map_or(DVec3::NAN, |s| s.centre),
-            ),
             shadow_slots,
             world_from_camera_point: mat4_f32(camera_from_world.inverse()),
             reflection_origin: self.reflections.origin,
             reflection_spacing: self.reflections.spacing,
             reflection_counts: self.reflections.counts,
+            irradiance_origin: self.irradiance.origin,
+            irradiance_spacing: self.irradiance.spacing,
+            irradiance_counts: self.irradiance.counts,
             lights,
         }
     }
