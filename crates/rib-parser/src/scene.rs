@@ -489,8 +489,16 @@ pub enum Handle {
     Name(String),
 }
 
+/// The factor between the `Cl` of RenderMan's standard point, spot and distant lights and
+/// physical radiant intensity or irradiance: their shaders' `diffuse()` multiplies `Cl` by the
+/// cosine with no `1/pi`, so on a true Lambertian surface (`Kd Cs / pi`) these lights carry a
+/// factor `pi` to be as bright as RenderMan renders them. Every consumer of [`LightKind`] that
+/// shades physically (the ray tracer, the viewer's live objects) applies it.
+pub const RENDERMAN_DELTA_LIGHT_SCALE: f32 = std::f32::consts::PI;
+
 /// A light resolved to world space with RenderMan's standard defaults filled in.
-/// Intensities follow the standard shaders: point and spot lights fall off as `1 / d^2`.
+/// Intensities follow the standard shaders: point and spot lights fall off as `1 / d^2`
+/// (see [`RENDERMAN_DELTA_LIGHT_SCALE`] for their units).
 #[derive(Clone, Debug, PartialEq)]
 pub enum LightKind {
     /// `ambientlight`: `intensity`, `lightcolor`.
