@@ -170,6 +170,7 @@ mod tests {
                 shape: Arc::new(shape),
                 world_from_object: glam::DMat4::from_translation(at),
                 motion: None,
+                deformation: None,
                 attributes: AttributesId(i as u32),
                 in_solid: false,
                 loc: FileLoc::new("test.rib", i as u32 + 1, 1),

@@ -48,6 +48,10 @@ pub struct SourcedLight {
 /// used are left out with a warning), each with its scene index and area samples.
 pub fn live_lights_with_sources(scene: &Scene, skipped: &mut Skipped) -> Vec<SourcedLight> {
     let mut out = Vec::new();
+    // RenderMan's delta lights give `Kd Cs Cl cos` on a matte surface (`diffuse()` has no
+    // `1/pi`); the ray tracer carries that as a factor `pi` on their intensity, and so do the
+    // live lights, which the shaders apply to a true Lambertian `Kd Cs / pi`.
+    let delta = rib_parser::scene::RENDERMAN_DELTA_LIGHT_SCALE;
     for (k, light) in scene.lights.iter().enumerate() {
         let finite = |v: f32| v.is_finite();
         let mut samples = Vec::new();
@@ -56,10 +60,10 @@ pub fn live_lights_with_sources(scene: &Scene, skipped: &mut Skipped) -> Vec<Sou
                 Some(LiveLight::Ambient { colour: *color * *intensity })
             }
             LightKind::Distant { direction, intensity, color } => {
-                Some(LiveLight::Distant { direction: *direction, colour: *color * *intensity })
+                Some(LiveLight::Distant { direction: *direction, colour: *color * *intensity * delta })
             }
             LightKind::Point { position, intensity, color } => {
-                Some(LiveLight::Point { position: *position, colour: *color * *intensity })
+                Some(LiveLight::Point { position: *position, colour: *color * *intensity * delta })
             }
             LightKind::Spot {
                 position,
@@ -72,7 +76,7 @@ pub fn live_lights_with_sources(scene: &Scene, skipped: &mut Skipped) -> Vec<Sou
             } => Some(LiveLight::Spot {
                 position: *position,
                 axis: *direction,
-                colour: *color * *intensity,
+                colour: *color * *intensity * delta,
                 cone_angle: *cone_angle,
                 cone_delta_angle: *cone_delta_angle,
                 beam_distribution: *beam_distribution,
@@ -284,10 +288,12 @@ mod tests {
         assert_eq!(lights.len(), 5);
         assert_eq!(lights[0], LiveLight::Ambient { colour: Vec3::splat(0.5) });
         let LiveLight::Distant { direction, colour } = &lights[1] else { panic!() };
-        assert!((*direction - DVec3::NEG_Y).length() < 1e-12 && *colour == Vec3::splat(3.0));
+        // Delta lights carry RenderMan's factor pi, as in the ray tracer.
+        let pi = std::f32::consts::PI;
+        assert!((*direction - DVec3::NEG_Y).length() < 1e-12 && *colour == Vec3::splat(3.0) * pi);
         assert_eq!(
             lights[2],
-            LiveLight::Point { position: DVec3::new(1.0, 2.0, 3.0), colour: Vec3::new(4.0, 2.0, 1.0) }
+            LiveLight::Point { position: DVec3::new(1.0, 2.0, 3.0), colour: Vec3::new(4.0, 2.0, 1.0) * pi }
         );
         let LiveLight::Spot { axis, cone_angle, .. } = &lights[3] else { panic!() };
         assert!((*axis - DVec3::NEG_Y).length() < 1e-12 && (cone_angle - 0.5).abs() < 1e-6);

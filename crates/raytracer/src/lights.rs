@@ -24,8 +24,9 @@ use std::f32::consts::PI;
 use std::sync::Arc;
 
 /// The factor between RenderMan's `Cl` of the standard point, spot and distant lights and
-/// physical radiant intensity or irradiance (see the module documentation).
-pub const RENDERMAN_LIGHT_SCALE: f32 = PI;
+/// physical radiant intensity or irradiance (see the module documentation), defined once with
+/// the scene's lights so the viewer's live objects use the same.
+pub const RENDERMAN_LIGHT_SCALE: f32 = rib_parser::scene::RENDERMAN_DELTA_LIGHT_SCALE;
 
 /// Emitting geometry of an area light, in render space.
 #[derive(Clone, Debug)]

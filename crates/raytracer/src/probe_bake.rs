@@ -1,6 +1,7 @@
 //! Baking the sidecar's irradiance probes (docs/sidecar.md) from the render's own integrator:
 //! a grid of probes at the cell centres of the scene's bounds, each with the SH projection of
-//! the radiance the integrator returns along a spherical Fibonacci set of rays, and the
+//! the radiance the integrator returns along a spherical Fibonacci set of rays (less what an
+//! emitter sends straight to the probe: a viewer adds the lights' direct light itself), and the
 //! distance to the first surface through each octahedral visibility texel.
 
 use crate::integrators::{Integrator, RayCounters};
@@ -13,6 +14,20 @@ use sidecar::{ProbeGrid, VISIBILITY_TEXELS, octahedral_texel_direction};
 
 /// One probe's radiance SH, visibility texels and the rays it traced.
 type BakedProbe = ([[f32; 3]; 9], Vec<[f32; 2]>, RayCounters);
+
+/// The radiance an area light's emitter sends straight along `ray` (zero when the ray's first
+/// hit is not an emitter): both kinds of probe leave it out, because a viewer lights and
+/// reflects with the lights itself, from their emitter samples (exactly, where the probes would
+/// blur a close, bright emitter with the probe's view of it). Delta lights never reach a probe.
+pub(crate) fn emitter_seen(world: &World, ray: &Ray, counters: &mut RayCounters) -> Vec3 {
+    counters.shadow += 1;
+    let Some(hit) = world.intersect(ray) else { return Vec3::ZERO };
+    let si = world.interaction(ray, &hit);
+    match si.emitter {
+        Some(e) => world.lights[e as usize].emitted(si.ng, si.wo),
+        None => Vec3::ZERO,
+    }
+}
 
 /// Bounds on the bake's work.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,7 +123,12 @@ pub fn bake_probes(
             {
                 let mut sampler = pixel_sampler.sample(k as u32);
                 let r = integrator.li(world, Ray::new(p, Vec3::from_array(d)), &mut sampler, &mut counters);
-                let rgb = if r.rgb.is_finite() { r.rgb } else { Vec3::ZERO };
+                let rgb = if r.rgb.is_finite() {
+                    (r.rgb - emitter_seen(world, &Ray::new(p, Vec3::from_array(d)), &mut counters))
+                        .max(Vec3::ZERO)
+                } else {
+                    Vec3::ZERO
+                };
                 projector.add(d, rgb.to_array());
             }
             let visibility = (0..texels)
@@ -131,7 +151,14 @@ pub fn bake_probes(
         radiance_sh.push(sh);
         visibility.extend(vis);
     }
-    let grid =
-        ProbeGrid { depth_fingerprint: 0, origin: origin_world, spacing, counts, radiance_sh, visibility };
+    let grid = ProbeGrid {
+        depth_fingerprint: 0,
+        origin: origin_world,
+        spacing,
+        counts,
+        radiance_sh,
+        visibility,
+        emitters_seen: false,
+    };
     Some((grid, counters))
 }

@@ -6,7 +6,7 @@
 //! roughness levels `sidecar::reflection_levels` defines.
 
 use crate::integrators::{Integrator, RayCounters};
-use crate::probe_bake::grid_layout;
+use crate::probe_bake::{emitter_seen, grid_layout};
 use crate::sampler::PixelSampler;
 use crate::world::{Ray, World};
 use glam::Vec3;
@@ -14,20 +14,6 @@ use rayon::prelude::*;
 use sidecar::{
     REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, octahedral_direction, reflection_levels,
 };
-
-/// The radiance an area light's emitter sends straight along `ray` (zero when the ray's first
-/// hit is not an emitter): the probes leave it out, because a viewer reflects the lights itself
-/// from their emitter samples (exactly, where the probes would blur a close, bright emitter
-/// with the probe's view of it).
-fn emitter_seen(world: &World, ray: &Ray, counters: &mut RayCounters) -> Vec3 {
-    counters.shadow += 1;
-    let Some(hit) = world.intersect(ray) else { return Vec3::ZERO };
-    let si = world.interaction(ray, &hit);
-    match si.emitter {
-        Some(e) => world.lights[e as usize].emitted(si.ng, si.wo),
-        None => Vec3::ZERO,
-    }
-}
 
 /// Bounds on the bake's work: at most `max_probes * 1024 * rays_per_texel` integrator
 /// estimates and `max_probes * 1024` distance rays.

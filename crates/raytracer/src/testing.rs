@@ -97,6 +97,7 @@ impl SceneBuilder {
             shape: Arc::new(shape),
             world_from_object,
             motion: None,
+            deformation: None,
             attributes,
             in_solid: false,
             loc: here(),

@@ -489,8 +489,16 @@ pub enum Handle {
     Name(String),
 }
 
+/// The factor between the `Cl` of RenderMan's standard point, spot and distant lights and
+/// physical radiant intensity or irradiance: their shaders' `diffuse()` multiplies `Cl` by the
+/// cosine with no `1/pi`, so on a true Lambertian surface (`Kd Cs / pi`) these lights carry a
+/// factor `pi` to be as bright as RenderMan renders them. Every consumer of [`LightKind`] that
+/// shades physically (the ray tracer, the viewer's live objects) applies it.
+pub const RENDERMAN_DELTA_LIGHT_SCALE: f32 = std::f32::consts::PI;
+
 /// A light resolved to world space with RenderMan's standard defaults filled in.
-/// Intensities follow the standard shaders: point and spot lights fall off as `1 / d^2`.
+/// Intensities follow the standard shaders: point and spot lights fall off as `1 / d^2`
+/// (see [`RENDERMAN_DELTA_LIGHT_SCALE`] for their units).
 #[derive(Clone, Debug, PartialEq)]
 pub enum LightKind {
     /// `ambientlight`: `intensity`, `lightcolor`.
@@ -726,12 +734,12 @@ pub enum Shape {
 
 impl Scene {
     /// Whether something moves while the shutter is open (`Shutter open close` with
-    /// `close > open` and a shape or instance with transformation motion): the image then has
+    /// `close > open` and a shape or instance with transformation or deformation motion): the image then has
     /// motion blur.
     pub fn has_motion_blur(&self) -> bool {
         let open = self.render.shutter.is_some_and(|(open, close)| close > open);
         open && (self.render.camera_motion.is_some()
-            || self.shapes.iter().any(|s| s.motion.is_some())
+            || self.shapes.iter().any(|s| s.motion.is_some() || s.deformation.is_some())
             || self.instances.iter().any(|i| i.motion.is_some()))
     }
 }
@@ -745,6 +753,10 @@ pub struct ShapeEntity {
     /// `world_from_object` at each key time of a `MotionBegin` block around its
     /// transformations (scene times, as `Shutter` gives them); `None` when it does not move.
     pub motion: Option<Arc<crate::motion::TransformMotion>>,
+    /// The shape at each key time of a `MotionBegin` block around one geometry request per
+    /// time (scene times); `shape` is then its value at shutter open. `None` when it keeps its
+    /// shape.
+    pub deformation: Option<Arc<crate::deformation::Deformation>>,
     pub attributes: AttributesId,
     /// True when the shape was given inside `SolidBegin`/`SolidEnd`; for world shapes the
     /// operations are in [`Scene::solids`].

@@ -389,7 +389,12 @@ impl Writer {
         if shape.in_solid {
             self.line("SolidBegin \"primitive\"");
         }
-        self.shape(&shape.shape);
+        match &shape.deformation {
+            // The keys read back as the same deformation, and its value at shutter open as
+            // the shape.
+            Some(d) => self.deformation(d),
+            None => self.shape(&shape.shape),
+        }
         if shape.in_solid {
             self.line("SolidEnd");
         }
@@ -461,6 +466,51 @@ impl Writer {
     }
 
     fn shape(&mut self, shape: &Shape) {
+        self.shape_with(shape, true);
+    }
+
+    /// A shape's deformation keys in a motion block; the attributes they need (`Basis`,
+    /// `TrimCurve`, the same for every key) are written before it.
+    fn deformation(&mut self, d: &crate::deformation::Deformation) {
+        self.shape_attributes(&d.shapes()[0]);
+        let times: Vec<String> = d.times().iter().map(|t| f(*t as f32)).collect();
+        self.line(format!("MotionBegin [{}]", times.join(" ")));
+        for key in d.shapes() {
+            self.shape_with(key, false);
+        }
+        self.line("MotionEnd");
+    }
+
+    /// The attribute requests a shape's request depends on.
+    fn shape_attributes(&mut self, shape: &Shape) {
+        match shape {
+            Shape::Patches(p) => self.line(format!("Basis {} {}", basis(&p.u_basis), basis(&p.v_basis))),
+            Shape::Curves(c) => self.line(format!("Basis {} {}", basis(&c.v_basis), basis(&c.v_basis))),
+            Shape::NuPatch(n) => {
+                if let Some(t) = &n.trim {
+                    self.line(format!(
+                        "TrimCurve {} {} {} {} {} {} {} {} {}",
+                        ints(&t.curves_per_loop),
+                        ints(&t.order),
+                        floats(&t.knots),
+                        floats(&t.min),
+                        floats(&t.max),
+                        ints(&t.n),
+                        floats(&t.u),
+                        floats(&t.v),
+                        floats(&t.w)
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// A shape's request, after the attributes it needs when `with_attributes`.
+    fn shape_with(&mut self, shape: &Shape, with_attributes: bool) {
+        if with_attributes {
+            self.shape_attributes(shape);
+        }
         let line = match shape {
             Shape::Sphere { radius, z_min, z_max, theta_max_degrees } => {
                 format!("Sphere {} {} {} {}", f(*radius), f(*z_min), f(*z_max), f(*theta_max_degrees))
@@ -515,7 +565,6 @@ impl Writer {
                 )
             }
             Shape::Patches(p) => {
-                self.line(format!("Basis {} {}", basis(&p.u_basis), basis(&p.v_basis)));
                 let pw: Vec<f32> = p.positions.iter().flat_map(|v| v.to_array()).collect();
                 let kind = match p.kind {
                     PatchKind::Bilinear => "bilinear",
@@ -532,20 +581,6 @@ impl Writer {
                 )
             }
             Shape::NuPatch(n) => {
-                if let Some(t) = &n.trim {
-                    self.line(format!(
-                        "TrimCurve {} {} {} {} {} {} {} {} {}",
-                        ints(&t.curves_per_loop),
-                        ints(&t.order),
-                        floats(&t.knots),
-                        floats(&t.min),
-                        floats(&t.max),
-                        ints(&t.n),
-                        floats(&t.u),
-                        floats(&t.v),
-                        floats(&t.w)
-                    ));
-                }
                 let pw: Vec<f32> = n.positions.iter().flat_map(|v| v.to_array()).collect();
                 format!(
                     "NuPatch {} {} {} {} {} {} {} {} {} {} \"vertex hpoint Pw\" {}{}",
@@ -608,7 +643,6 @@ impl Writer {
                 param_list(&b.primvars)
             ),
             Shape::Curves(c) => {
-                self.line(format!("Basis {} {}", basis(&c.v_basis), basis(&c.v_basis)));
                 let pos: Vec<f32> = c.positions.iter().flat_map(|v| v.to_array()).collect();
                 format!(
                     "Curves {} {} {} \"vertex point P\" {}{}",

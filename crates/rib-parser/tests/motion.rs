@@ -61,12 +61,13 @@ fn moving_instances_and_the_first_sample_fallbacks() {
             .abs_diff_eq(DMat4::from_rotation_z(std::f64::consts::FRAC_PI_4), 1e-12)
     );
 
-    // Geometry inside a motion block (deformation) keeps its first sample, with a warning.
-    let loaded =
-        load("WorldBegin\nMotionBegin [0 1]\nSphere 1 -1 1 360\nSphere 2 -2 2 360\nMotionEnd\nWorldEnd\n");
+    // Attributes inside a motion block keep their first sample, with a warning.
+    let loaded = load(
+        "WorldBegin\nMotionBegin [0 1]\nColor [1 0 0]\nColor [0 1 0]\nMotionEnd\nSphere 1 -1 1 360\nWorldEnd\n",
+    );
     assert_eq!(loaded.scene.shapes.len(), 1);
     let text = loaded.render_warnings();
-    assert!(text.contains("deformation motion blur"), "{text}");
+    assert!(text.contains("motion blur of lights and attributes"), "{text}");
 
     // A moving camera keeps its keys (tests/scene.rs has the rest); a projective key cannot be
     // a camera, so the camera at shutter open is used, with a warning.

@@ -26,6 +26,11 @@ pub struct ProbeGrid {
     /// Per probe, `VISIBILITY_TEXELS^2` texels (row-major over the octahedral square, see
     /// [`octahedral_texel`]): mean and mean squared distance to the first surface.
     pub visibility: Vec<[f32; 2]>,
+    /// Whether `radiance_sh` includes the light emitters send straight to the probe (files
+    /// written before the `lrt.probes.emitters` attribute); `false` when the bake left it out,
+    /// so the SH holds only light leaving other surfaces, which a viewer adds to the lights'
+    /// own direct light without subtracting anything.
+    pub emitters_seen: bool,
 }
 
 /// The octahedral map's coordinates in `[0, 1]^2` of unit direction `d`.
@@ -166,6 +171,13 @@ impl ProbeGrid {
     /// visibility, so a probe on the far side of a wall does not light `p`. `p` is first moved
     /// `0.1 * min(spacing)` along `n` off the surface (DDGI's normal bias).
     pub fn irradiance(&self, p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
+        self.irradiance_of(&self.radiance_sh, p, n)
+    }
+
+    /// [`ProbeGrid::irradiance`] with each probe's radiance SH taken from `sh` (one set per
+    /// probe, e.g. the probes' SH less light a viewer adds itself) instead of `radiance_sh`.
+    /// A probe missing from `sh` counts as dark.
+    pub fn irradiance_of(&self, sh: &[[[f32; 3]; SH_COEFFICIENTS]], p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
         let bias = 0.1 * self.spacing.iter().copied().fold(f32::INFINITY, f32::min);
         let q: [f32; 3] = std::array::from_fn(|a| p[a] + n[a] * bias);
         let mut sum = [0.0f32; 3];
@@ -178,7 +190,7 @@ impl ProbeGrid {
                 h * h + 0.2
             };
             let w = crushed(trilinear * backface * self.visibility_of(probe, dir, distance).max(1e-6));
-            let e = sh_irradiance(&self.radiance_sh[probe], n);
+            let e = sh.get(probe).map_or([0.0; 3], |probe_sh| sh_irradiance(probe_sh, n));
             for c in 0..3 {
                 sum[c] += w * e[c];
             }
@@ -208,6 +220,7 @@ mod tests {
             counts: [2, 1, 1],
             radiance_sh: vec![a, b],
             visibility: vec![[5.0, 25.0]; 2 * texels],
+            emitters_seen: false,
         };
         assert_eq!(grid.radiance_sh_at([0.0, 0.0, 0.0]), a);
         assert_eq!(grid.radiance_sh_at([1.0, 0.0, 0.0]), b);
@@ -257,6 +270,7 @@ mod tests {
             counts: [2, 1, 1],
             radiance_sh: vec![lit.finish(), ShProjector::default().finish()],
             visibility,
+            emitters_seen: false,
         }
     }
 
@@ -290,6 +304,7 @@ mod tests {
             counts: [1, 1, 1],
             radiance_sh: vec![p.finish()],
             visibility: vec![[100.0, 10000.0]; VISIBILITY_TEXELS * VISIBILITY_TEXELS],
+            emitters_seen: false,
         };
         let e = grid.irradiance([1.2, 2.0, 3.1], [0.0, 0.0, 1.0]);
         for (c, l) in [0.5f32, 1.0, 2.0].iter().enumerate() {

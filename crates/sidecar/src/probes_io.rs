@@ -19,6 +19,9 @@ const KIND_PROBES: &str = "probes";
 const GRID_NAMES: GridNames =
     GridNames { origin: "lrt.probes.origin", spacing: "lrt.probes.spacing", counts: "lrt.probes.counts" };
 const ATTR_TEXELS: &str = "lrt.probes.visibility_texels";
+/// `excluded` when the SH leaves out light emitters send straight to the probe, `included`
+/// when it holds it; files without the attribute (written before it) hold it.
+const ATTR_EMITTERS: &str = "lrt.probes.emitters";
 /// Most probes a reader accepts.
 const MAX_PROBES: u64 = 1 << 20;
 
@@ -59,6 +62,8 @@ pub fn write_probes(grid: &ProbeGrid, path: &Path) -> Result<(), SidecarError> {
         let placement = (grid.origin, grid.spacing, grid.counts);
         let mut a = grid_attributes(name, KIND_PROBES, grid.depth_fingerprint, &GRID_NAMES, placement);
         a.other.insert(Text::from(ATTR_TEXELS), AttributeValue::I32(VISIBILITY_TEXELS as i32));
+        let emitters = if grid.emitters_seen { "included" } else { "excluded" };
+        a.other.insert(Text::from(ATTR_EMITTERS), AttributeValue::Text(Text::from(emitters)));
         a
     };
     let mut sh = Vec::new();
@@ -242,6 +247,17 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
             });
         }
     }
+    let emitters_seen = match attrs.get(&Text::from(ATTR_EMITTERS)) {
+        None => true,
+        Some(AttributeValue::Text(t)) if t == "included" => true,
+        Some(AttributeValue::Text(t)) if t == "excluded" => false,
+        Some(_) => {
+            return Err(SidecarErrorKind::BadAttribute {
+                name: ATTR_EMITTERS.into(),
+                detail: "expected `included` or `excluded`".into(),
+            });
+        }
+    };
     let texels = VISIBILITY_TEXELS * VISIBILITY_TEXELS;
     let image = read()
         .no_deep_data()
@@ -280,5 +296,13 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
     let mean = take("visibility.mean".into())?;
     let mean_sq = take("visibility.meansq".into())?;
     let visibility = mean.into_iter().zip(mean_sq).map(|(m, s)| [m, s]).collect();
-    Ok(ProbeGrid { depth_fingerprint: fingerprint, origin, spacing, counts, radiance_sh, visibility })
+    Ok(ProbeGrid {
+        depth_fingerprint: fingerprint,
+        origin,
+        spacing,
+        counts,
+        radiance_sh,
+        visibility,
+        emitters_seen,
+    })
 }

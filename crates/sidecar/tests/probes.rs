@@ -13,6 +13,7 @@ fn grid() -> ProbeGrid {
         visibility: (0..n * VISIBILITY_TEXELS * VISIBILITY_TEXELS)
             .map(|t| [t as f32 * 0.01, t as f32 * 1e-4 + 0.5])
             .collect(),
+        emitters_seen: false,
     }
 }
 
@@ -38,4 +39,32 @@ fn probes_round_trip_and_bad_files_are_refused() {
     assert!(write_probes(&bad, &path).is_err());
     assert_eq!(read_probes(&path, None).unwrap(), g);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+}
+
+/// The `lrt.probes.emitters` attribute round-trips both ways, and a file written before it (no
+/// attribute) is read as holding the emitters' light, as such files do.
+#[test]
+fn whether_the_probes_hold_the_emitters_light_round_trips_and_defaults_to_held() {
+    use exr::prelude::*;
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = dir.path().join("out.probes.exr");
+    for emitters_seen in [false, true] {
+        let g = ProbeGrid { emitters_seen, ..grid() };
+        write_probes(&g, &path).unwrap();
+        assert_eq!(read_probes(&path, None).unwrap(), g);
+    }
+    let mut image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(&path)
+        .unwrap();
+    for layer in image.layer_data.iter_mut() {
+        assert!(layer.attributes.other.remove(&Text::from("lrt.probes.emitters")).is_some());
+    }
+    let legacy = dir.path().join("legacy.probes.exr");
+    image.write().to_file(&legacy).unwrap();
+    assert!(read_probes(&legacy, None).unwrap().emitters_seen);
 }

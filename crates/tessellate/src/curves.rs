@@ -46,6 +46,17 @@ pub fn point_widths(points: &Points) -> Vec<f64> {
 
 /// Samples every curve into a polyline whose chords stay within `eps` of the curve.
 pub fn curve_polylines(curves: &Curves, eps: f64) -> Result<Vec<CurvePolyline>, TessellateError> {
+    curve_polylines_counted(curves, eps, None, &mut Vec::new())
+}
+
+/// [`curve_polylines`] with the number of chords of every cubic segment (all curves' in order)
+/// pushed to `counts`, or taken from `forced` when given (the same length).
+fn curve_polylines_counted(
+    curves: &Curves,
+    eps: f64,
+    forced: Option<&[usize]>,
+    counts: &mut Vec<usize>,
+) -> Result<Vec<CurvePolyline>, TessellateError> {
     let kind = "Curves";
     let m = curves.v_basis.matrix.map(f64::from);
     let step = curves.v_basis.step.max(1) as usize;
@@ -111,6 +122,8 @@ pub fn curve_polylines(curves: &Curves, eps: f64) -> Result<Vec<CurvePolyline>, 
                 // |P''(t)| = |6 a t + 2 b| <= 6|a| + 2|b|; chord error <= max|P''| / (8 n^2).
                 let bound = 6.0 * c[0].length() + 2.0 * c[1].length();
                 let n = ((bound / (8.0 * eps)).sqrt().ceil() as usize).clamp(1, 1 << 16);
+                let n = forced.and_then(|f| f.get(counts.len()).copied()).unwrap_or(n).clamp(1, 1 << 16);
+                counts.push(n);
                 (c, cw, n)
             } else {
                 let (a, b) = (cps[s % nv], cps[(s + 1) % nv]);
@@ -269,16 +282,70 @@ pub fn curve_ribbons(
 ) -> Result<TriangleMesh, TessellateError> {
     let linear = DMat3::from_mat4(*placed_from_object);
     let stretch = super::placed::spectral_norm(&linear);
-    // Widths scale with the transform's mean stretch (exact for similarities).
-    let width_scale = linear.determinant().abs().cbrt();
     let size = super::diagonal_of("Curves", curves.positions.iter().map(|p| p.as_dvec3()))?;
     let eps = tol.effective(size, stretch)?;
     let lines = curve_polylines(curves, eps)?;
+    ribbons(&lines, placed_from_object, facing, tol)
+}
+
+/// [`curve_ribbons`] of every key of a deforming `Curves` (same curves and vertex counts): the
+/// keys are sampled with the same number of chords per segment (the most any key needs), so
+/// vertex `i` of one key's mesh is vertex `i` of every other's, and the triangles are the first
+/// key's.
+pub fn curve_ribbons_keys(
+    keys: &[&Curves],
+    placed_from_object: &DMat4,
+    facing: RibbonFacing,
+    tol: &Tolerance,
+) -> Result<Vec<TriangleMesh>, TessellateError> {
+    let linear = DMat3::from_mat4(*placed_from_object);
+    let stretch = super::placed::spectral_norm(&linear);
+    let mut eps = f64::INFINITY;
+    for curves in keys {
+        let size = super::diagonal_of("Curves", curves.positions.iter().map(|p| p.as_dvec3()))?;
+        eps = eps.min(tol.effective(size, stretch)?);
+    }
+    let mut most: Vec<usize> = Vec::new();
+    for curves in keys {
+        let mut counts = Vec::new();
+        curve_polylines_counted(curves, eps, None, &mut counts)?;
+        if most.is_empty() {
+            most = counts;
+        } else {
+            for (m, c) in most.iter_mut().zip(counts) {
+                *m = (*m).max(c);
+            }
+        }
+    }
+    let mut meshes = Vec::with_capacity(keys.len());
+    for curves in keys {
+        let lines = curve_polylines_counted(curves, eps, Some(&most), &mut Vec::new())?;
+        let mut mesh = ribbons(&lines, placed_from_object, facing, tol)?;
+        if let Some(first) = meshes.first().map(|m: &TriangleMesh| m.indices.clone())
+            && first.len() == mesh.indices.len()
+        {
+            mesh.indices = first;
+        }
+        meshes.push(mesh);
+    }
+    Ok(meshes)
+}
+
+/// Ribbons along `lines` (object space), placed and facing as [`curve_ribbons`] says.
+fn ribbons(
+    lines: &[CurvePolyline],
+    placed_from_object: &DMat4,
+    facing: RibbonFacing,
+    tol: &Tolerance,
+) -> Result<TriangleMesh, TessellateError> {
+    let linear = DMat3::from_mat4(*placed_from_object);
+    // Widths scale with the transform's mean stretch (exact for similarities).
+    let width_scale = linear.determinant().abs().cbrt();
     let points: u64 = lines.iter().map(|l| l.points.len() as u64).sum();
     check_budget("Curves", 2.0 * points as f64, tol)?;
     let mut mesh = TriangleMesh::default();
     let mut normals = Vec::new();
-    for line in &lines {
+    for line in lines {
         let placed = CurvePolyline {
             points: line.points.iter().map(|&p| placed_from_object.project_point3(p)).collect(),
             widths: line.widths.iter().map(|&w| w * width_scale).collect(),

@@ -68,7 +68,9 @@ mod subdiv;
 mod trim;
 
 pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
-pub use curves::{CurvePolyline, RibbonFacing, curve_polylines, curve_ribbons, point_widths};
+pub use curves::{
+    CurvePolyline, RibbonFacing, curve_polylines, curve_ribbons, curve_ribbons_keys, point_widths,
+};
 pub use mesh::TriangleMesh;
 pub use placed::{
     MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,

@@ -23,6 +23,7 @@ fn uniform_probe(l: [f32; 3]) -> sidecar::ProbeGrid {
         counts: [1, 1, 1],
         radiance_sh: vec![sh],
         visibility: vec![[10.0, 100.0]; texels],
+        emitters_seen: false,
     }
 }
 
@@ -73,38 +74,36 @@ fn render_linear(scene: &ViewerScene, live: &LiveObjects) -> (Vec<f32>, Vec<u8>)
     (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
 }
 
-/// Probes that saw only the RIB's point light add nothing: the probes contribute the light the
-/// lights miss, and the lights' own direct light is taken out of them before they are used.
+/// A point light never reaches a probe (no ray hits it), so nothing of its direct light is
+/// taken out of the probes: a dark probe field adds nothing and takes nothing away.
 #[test]
-fn probes_that_saw_only_the_lights_add_nothing() {
-    let (position, intensity) = (DVec3::new(0.1, 0.9, 0.2), 4.0f32);
-    let centre = DVec3::new(0.0, -0.2, 0.0);
-    let light = LiveLight::Point { position, colour: Vec3::splat(intensity) };
+fn a_dark_probe_field_takes_nothing_from_a_point_light() {
+    let light = LiveLight::Point { position: DVec3::new(0.1, 0.9, 0.2), colour: Vec3::splat(4.0) };
     let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let centre = DVec3::new(0.0, -0.2, 0.0);
     let live = LiveObjects { sphere: Some(Sphere { centre, radius: 0.3, material }), meshes: Vec::new() };
     let without = render_linear(&cornell_scene(vec![light.clone()]), &live);
-    // The point light's radiance at the sphere's centre, projected on the SH basis.
-    let to_light = position - centre;
-    let e = intensity / to_light.length_squared() as f32;
-    let dir = to_light.normalize();
-    let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
-    let mut probes = uniform_probe([0.0; 3]);
-    probes.origin = [centre.x as f32, centre.y as f32, centre.z as f32];
-    probes.radiance_sh[0] = y.map(|v| [v * e; 3]);
-    let mut scene = cornell_scene(vec![light]);
-    scene.set_probes(probes);
-    let with = render_linear(&scene, &live);
-    assert_eq!(without.1, with.1);
-    let inside: Vec<usize> = (0..with.1.len()).filter(|&k| with.1[k] == 255).collect();
-    assert!(inside.len() > 1000);
-    for k in inside {
-        let (a, b) = (without.0[4 * k], with.0[4 * k]);
-        assert!((a - b).abs() <= 1e-4 * a.abs().max(1e-3), "pixel {k}: {a} without probes, {b} with");
+    for emitters_seen in [false, true] {
+        let mut probes = uniform_probe([0.0; 3]);
+        probes.origin = [centre.x as f32, centre.y as f32, centre.z as f32];
+        probes.emitters_seen = emitters_seen;
+        let mut scene = cornell_scene(vec![light.clone()]);
+        scene.set_probes(probes);
+        let with = render_linear(&scene, &live);
+        assert_eq!(without.1, with.1);
+        let inside: Vec<usize> = (0..with.1.len()).filter(|&k| with.1[k] == 255).collect();
+        assert!(inside.len() > 1000);
+        for k in inside {
+            let (a, b) = (without.0[4 * k], with.0[4 * k]);
+            assert!((a - b).abs() <= 1e-4 * a.abs().max(1e-3), "pixel {k}: {a} without probes, {b} with");
+        }
     }
 }
 
-/// The same for an area light integrated over the light layers' emitter samples: probes that
-/// saw only its direct light (projected from those samples) add nothing.
+/// Probes written before the bake left emitters out (`emitters_seen`) hold an area light's
+/// direct light, which the viewer adds itself over the light layers' emitter samples: probes
+/// that saw only that light (projected from those samples) add nothing. Probes baked without
+/// the emitters hold no such light, so the same SH is light they add.
 #[test]
 fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
     let centre = DVec3::new(0.05, 0.5, 0.0);
@@ -149,7 +148,8 @@ fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
     let mut probes = uniform_probe([0.0; 3]);
     probes.origin = [centre.x as f32, centre.y as f32, centre.z as f32];
     probes.radiance_sh[0] = sh;
-    let with = render_linear(&layered(Some(probes)), &live);
+    probes.emitters_seen = true;
+    let with = render_linear(&layered(Some(probes.clone())), &live);
     assert_eq!(without.1, with.1);
     let inside: Vec<usize> = (0..with.1.len()).filter(|&k| with.1[k] == 255).collect();
     assert!(inside.len() > 1000);
@@ -159,4 +159,79 @@ fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
             assert!((a - b).abs() <= 1e-3 * a.abs().max(1e-2), "pixel {k}: {a} without probes, {b} with");
         }
     }
+    // Baked without the emitters, the same SH is the scene's light on the sphere: brighter.
+    probes.emitters_seen = false;
+    let added = render_linear(&layered(Some(probes)), &live);
+    let brighter =
+        (0..added.1.len()).filter(|&k| added.1[k] == 255 && added.0[4 * k] > 1.05 * without.0[4 * k]);
+    assert!(brighter.count() > 1000);
+}
+
+/// Each fragment of a live object gets the probe field's irradiance at its own point and
+/// normal, as `sidecar::ProbeGrid::irradiance` evaluates it (DDGI weights over the 8 probes of
+/// its cell): a white Lambertian sphere (no lights) spanning a 3x3x3 grid of probes, each with
+/// its own light and a wall hiding some of them, has radiance `E(p, n) / pi` at every pixel.
+#[test]
+fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
+    let gpu = gpu();
+    let texels = sidecar::VISIBILITY_TEXELS * sidecar::VISIBILITY_TEXELS;
+    let (centre, radius) = (DVec3::new(0.05, -0.1, 0.1), 0.45);
+    let mut grid = uniform_probe([0.0; 3]);
+    grid.counts = [3, 3, 3];
+    grid.spacing = [0.4, 0.35, 0.45];
+    grid.origin = [-0.35, -0.45, -0.35];
+    grid.radiance_sh = (0..27)
+        .map(|p| {
+            let mut sh = [[0.0f32; 3]; 9];
+            sh[0] = [0.5 + 0.1 * (p % 3) as f32, 0.3 + 0.05 * (p / 9) as f32, 0.4];
+            sh[1] = [0.2 * ((p / 3) % 3) as f32 - 0.2, 0.1, -0.05];
+            sh[3] = [0.1, -0.1 * (p % 2) as f32, 0.15];
+            sh[6] = [0.05, 0.02, -0.03];
+            sh
+        })
+        .collect();
+    // Probes with odd index see a surface 0.3 away in every direction: the sphere's points
+    // beyond it are hidden from them.
+    grid.visibility =
+        (0..27 * texels).map(|t| if (t / texels) % 2 == 1 { [0.3, 0.09] } else { [10.0, 100.0] }).collect();
+    let mut scene = cornell_scene(vec![]);
+    scene.set_probes(grid.clone());
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let mut c = Compositor::new(
+        &gpu,
+        &scene,
+        CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() },
+    )
+    .unwrap();
+    c.render(&live).unwrap();
+    let linear = c.read_back_linear().unwrap();
+    let mask = c.read_back().unwrap().mask;
+    let camera = scene.camera();
+    let (w, _) = scene.size();
+    let (mut checked, mut spread) = (0, (f32::INFINITY, 0.0f32));
+    for (k, &m) in mask.iter().enumerate() {
+        let (i, j) = ((k as u32) % w, (k as u32) / w);
+        let ray = camera.pixel_centre_world_ray(i, j);
+        let Some(t) = ray_sphere(ray.origin, ray.direction, centre, radius) else { continue };
+        let p = ray.origin + t * ray.direction;
+        let n = (p - centre) / radius;
+        // Skip the silhouette, where f32 and f64 may disagree on the hit.
+        if m != 255 || n.dot(-ray.direction) < 0.05 {
+            continue;
+        }
+        let e = grid.irradiance(p.as_vec3().to_array(), n.as_vec3().to_array());
+        for (ch, e) in e.iter().enumerate() {
+            let (got, want) = (linear.rgba[4 * k + ch], e / std::f32::consts::PI);
+            assert!(
+                (got - want).abs() <= 2e-3 * want.max(0.05),
+                "pixel ({i}, {j}) channel {ch}: {got} vs {want}"
+            );
+        }
+        spread = (spread.0.min(e[0]), spread.1.max(e[0]));
+        checked += 1;
+    }
+    assert!(checked > 5000, "{checked}");
+    // The field varies over the sphere: one SH for the whole object would not pass.
+    assert!(spread.1 > 1.5 * spread.0, "{spread:?}");
 }

@@ -3,6 +3,7 @@
 
 use super::clipping::render_clipping_planes;
 use super::csg::Csg;
+use super::deformation::{deforming_blas, shutter_deformation};
 use super::lighting::{self, area_light_params, background, emitter_shape};
 use super::motion::{camera_shutter_motion, motion_box, shutter_motion};
 use super::placement::{
@@ -15,6 +16,7 @@ use crate::diagnostics::Diagnostics;
 use crate::lights::{EmitterShape, Light, LightSet};
 use crate::materials::{Material, MaterialNote};
 use crate::texture::{Texture, Wrap};
+use rib_parser::deformation::Deformation;
 use rib_parser::scene::{MadeTextureKind, Scene, ShapeEntity};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -115,7 +117,8 @@ impl World {
         // Geometry, placed (and for meshes tessellated) per placement.
         // World shapes are placed in render space, where the eye is the origin; object
         // definitions in their own space (no camera distance).
-        let mut triangle_count = 0usize;
+        // Every triangle placed so far, a deforming shape's counted once per key.
+        let triangle_count = std::cell::Cell::new(0usize);
         // Separate patches of the world that share an edge get bitwise-equal vertices along it,
         // so the watertight triangle test closes the seam.
         let mut seams =
@@ -124,7 +127,7 @@ impl World {
                             blas_from_object: &DMat4,
                             in_render_space: bool,
                             diagnostics: &mut Diagnostics| {
-            if triangle_count >= MAX_WORLD_TRIANGLES && !is_quadric(&entity.shape) {
+            if triangle_count.get() >= MAX_WORLD_TRIANGLES && !is_quadric(&entity.shape) {
                 let kind = shape_kind(&entity.shape);
                 let why = format!("the world already has {MAX_WORLD_TRIANGLES} triangles");
                 diagnostics.warn_once(Some(&entity.loc), format!("{kind} skipped: {why}"));
@@ -140,7 +143,7 @@ impl World {
                         {
                             seams.weld(m);
                         }
-                        triangle_count += m.indices.len();
+                        triangle_count.set(triangle_count.get() + m.indices.len());
                     }
                     Some(g)
                 }
@@ -213,7 +216,26 @@ impl World {
         // Shapes that move while the shutter is open get a BLAS of their own (object space),
         // placed by a moving instance.
         let mut moving_shapes: Vec<(&ShapeEntity, Arc<TransformMotion>)> = Vec::new();
+        // Shapes that deform while the shutter is open get a BLAS of their own holding their
+        // keys (`deformation.rs`), in render space or, when they also move, in object space.
+        let mut deforming_shapes: Vec<(&ShapeEntity, Deformation)> = Vec::new();
         for (i, entity) in scene.shapes.iter().enumerate() {
+            if let Some(deformation) = shutter_deformation(scene, &entity.deformation) {
+                let static_why = if in_solid_blas[i] {
+                    Some("a deforming shape inside SolidBegin is drawn at shutter open (no deformation blur)")
+                } else if scene.attributes_of(entity.attributes).area_light.is_some() {
+                    Some("a deforming area light is drawn at shutter open (no deformation blur)")
+                } else {
+                    None
+                };
+                match static_why {
+                    Some(why) => diagnostics.warn_once(Some(&entity.loc), why.to_string()),
+                    None => {
+                        deforming_shapes.push((entity, deformation));
+                        continue;
+                    }
+                }
+            }
             if let Some(motion) = shutter_motion(scene, &entity.motion, &render_from_world) {
                 let static_why = if in_solid_blas[i] {
                     Some("a moving shape inside SolidBegin is placed at shutter open (no motion blur)")
@@ -305,6 +327,64 @@ impl World {
                 reverse_xor: false,
                 emitters: Vec::new(),
                 motion: Some(motion),
+            });
+        }
+
+        for (entity, deformation) in deforming_shapes {
+            let motion = shutter_motion(scene, &entity.motion, &render_from_world);
+            // Render space for a shape that does not move, its object space for one that does.
+            let blas_from_object = match motion {
+                Some(_) => DMat4::IDENTITY,
+                None => render_from_world * entity.world_from_object,
+            };
+            if !blas_from_object.is_finite() || blas_from_object.determinant() == 0.0 {
+                diagnostics
+                    .warn_once(Some(&entity.loc), "shape with a singular transform skipped".to_string());
+                diagnostics.skip("shapes (singular transform)");
+                continue;
+            }
+            let fp = if motion.is_none() { Some(&footprint) } else { None };
+            let budget = MAX_WORLD_TRIANGLES.saturating_sub(triangle_count.get());
+            let placed =
+                deforming_blas(&deformation, entity.attributes, &blas_from_object, fp, budget, scene);
+            let blas = match placed {
+                Ok((blas, keyed_triangles)) => {
+                    triangle_count.set(triangle_count.get() + keyed_triangles);
+                    blas
+                }
+                Err(why) => {
+                    let kind = shape_kind(&entity.shape);
+                    diagnostics.warn_once(
+                        Some(&entity.loc),
+                        format!("deforming {kind} drawn at shutter open (no deformation blur): {why}"),
+                    );
+                    // The shape at shutter open, in a BLAS of its own.
+                    let Some(g) = geometry(entity, &blas_from_object, motion.is_none(), diagnostics) else {
+                        continue;
+                    };
+                    let mut builder = BlasBuilder::new();
+                    if builder.add(&g, &blas_from_object, entity.attributes, scene).is_none() {
+                        diagnostics.skip("shapes (degenerate geometry)");
+                        continue;
+                    }
+                    builder.finish()
+                }
+            };
+            if blas.prims.is_empty() {
+                continue;
+            }
+            blases.push(blas);
+            let render_from_blas = motion.as_ref().map_or(DMat4::IDENTITY, |m| m.at(0.0));
+            instances.push(Instance {
+                blas: blases.len() as u32 - 1,
+                identity: motion.is_none(),
+                render_from_blas,
+                blas_from_render: render_from_blas.inverse(),
+                attributes: None,
+                one_sided: None,
+                reverse_xor: false,
+                emitters: Vec::new(),
+                motion,
             });
         }
 
@@ -427,7 +507,8 @@ impl World {
             instance_boxes.push(bb);
         }
         let camera_motion = camera_shutter_motion(scene, &render_from_world);
-        let motion_blur = camera_motion.is_some() || instances.iter().any(|i| i.motion.is_some());
+        let motion_blur = camera_motion.is_some()
+            || instances.iter().any(|i| i.motion.is_some() || blases[i.blas as usize].deforming.is_some());
         let (tlas, instances) = if instances.is_empty() || (instances.len() == 1 && instances[0].identity) {
             (None, instances)
         } else {

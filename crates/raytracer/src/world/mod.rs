@@ -13,6 +13,7 @@
 mod build;
 mod clipping;
 mod csg;
+mod deformation;
 mod lighting;
 mod motion;
 mod placement;
@@ -103,6 +104,8 @@ struct Blas {
     bounds: (Vec3, Vec3),
     /// The solid tree when this BLAS holds one outermost `SolidBegin` block.
     csg: Option<csg::Csg>,
+    /// The keys of its one shape when it deforms over the shutter (`deformation.rs`).
+    deforming: Option<Box<deformation::Deforming>>,
 }
 
 #[derive(Clone, Debug)]
@@ -290,6 +293,10 @@ impl World {
             if !wanted.contains(&true) {
                 continue;
             }
+            if blas.deforming.is_some() {
+                out.push(deformation::instance_box(inst, blas));
+                continue;
+            }
             let mut boxes: Vec<Option<(Vec3, Vec3)>> = vec![None; blas.shapes.len()];
             let mut grow = |shape: u32, lo: Vec3, hi: Vec3| {
                 let b = &mut boxes[shape as usize];
@@ -430,6 +437,9 @@ impl World {
             }
             return;
         }
+        if blas.deforming.is_some() {
+            return self.intersect_deforming(instance, inst, query, t_max, best);
+        }
         let Some((mut tray, shear)) = Self::blas_ray(inst, query, *t_max) else { return };
         let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         // Tests BVH slot `slot` against the ray whose closest hit so far is at `r.t_max`; inlined
@@ -547,16 +557,24 @@ impl World {
         match hit.detail {
             HitDetail::Triangle(i, b) => {
                 let tri = &blas.triangles[i as usize];
-                let (p, err) = barycentric_point(b, tri.p[0], tri.p[1], tri.p[2]);
+                // A deforming triangle where the ray met it.
+                let deformed = blas.deforming.as_ref().and_then(|d| d.triangle(tri.index, ray.time));
+                let tp = deformed.unwrap_or(tri.p);
+                let (p, err) = barycentric_point(b, tp[0], tp[1], tp[2]);
                 p_blas = p;
                 err_blas = err;
-                let ng = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).as_dvec3();
+                let ng = (tp[1] - tp[0]).cross(tp[2] - tp[0]).as_dvec3();
                 ng_blas = ng;
                 let s = &blas.shapes[tri.shape as usize];
                 let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
                 let vidx = mesh.map(|m| m.triangles[tri.index as usize]);
                 let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
                 ns_blas = match (mesh.and_then(|m| m.normals.as_ref()), vidx) {
+                    (Some(_), Some(_)) if deformed.is_some() => blas
+                        .deforming
+                        .as_ref()
+                        .and_then(|d| d.normal(tri.index, bw, ray.time))
+                        .map(|n| n.as_dvec3()),
                     (Some(normals), Some(v)) => {
                         let n = normals[v[0] as usize] * bw[0]
                             + normals[v[1] as usize] * bw[1]
@@ -577,10 +595,12 @@ impl World {
                         _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
                     };
                 }
-                dpdu_blas = (tri.p[1] - tri.p[0]).as_dvec3();
+                dpdu_blas = (tp[1] - tp[0]).as_dvec3();
             }
             HitDetail::Quadric(i, h) => {
-                let q = &blas.quadrics[i as usize];
+                // A deforming quadric as the ray met it.
+                let deformed = blas.deforming.as_ref().and_then(|d| d.quadric(i, ray.time));
+                let q = deformed.as_ref().unwrap_or(&blas.quadrics[i as usize]);
                 let m = &q.blas_from_object;
                 p_blas = m.transform_point3(h.p);
                 // The f64 solve and projection leave errors far below f32 rounding; bound them

@@ -10,8 +10,8 @@ use tessellate::{
 };
 
 pub(super) struct BlasBuilder {
-    triangles: Vec<TrianglePrim>,
-    quadrics: Vec<QuadricPrim>,
+    pub(super) triangles: Vec<TrianglePrim>,
+    pub(super) quadrics: Vec<QuadricPrim>,
     shapes: Vec<BlasShape>,
     meshes: Vec<MeshShading>,
 }
@@ -107,6 +107,34 @@ fn tolerance_for(shape: &Shape, blas_from_object: &DMat4, footprint: Option<&Pix
     Tolerance::absolute(eps)
 }
 
+/// One tolerance for every key of a deforming shape: the finest any key asks for, as an
+/// absolute bound (a relative one would differ between keys of other sizes).
+pub(super) fn common_tolerance(
+    keys: &[Arc<Shape>],
+    blas_from_object: &DMat4,
+    footprint: Option<&PixelFootprint>,
+) -> Tolerance {
+    let mut eps = f64::INFINITY;
+    for shape in keys {
+        let t = tolerance_for(shape, blas_from_object, footprint);
+        let size = control_bounds(shape).map(|(lo, hi)| {
+            let (lo, hi) = transformed_box(blas_from_object, lo, hi);
+            (hi - lo).length() as f64
+        });
+        let key_eps = match (t.max_deviation, t.max_relative_deviation, size) {
+            (Some(d), _, _) => d,
+            (None, Some(r), Some(size)) if size > 0.0 && size.is_finite() => r * size,
+            _ => continue,
+        };
+        eps = eps.min(key_eps);
+    }
+    if eps.is_finite() && eps > 0.0 {
+        Tolerance::absolute(eps)
+    } else {
+        Tolerance::relative(TESSELLATION_DEFAULT)
+    }
+}
+
 /// Turns a scene shape into renderable geometry placed with `blas_from_object`, or says why it
 /// is skipped. Quadrics are kept exact; everything else goes through rib-parser's tessellator.
 pub(super) fn place_geometry(
@@ -114,24 +142,28 @@ pub(super) fn place_geometry(
     blas_from_object: &DMat4,
     footprint: Option<&PixelFootprint>,
 ) -> Result<Geometry, String> {
+    place_geometry_with(shape, blas_from_object, footprint, tolerance_for(shape, blas_from_object, footprint))
+}
+
+/// [`place_geometry`] with the tessellation's tolerance given.
+pub(super) fn place_geometry_with(
+    shape: &Shape,
+    blas_from_object: &DMat4,
+    footprint: Option<&PixelFootprint>,
+    tolerance: Tolerance,
+) -> Result<Geometry, String> {
     if is_quadric(shape) {
         return Quadric::new(shape).map(Geometry::Quadric).map_err(|e| e.0.to_string());
     }
     if let Shape::Points(points) = shape {
         return points_as_spheres(points);
     }
-    let tolerance = tolerance_for(shape, blas_from_object, footprint);
     let mesh = match shape {
         // Seen from the eye (the render-space origin), curves are ribbons facing it; in an
         // object definition, where no eye is known, round tubes.
-        Shape::Curves(curves) if footprint.is_some() => {
-            let facing = match footprint {
-                Some(PixelFootprint::Orthographic { view_direction, .. }) => {
-                    RibbonFacing::Direction(-*view_direction)
-                }
-                _ => RibbonFacing::Eye(DVec3::ZERO),
-            };
-            curve_ribbons(curves, blas_from_object, facing, &tolerance).map_err(|e| e.to_string())?
+        Shape::Curves(curves) if let Some(footprint) = footprint => {
+            curve_ribbons(curves, blas_from_object, ribbon_facing(footprint), &tolerance)
+                .map_err(|e| e.to_string())?
         }
         _ => tessellate_placed(shape, blas_from_object, false, &tolerance).map_err(|e| e.to_string())?,
     };
@@ -139,6 +171,15 @@ pub(super) fn place_geometry(
         return Err("it has no area".into());
     }
     Ok(Geometry::Mesh(mesh))
+}
+
+/// Which way curve ribbons face for a camera: toward the eye (the render-space origin), or
+/// against an orthographic camera's view direction.
+pub(super) fn ribbon_facing(footprint: &PixelFootprint) -> RibbonFacing {
+    match footprint {
+        PixelFootprint::Orthographic { view_direction, .. } => RibbonFacing::Direction(-*view_direction),
+        _ => RibbonFacing::Eye(DVec3::ZERO),
+    }
 }
 
 /// `Points` as exact spheres of diameter `width` (RenderMan's default 1) around each point.
@@ -250,15 +291,43 @@ impl BlasBuilder {
         Some(shape_index)
     }
 
+    /// Adds the BLAS shape of primitives pushed directly (a deforming shape's).
+    pub(super) fn push_shape(&mut self, attributes: AttributesId, mesh: Option<MeshShading>, scene: &Scene) {
+        let attrs = scene.attributes_of(attributes);
+        let mesh = mesh.map(|m| {
+            self.meshes.push(m);
+            self.meshes.len() as u32 - 1
+        });
+        self.shapes.push(BlasShape {
+            attributes,
+            one_sided: attrs.sides == 1,
+            reverse: attrs.reverse_orientation,
+            mesh,
+        });
+    }
+
     pub(super) fn finish(self) -> Blas {
+        self.finish_with(None)
+    }
+
+    /// The BLAS of a deforming shape: every primitive's box holds it at every key.
+    pub(super) fn finish_deforming(self, deforming: deformation::Deforming) -> Blas {
+        self.finish_with(Some(Box::new(deforming)))
+    }
+
+    fn finish_with(self, deforming: Option<Box<deformation::Deforming>>) -> Blas {
         let mut boxes = Vec::with_capacity(self.triangles.len() + self.quadrics.len());
         let mut refs = Vec::with_capacity(boxes.capacity());
         for (i, t) in self.triangles.iter().enumerate() {
-            boxes.push((t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2])));
+            let keyed = deforming.as_ref().and_then(|d| d.triangle_box(t.index));
+            boxes.push(keyed.unwrap_or((t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2]))));
             refs.push(Prim::Triangle(i as u32));
         }
         for (i, q) in self.quadrics.iter().enumerate() {
-            boxes.push(transformed_box(&q.blas_from_object, q.quadric.bounds_min, q.quadric.bounds_max));
+            let keyed = deforming.as_ref().and_then(|d| d.quadric_box(i));
+            boxes.push(keyed.unwrap_or_else(|| {
+                transformed_box(&q.blas_from_object, q.quadric.bounds_min, q.quadric.bounds_max)
+            }));
             refs.push(Prim::Quadric(i as u32));
         }
         let mut bounds = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -288,6 +357,7 @@ impl BlasBuilder {
             meshes: self.meshes,
             bounds,
             csg: None,
+            deforming,
         }
     }
 }

@@ -44,7 +44,7 @@ impl World {
     }
 
     /// Attenuation by one surface crossing: `None` means fully blocked.
-    fn attenuation(&self, attributes: AttributesId) -> Option<Vec3> {
+    pub(super) fn attenuation(&self, attributes: AttributesId) -> Option<Vec3> {
         let m = self.material(attributes);
         if m.blocks_shadows() || m.opacity == Vec3::ONE { None } else { Some(Vec3::ONE - m.opacity) }
     }
@@ -68,6 +68,9 @@ impl World {
                 }
             }
             return;
+        }
+        if let Some(deforming) = &blas.deforming {
+            return self.transmittance_deforming(inst, blas, deforming, query, tr);
         }
         let Some((tray, shear)) = Self::blas_ray(inst, query, ray.t_max) else { return };
         let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));

@@ -274,7 +274,15 @@ impl SceneBuilder {
             cx.error(DiagnosticKind::BadArguments, "MotionBegin needs at least one time");
         }
         let times = times.iter().map(|&t| f64::from(t)).collect();
-        self.motion = Some(Motion { times, transforms: Vec::new(), others: 0 });
+        self.motion = Some(Motion {
+            times,
+            transforms: Vec::new(),
+            others: 0,
+            non_geometry: 0,
+            first_shapes: None,
+            first_is_geometry: false,
+            later_shapes: Vec::new(),
+        });
     }
 
     /// Ends a motion block. Its transformation requests, one per key time, make the current
@@ -285,15 +293,18 @@ impl SceneBuilder {
             cx.error(DiagnosticKind::Nesting, "MotionEnd without MotionBegin");
             return;
         };
-        if motion.others > 1 {
+        if motion.others > 1 && motion.non_geometry > 0 {
             self.warn_once(
-                "motion-deformation",
+                "motion-attributes",
                 cx,
                 DiagnosticKind::Unsupported,
-                "deformation motion blur (geometry, lights or attributes inside MotionBegin) is not supported: the first sample of each such motion block is used",
+                "motion blur of lights and attributes (inside MotionBegin) is not supported: the first sample of each such motion block is used",
             );
         }
         if motion.transforms.is_empty() {
+            if motion.first_is_geometry && motion.others > 1 && motion.non_geometry == 0 {
+                self.deform(motion, cx);
+            }
             return;
         }
         if motion.others > 0 {

@@ -50,6 +50,7 @@
 
 mod attributes;
 mod blocks;
+mod deform;
 mod lights;
 mod objects;
 mod options;
@@ -183,8 +184,17 @@ struct Motion {
     times: Vec<f64>,
     /// Its transformation requests, one per key time.
     transforms: Vec<MotionStep>,
-    /// Its other requests (geometry, lights, attributes): only the first is used.
+    /// Its other requests (geometry, lights, attributes): only the first is used, except
+    /// that geometry requests after a first one become its deformation keys.
     others: usize,
+    /// Lights, attributes and instances among `others`: these keep their first sample.
+    non_geometry: usize,
+    /// Where the first request's shapes went when it was geometry: the world's shapes from
+    /// this index on (`None` in an object definition or outside the world).
+    first_shapes: Option<usize>,
+    first_is_geometry: bool,
+    /// The shapes of each later geometry request, where it was given.
+    later_shapes: Vec<(Vec<Shape>, FileLoc)>,
 }
 
 /// One transformation request inside a motion block.
@@ -329,12 +339,13 @@ impl SceneBuilder {
         self.world.is_some()
     }
 
-    /// Inside a motion block only the first request other than a transformation is used (there
-    /// is no deformation blur); the rest are skipped.
+    /// Inside a motion block only the first light, attribute or instance request is used
+    /// (they are not motion blurred); the rest are skipped.
     fn skip_motion_sample(&mut self) -> bool {
         match &mut self.motion {
             Some(m) => {
                 m.others += 1;
+                m.non_geometry += 1;
                 m.others > 1
             }
             None => false,

@@ -129,6 +129,7 @@ impl SceneBuilder {
                             shape: s.shape.clone(),
                             world_from_object: s.object_from_shape,
                             motion: None,
+                            deformation: None,
                             attributes: attributes::intern(&mut state, &mut world.attributes),
                             in_solid: s.in_solid,
                             loc: s.loc.clone(),

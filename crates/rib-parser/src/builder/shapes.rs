@@ -192,10 +192,24 @@ impl SceneBuilder {
         self.add_shapes(vec![shape], cx);
     }
 
-    /// Shapes made by one request (`Geometry "teapot"` makes 32): one motion sample.
+    /// Shapes made by one request (`Geometry "teapot"` makes 32): one motion sample. Inside a
+    /// motion block the first geometry request is added now and the later ones are kept as its
+    /// deformation keys (`deform.rs`).
     pub(super) fn add_shapes(&mut self, shapes: Vec<Shape>, cx: &mut Cx<'_>) {
-        if self.skip_motion_sample() {
-            return;
+        if let Some(m) = &mut self.motion {
+            m.others += 1;
+            if m.others > 1 {
+                if m.first_is_geometry {
+                    m.later_shapes.push((shapes, cx.loc.clone()));
+                }
+                return;
+            }
+            m.first_is_geometry = true;
+            let in_world = self.recording.is_none() && self.world.is_some();
+            let first = self.world.as_ref().map(|w| w.shapes.len());
+            if let Some(m) = &mut self.motion {
+                m.first_shapes = first.filter(|_| in_world);
+            }
         }
         for shape in shapes {
             self.push_shape(shape, cx);
@@ -246,6 +260,7 @@ impl SceneBuilder {
                 shape: Arc::new(shape),
                 world_from_object,
                 motion,
+                deformation: None,
                 attributes,
                 in_solid,
                 loc: cx.loc.clone(),

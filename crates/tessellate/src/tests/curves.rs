@@ -1,7 +1,7 @@
 //! `Curves` and `Points` against closed forms: tube radii, ribbon widths, chord bounds.
 
 use super::assert_well_formed;
-use crate::{RibbonFacing, Tolerance, curve_polylines, curve_ribbons, tessellate};
+use crate::{RibbonFacing, Tolerance, curve_polylines, curve_ribbons, curve_ribbons_keys, tessellate};
 use glam::{DMat4, DVec3, Vec3};
 use rib_parser::basis::named_basis;
 use rib_parser::scene::FileLoc;
@@ -122,4 +122,36 @@ fn points_are_spheres_of_their_width() {
         let r = if p.x > 1.5 { (p - DVec3::X * 3.0).length() - 0.25 } else { p.length() - 0.5 };
         assert!(r.abs() < 1e-6, "{p}");
     }
+}
+
+#[test]
+fn deformation_keys_of_curves_are_sampled_alike() {
+    // A straight cubic Bezier and a strongly bent one: alone the straight one needs one chord,
+    // the bent one many; as keys both get the bent one's, vertex for vertex, and the bent key
+    // is exactly its own ribbon.
+    let cubic = |bend: f32| Curves {
+        cubic: true,
+        vertices_per_curve: vec![4],
+        wrap: Wrap::NonPeriodic,
+        v_basis: named_basis("bezier").unwrap(),
+        positions: vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.333, bend, 0.0),
+            Vec3::new(0.666, bend, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+        ],
+        primvars: ParamList(vec![float_param("constantwidth", StorageClass::Constant, vec![0.1])]),
+    };
+    let (straight, bent) = (cubic(0.0), cubic(-1.0));
+    let place = DMat4::from_translation(DVec3::new(0.0, 0.0, 5.0));
+    let facing = RibbonFacing::Eye(DVec3::ZERO);
+    let tol = Tolerance::absolute(1e-3);
+    let alone = curve_ribbons(&straight, &place, facing, &tol).unwrap();
+    let own = curve_ribbons(&bent, &place, facing, &tol).unwrap();
+    assert!(alone.positions.len() < own.positions.len());
+    let keys = curve_ribbons_keys(&[&straight, &bent], &place, facing, &tol).unwrap();
+    assert_eq!(keys[0].positions.len(), own.positions.len());
+    assert_eq!(keys[0].indices, keys[1].indices);
+    assert_eq!(keys[1].positions, own.positions);
+    assert_well_formed(&keys[0]);
 }

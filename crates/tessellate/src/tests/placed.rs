@@ -134,6 +134,7 @@ fn entity(shape: Shape, m: DMat4, attributes: u32) -> ShapeEntity {
         shape: Arc::new(shape),
         world_from_object: m,
         motion: None,
+        deformation: None,
         attributes: AttributesId(attributes),
         in_solid: false,
         loc: FileLoc::new("scene.rib", 10 + attributes, 1),

@@ -1,6 +1,6 @@
 //! The layout of the frame bind group every compositing pass reads: the frame uniform, the
-//! backdrop's colour and depths, the light layers and their area samples, and the reflection
-//! probes with their sampler.
+//! backdrop's colour and depths, the light layers and their area samples, the reflection
+//! probes with their sampler, and the irradiance probes.
 
 /// A layout entry for a float texture the shaders read.
 pub(super) fn texture_layout_entry(
@@ -16,6 +16,20 @@ pub(super) fn texture_layout_entry(
             sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension,
             multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A layout entry for a read-only storage buffer the fragment shaders read.
+fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
         },
         count: None,
     }
@@ -62,6 +76,8 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                 count: None,
             },
+            storage_entry(9),
+            storage_entry(10),
         ],
     })
 }

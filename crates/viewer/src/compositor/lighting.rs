@@ -74,8 +74,6 @@ pub(super) struct FrameUniform {
     pub(super) shadow_spheres: [[f32; 4]; MAX_SHADOW_SPHERES],
     /// Rotation from camera to world space (for the probes' world-space SH).
     pub(super) world_from_camera: [[f32; 4]; 4],
-    /// The cursor sphere's radiance SH from the irradiance probes.
-    pub(super) sphere_sh: [[f32; 4]; 9],
     /// Per light: its layer slice (`u32::MAX`: none), first area sample, sample count.
     pub(super) shadow_slots: [[u32; 4]; MAX_LIGHTS],
     /// Camera space to world space, points (the reflection probes' lookups are in world space).
@@ -84,6 +82,10 @@ pub(super) struct FrameUniform {
     pub(super) reflection_origin: [f32; 4],
     pub(super) reflection_spacing: [f32; 4],
     pub(super) reflection_counts: [u32; 4],
+    /// The irradiance probes' grid: origin (w 1 when bound), spacing, counts.
+    pub(super) irradiance_origin: [f32; 4],
+    pub(super) irradiance_spacing: [f32; 4],
+    pub(super) irradiance_counts: [u32; 4],
     pub(super) lights: [GpuLight; MAX_LIGHTS],
 }
 
@@ -93,27 +95,16 @@ pub(super) struct MeshUniform {
     pub(super) camera_from_object: [[f32; 4]; 4],
     pub(super) normal_from_object: [[f32; 4]; 4],
     pub(super) material: GpuMaterial,
-    /// The mesh's radiance SH from the irradiance probes.
-    pub(super) sh: [[f32; 4]; 9],
 }
 
-/// The scene's indirect light at world point `p` as radiance SH, packed for the shaders (zero
-/// without probes): the probes' radiance SH there minus the SH of the lights' direct light as
-/// the shaders add it per fragment (unshadowed; an area light over `samples[k]`, its emitter
-/// samples, where the shaders integrate it over them), so direct light keeps its exact
-/// per-fragment falloff and the probes add what the lights alone miss (bounce light, the
-/// scene's colour).
-pub(super) fn indirect_sh(
-    probes: Option<&sidecar::ProbeGrid>,
+/// Subtracts from radiance SH `sh` at `p` the area lights' direct light there, as the shaders
+/// add it (unshadowed).
+pub(super) fn subtract_area_lights(
+    sh: &mut [[f32; 3]; 9],
     lights: &[LiveLight],
     samples: &[Vec<AreaSample>],
     p: DVec3,
-) -> [[f32; 4]; 9] {
-    let Some(grid) = probes else { return [[0.0; 4]; 9] };
-    if !p.is_finite() {
-        return [[0.0; 4]; 9];
-    }
-    let mut sh = grid.radiance_sh_at([p.x as f32, p.y as f32, p.z as f32]);
+) {
     let mut subtract = |dir: DVec3, e: glam::Vec3| {
         let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
         for (c, yi) in sh.iter_mut().zip(y) {
@@ -123,8 +114,9 @@ pub(super) fn indirect_sh(
         }
     };
     for (k, light) in lights.iter().enumerate() {
-        match (light, samples.get(k).filter(|s| !s.is_empty())) {
-            (LiveLight::Area { radiance, area, two_sided, .. }, Some(samples)) => {
+        let LiveLight::Area { radiance, area, two_sided, .. } = light else { continue };
+        match samples.get(k).filter(|s| !s.is_empty()) {
+            Some(samples) => {
                 let total: f64 = samples.iter().map(|s| s.area).sum();
                 for s in samples {
                     let v = s.position - p;
@@ -137,51 +129,31 @@ pub(super) fn indirect_sh(
                     }
                 }
             }
-            _ => {
-                if let Some((dir, e)) = direct_at(light, p) {
+            None => {
+                if let Some((dir, e)) = area_light_at_centroid(light, p) {
                     subtract(dir, e);
                 }
             }
         }
     }
-    sh.map(|c| [c[0], c[1], c[2], 0.0])
 }
 
-/// Direction toward a light and the irradiance it gives a surface facing it at `p`, as
-/// `composite.wgsl`'s `shade` computes it (`None` for ambient light).
-fn direct_at(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
-    let toward = |position: DVec3| {
-        let v = position - p;
-        let d2 = v.length_squared().max(1e-30);
-        (v / d2.sqrt(), d2)
+/// Direction toward an area light seen as one point at its centroid, and the irradiance it
+/// gives a surface facing it at `p`, as `composite.wgsl`'s `shade` computes it without the
+/// light's emitter samples (`None` for other lights).
+fn area_light_at_centroid(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
+    let LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } = light else { return None };
+    let v = *centroid - p;
+    let d2 = v.length_squared().max(1e-30);
+    let l = v / d2.sqrt();
+    let lobe = match normal {
+        Some(n) => {
+            let c = n.dot(-l) as f32;
+            if *two_sided { c.abs() } else { c.max(0.0) }
+        }
+        None => 0.25,
     };
-    match light {
-        LiveLight::Ambient { .. } => None,
-        LiveLight::Distant { direction, colour } => Some((-direction.normalize_or_zero(), *colour)),
-        LiveLight::Point { position, colour } => {
-            let (l, d2) = toward(*position);
-            Some((l, *colour / d2 as f32))
-        }
-        LiveLight::Spot { position, axis, colour, cone_angle, cone_delta_angle, beam_distribution } => {
-            let (l, d2) = toward(*position);
-            let cos = (-l).dot(axis.normalize_or_zero()) as f32;
-            let (lo, hi) = (cone_angle.cos(), (cone_angle - cone_delta_angle).cos());
-            let t = ((cos - lo) / (hi - lo)).clamp(0.0, 1.0);
-            let smooth = t * t * (3.0 - 2.0 * t);
-            Some((l, *colour * cos.max(0.0).powf(*beam_distribution) * smooth / d2 as f32))
-        }
-        LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } => {
-            let (l, d2) = toward(*centroid);
-            let lobe = match normal {
-                Some(n) => {
-                    let c = n.dot(-l) as f32;
-                    if *two_sided { c.abs() } else { c.max(0.0) }
-                }
-                None => 0.25,
-            };
-            Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
-        }
-    }
+    Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
 }
 
 pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
@@ -315,7 +287,7 @@ impl Compositor {
                 self.lights.len().min(MAX_LIGHTS) as u32,
                 shadow_on,
                 u32::from(sphere.is_some()),
-                u32::from(self.probes.is_some()),
+                u32::from(self.irradiance.origin[3] == 1.0),
             ],
             shadow_light,
             shadow_params,
@@ -324,17 +296,14 @@ impl Compositor {
             layer_info: [self.layers.info[0], self.layers.info[1], self.layers.info[2], sphere_count as u32],
             shadow_spheres,
             world_from_camera: mat4_f32(DMat4::from_mat3(linear.inverse())),
-            sphere_sh: indirect_sh(
-                self.probes.as_deref(),
-                &self.lights,
-                &self.layers.world_samples,
-                sphere.map_or(DVec3::NAN, |s| s.centre),
-            ),
             shadow_slots,
             world_from_camera_point: mat4_f32(camera_from_world.inverse()),
             reflection_origin: self.reflections.origin,
             reflection_spacing: self.reflections.spacing,
             reflection_counts: self.reflections.counts,
+            irradiance_origin: self.irradiance.origin,
+            irradiance_spacing: self.irradiance.spacing,
+            irradiance_counts: self.irradiance.counts,
             lights,
         }
     }

@@ -4,6 +4,7 @@
 mod backdrop_points;
 mod bindings;
 mod encode;
+mod irradiance;
 mod layers;
 mod lighting;
 mod live_objects;
@@ -26,7 +27,7 @@ use crate::scene::ViewerScene;
 use glam::{DMat3, DVec3, Mat4};
 
 use backdrop_points::PointVertex;
-use lighting::{FrameUniform, GpuMaterial, MeshUniform, indirect_sh, mat4_f32};
+use lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
 use live_objects::{GpuMesh, MeshVertex};
 use shadows::camera_space_bounds;
 
@@ -43,8 +44,9 @@ pub struct Compositor {
     tone: [f32; 4],
     /// The light layers on the GPU (a placeholder without them).
     layers: layers::GpuLayers,
-    /// The renderer's irradiance probes: live objects' diffuse light.
-    probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
+    /// The renderer's irradiance probes on the GPU (placeholders without them): live objects'
+    /// diffuse light from the scene.
+    irradiance: irradiance::GpuIrradiance,
     /// The renderer's reflection probes on the GPU (placeholders without them).
     reflections: reflections::GpuReflections,
     /// Window depth of every pixel, kept to build the point cloud on demand.
@@ -233,6 +235,8 @@ impl Compositor {
         let gpu_layers =
             layers::upload(gpu, &projection, bound_layers, &kept, &lights, &two_sided, (width, height));
         let gpu_reflections = reflections::upload(gpu, scene.reflections());
+        let gpu_irradiance =
+            irradiance::upload(gpu, scene.probes_arc().as_deref(), &lights, &gpu_layers.world_samples);
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
@@ -268,6 +272,8 @@ impl Compositor {
                     binding: 8,
                     resource: wgpu::BindingResource::Sampler(&gpu_reflections.sampler),
                 },
+                wgpu::BindGroupEntry { binding: 9, resource: gpu_irradiance.sh.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 10, resource: gpu_irradiance.visibility.as_entire_binding() },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -529,7 +535,7 @@ impl Compositor {
             shadow_light,
             tone,
             layers: gpu_layers,
-            probes: scene.probes_arc(),
+            irradiance: gpu_irradiance,
             reflections: gpu_reflections,
             window_depths,
             surface_bounds,
@@ -646,14 +652,6 @@ impl Compositor {
                     camera_from_object: mat4_f32(camera_from_object),
                     normal_from_object: Mat4::from_mat3(normal.as_mat3()).to_cols_array_2d(),
                     material: GpuMaterial::from(&instance.material),
-                    sh: indirect_sh(
-                        self.probes.as_deref(),
-                        &self.lights,
-                        &self.layers.world_samples,
-                        instance
-                            .exact_sphere
-                            .map_or(instance.world_from_object.w_axis.truncate(), |(c, _)| c),
-                    ),
                 };
                 let at = slot * self.mesh_uniform_stride as usize;
                 bytes[at..at + std::mem::size_of::<MeshUniform>()].copy_from_slice(bytemuck::bytes_of(&u));

@@ -61,8 +61,6 @@ struct Frame {
     shadow_spheres: array<vec4<f32>, 8>,
     // Rotation from camera to world space (normals for the probes' SH, which is world space).
     world_from_camera: mat4x4<f32>,
-    // The cursor sphere's radiance SH from the irradiance probes (rgb per coefficient).
-    sphere_sh: array<vec4<f32>, 9>,
     // Per light: layer slice (0xffffffff: none), first area sample, sample count.
     shadow_slots: array<vec4<u32>, MAX_LIGHTS>,
     // Camera space to world space for points.
@@ -71,6 +69,10 @@ struct Frame {
     reflection_origin: vec4<f32>,
     reflection_spacing: vec4<f32>,
     reflection_counts: vec4<u32>,
+    // The irradiance probes' grid: origin (w = 1 when bound), spacing, counts.
+    irradiance_origin: vec4<f32>,
+    irradiance_spacing: vec4<f32>,
+    irradiance_counts: vec4<u32>,
     lights: array<Light, MAX_LIGHTS>,
 }
 
@@ -96,13 +98,15 @@ struct AreaSamples {
 @group(0) @binding(6) var reflection_radiance: texture_2d_array<f32>;
 @group(0) @binding(7) var reflection_distance: texture_2d_array<f32>;
 @group(0) @binding(8) var reflection_sampler: sampler;
+// The irradiance probes: 9 SH coefficients (rgb) per probe, the scene's indirect light, and
+// 16x16 visibility texels (mean, mean squared distance) per probe.
+@group(0) @binding(9) var<storage, read> irradiance_sh: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> irradiance_visibility: array<vec2<f32>>;
 
 struct MeshUniform {
     camera_from_object: mat4x4<f32>,
     normal_from_object: mat4x4<f32>,
     material: Material,
-    // The mesh's radiance SH from the irradiance probes.
-    sh: array<vec4<f32>, 9>,
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniform;
@@ -307,6 +311,88 @@ fn reflection_radiance_at(p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
     return probe_radiance_from(vec3<u32>(round(t)), p, r, level);
 }
 
+// ---------------------------------------------------------------------------------------------
+// The irradiance probes per fragment: a port of sidecar::ProbeGrid::irradiance_of (DDGI), each
+// probe's SH the scene's indirect light (compositor/irradiance.rs).
+
+const VISIBILITY_TEXELS: u32 = 16u;
+
+fn field_probe_index(cell: vec3<u32>) -> u32 {
+    let c = frame.irradiance_counts;
+    return cell.x + c.x * (cell.y + c.y * cell.z);
+}
+
+// Chebyshev visibility of a point `distance` from `probe` along unit `dir` (from the point
+// toward the probe).
+fn field_visibility(probe: u32, dir: vec3<f32>, distance: f32) -> f32 {
+    let uv = octahedral_uv(-dir);
+    let n = f32(VISIBILITY_TEXELS);
+    let texel = min(vec2<u32>(uv * n), vec2<u32>(VISIBILITY_TEXELS - 1u));
+    let moments = irradiance_visibility[probe * VISIBILITY_TEXELS * VISIBILITY_TEXELS + texel.y * VISIBILITY_TEXELS + texel.x];
+    let mean = moments.x;
+    if distance <= mean {
+        return 1.0;
+    }
+    let variance = max(abs(moments.y - mean * mean), 1e-6 * max(moments.y, 1e-12));
+    let d = distance - mean;
+    let v = variance / (variance + d * d);
+    return max(v * v * v, 0.0);
+}
+
+// Tiny weights crushed (DDGI): the residual glow of a probe seen through a wall goes.
+fn crushed(w: f32) -> f32 {
+    return select(w, w * w * w / 0.04, w < 0.2);
+}
+
+fn probe_sh_irradiance(probe: u32, n: vec3<f32>) -> vec3<f32> {
+    var sh: array<vec4<f32>, 9>;
+    for (var i = 0u; i < 9u; i++) {
+        sh[i] = irradiance_sh[9u * probe + i];
+    }
+    return sh_irradiance(sh, n);
+}
+
+// The scene's indirect irradiance at world point p with world unit normal n.
+fn field_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let spacing = frame.irradiance_spacing.xyz;
+    let bias = 0.1 * min(spacing.x, min(spacing.y, spacing.z));
+    let q = p + n * bias;
+    let counts = frame.irradiance_counts.xyz;
+    let last = max(counts, vec3<u32>(1u)) - vec3<u32>(1u);
+    var t = clamp((q - frame.irradiance_origin.xyz) / spacing, vec3<f32>(0.0), vec3<f32>(last));
+    // NaN goes to the first probe, as the reference's float-to-integer conversion does.
+    t = select(vec3<f32>(0.0), t, t == t);
+    let base = min(vec3<u32>(floor(t)), max(last, vec3<u32>(1u)) - vec3<u32>(1u));
+    let alpha = select(t - vec3<f32>(base), vec3<f32>(0.0), last == vec3<u32>(0u));
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w3 = select(vec3<f32>(1.0) - alpha, alpha, offset == vec3<u32>(1u));
+        let trilinear = w3.x * w3.y * w3.z;
+        if trilinear <= 0.0 {
+            continue;
+        }
+        let cell = min(base + offset, last);
+        let probe = field_probe_index(cell);
+        let to_probe = frame.irradiance_origin.xyz + vec3<f32>(cell) * spacing - q;
+        let distance = length(to_probe);
+        var dir = n;
+        if distance > 0.0 {
+            dir = to_probe / distance;
+        }
+        let h = (dot(dir, n) + 1.0) * 0.5;
+        let backface = h * h + 0.2;
+        let w = crushed(trilinear * backface * max(field_visibility(probe, dir, distance), 1e-6));
+        sum += w * probe_sh_irradiance(probe, n);
+        total += w;
+    }
+    if total > 0.0 {
+        return max(sum / total, vec3<f32>(0.0));
+    }
+    return vec3<f32>(0.0);
+}
+
 // The Blinn lobe's directional albedo for the material (linear in its 16-entry table).
 fn blinn_albedo(material: Material, cos_o: f32) -> f32 {
     let x = clamp(cos_o, 0.0, 1.0) * 15.0;
@@ -335,7 +421,7 @@ fn blinn_lobe_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, exponent: f32) -> f3
     return d * g / (4.0 * cos_o);
 }
 
-fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, sh: array<vec4<f32>, 9>) -> vec3<f32> {
+fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
@@ -416,10 +502,12 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>,
         diffuse += e * n_dot_l;
         specular += e * blinn_lobe_cos(n, v, l, exponent);
     }
-    // With the renderer's irradiance probes, the scene's indirect light (the probes' SH less
-    // the lights' direct light at the object, compositor/lighting.rs) joins the lights'.
+    // With the renderer's irradiance probes, the scene's indirect light at this fragment
+    // (compositor/irradiance.rs) joins the lights'.
     if frame.counts.w == 1u {
-        diffuse += sh_irradiance(sh, normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz));
+        let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
+        let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
+        diffuse += field_irradiance(p_world, n_world);
     }
     // With the reflection probes, the scene's prefiltered radiance in the reflected direction
     // times the lobe's albedo (the split sum).
@@ -510,7 +598,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     }
     let n = (p - c) / r;
     var out: LiveOut;
-    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray.direction, frame.sphere_sh));
+    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray.direction));
     out.mask = vec4<f32>(1.0);
     out.depth = depth;
     return out;
@@ -544,7 +632,7 @@ struct MeshFragmentOut {
 fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
-    return MeshFragmentOut(to_image_units(shade(mesh.material, in.p_camera, n, ray.direction, mesh.sh)), vec4<f32>(1.0));
+    return MeshFragmentOut(to_image_units(shade(mesh.material, in.p_camera, n, ray.direction)), vec4<f32>(1.0));
 }
 
 // ---------------------------------------------------------------------------------------------
