@@ -212,6 +212,39 @@ fn sh_irradiance(sh: array<vec4<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Probe grids (sidecar's cell_probes): the cell around a point and its 8 corners.
+
+struct GridCell {
+    // The cell's first corner, the point's fractions along each axis, the last probe per axis.
+    base: vec3<u32>,
+    alpha: vec3<f32>,
+    last: vec3<u32>,
+}
+
+// The cell of a grid (`origin`, `spacing`, `counts`) around `q`: a point outside the grid is
+// clamped to it; NaN (a point at infinity) goes to the first probe, as the references do.
+fn grid_cell(q: vec3<f32>, origin: vec3<f32>, spacing: vec3<f32>, counts: vec3<u32>) -> GridCell {
+    let last = max(counts, vec3<u32>(1u)) - vec3<u32>(1u);
+    var t = clamp((q - origin) / spacing, vec3<f32>(0.0), vec3<f32>(last));
+    t = select(vec3<f32>(0.0), t, t == t);
+    let base = min(vec3<u32>(floor(t)), max(last, vec3<u32>(1u)) - vec3<u32>(1u));
+    let alpha = select(t - vec3<f32>(base), vec3<f32>(0.0), last == vec3<u32>(0u));
+    return GridCell(base, alpha, last);
+}
+
+struct CellCorner {
+    probe: vec3<u32>,
+    trilinear: f32,
+}
+
+// Corner `corner` (0 to 7) of `cell`: its probe's grid coordinates and trilinear weight.
+fn cell_corner(cell: GridCell, corner: u32) -> CellCorner {
+    let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+    let w3 = select(vec3<f32>(1.0) - cell.alpha, cell.alpha, offset == vec3<u32>(1u));
+    return CellCorner(min(cell.base + offset, cell.last), w3.x * w3.y * w3.z);
+}
+
+// ---------------------------------------------------------------------------------------------
 // The reflection probes: a port of sidecar::ReflectionProbes::radiance (its reference lookup).
 
 const REFLECTION_TEXELS: u32 = 32u;
@@ -283,24 +316,16 @@ fn probe_radiance_from(cell: vec3<u32>, p: vec3<f32>, r: vec3<f32>, level: f32) 
 // Glossy reflection at world point p toward unit r (ReflectionProbes::radiance): the probes
 // around p weighted trilinearly, a probe a wall hides from p by 1e-3 of that.
 fn reflection_radiance_at(p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
-    let counts = frame.reflection_counts.xyz;
-    let last = max(counts, vec3<u32>(1u)) - vec3<u32>(1u);
-    var t = (p - frame.reflection_origin.xyz) / frame.reflection_spacing.xyz;
-    t = clamp(t, vec3<f32>(0.0), vec3<f32>(last));
-    // NaN (a point at infinity) goes to the first probe, as the reference does.
-    t = select(vec3<f32>(0.0), t, t == t);
-    let base = min(vec3<u32>(floor(t)), max(last, vec3<u32>(1u)) - vec3<u32>(1u));
-    let alpha = select(t - vec3<f32>(base), vec3<f32>(0.0), last == vec3<u32>(0u));
+    let grid = grid_cell(p, frame.reflection_origin.xyz, frame.reflection_spacing.xyz, frame.reflection_counts.xyz);
     var sum = vec3<f32>(0.0);
     var total = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
-        let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w3 = select(vec3<f32>(1.0) - alpha, alpha, offset == vec3<u32>(1u));
-        let trilinear = w3.x * w3.y * w3.z;
+        let c = cell_corner(grid, corner);
+        let trilinear = c.trilinear;
         if trilinear <= 0.0 {
             continue;
         }
-        let cell = min(base + offset, last);
+        let cell = c.probe;
         let w = select(1e-3 * trilinear, trilinear, probe_sees(cell, p));
         sum += w * probe_radiance_from(cell, p, r, level);
         total += w;
@@ -308,7 +333,7 @@ fn reflection_radiance_at(p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
     if total > 0.0 {
         return sum / total;
     }
-    return probe_radiance_from(vec3<u32>(round(t)), p, r, level);
+    return probe_radiance_from(vec3<u32>(round(vec3<f32>(grid.base) + grid.alpha)), p, r, level);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -357,23 +382,16 @@ fn field_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let spacing = frame.irradiance_spacing.xyz;
     let bias = 0.1 * min(spacing.x, min(spacing.y, spacing.z));
     let q = p + n * bias;
-    let counts = frame.irradiance_counts.xyz;
-    let last = max(counts, vec3<u32>(1u)) - vec3<u32>(1u);
-    var t = clamp((q - frame.irradiance_origin.xyz) / spacing, vec3<f32>(0.0), vec3<f32>(last));
-    // NaN goes to the first probe, as the reference's float-to-integer conversion does.
-    t = select(vec3<f32>(0.0), t, t == t);
-    let base = min(vec3<u32>(floor(t)), max(last, vec3<u32>(1u)) - vec3<u32>(1u));
-    let alpha = select(t - vec3<f32>(base), vec3<f32>(0.0), last == vec3<u32>(0u));
+    let grid = grid_cell(q, frame.irradiance_origin.xyz, spacing, frame.irradiance_counts.xyz);
     var sum = vec3<f32>(0.0);
     var total = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
-        let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w3 = select(vec3<f32>(1.0) - alpha, alpha, offset == vec3<u32>(1u));
-        let trilinear = w3.x * w3.y * w3.z;
+        let c = cell_corner(grid, corner);
+        let trilinear = c.trilinear;
         if trilinear <= 0.0 {
             continue;
         }
-        let cell = min(base + offset, last);
+        let cell = c.probe;
         let probe = field_probe_index(cell);
         let to_probe = frame.irradiance_origin.xyz + vec3<f32>(cell) * spacing - q;
         let distance = length(to_probe);
