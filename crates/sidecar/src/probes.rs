@@ -141,31 +141,6 @@ impl ProbeGrid {
         (variance / (variance + d * d)).powi(3).max(0.0)
     }
 
-    /// The radiance SH arriving at `p` for an object around it, as real-time engines light a
-    /// moving object from one probe sample: the probes of `p`'s cell blended by trilinear
-    /// weight times their Chebyshev visibility of `p` (no normal term: the object has every
-    /// normal), crushed like [`ProbeGrid::irradiance`]'s. Evaluate with
-    /// [`crate::sh::sh_irradiance`] per normal.
-    pub fn radiance_sh_at(&self, p: [f32; 3]) -> [[f32; 3]; SH_COEFFICIENTS] {
-        let mut sum = [[0.0f32; 3]; SH_COEFFICIENTS];
-        let mut total = 0.0f32;
-        for (probe, trilinear, to_probe, distance) in self.cell_probes(p) {
-            let visibility = if distance > 0.0 {
-                self.visibility_of(probe, to_probe.map(|c| c / distance), distance)
-            } else {
-                1.0
-            };
-            let w = crushed(trilinear * visibility.max(1e-6));
-            for (acc, c) in sum.iter_mut().zip(&self.radiance_sh[probe]) {
-                for k in 0..3 {
-                    acc[k] += w * c[k];
-                }
-            }
-            total += w;
-        }
-        if total > 0.0 { sum.map(|c| c.map(|v| v / total)) } else { [[0.0; 3]; SH_COEFFICIENTS] }
-    }
-
     /// Irradiance at world point `p` on a surface with unit normal `n`, from the 8 probes of the
     /// cell around `p` (DDGI): trilinear weights times a smooth backface term times Chebyshev
     /// visibility, so a probe on the far side of a wall does not light `p`. `p` is first moved
@@ -204,35 +179,6 @@ impl ProbeGrid {
 mod tests {
     use super::*;
     use crate::sh::{ShProjector, fibonacci_sphere};
-
-    #[test]
-    fn radiance_sh_at_blends_the_probes_that_see_the_point() {
-        let texels = VISIBILITY_TEXELS * VISIBILITY_TEXELS;
-        let mut a = [[0.0f32; 3]; SH_COEFFICIENTS];
-        let mut b = a;
-        a[0] = [1.0; 3];
-        b[0] = [3.0; 3];
-        b[2] = [0.5; 3];
-        let mut grid = ProbeGrid {
-            depth_fingerprint: 0,
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-            counts: [2, 1, 1],
-            radiance_sh: vec![a, b],
-            visibility: vec![[5.0, 25.0]; 2 * texels],
-            emitters_seen: false,
-        };
-        assert_eq!(grid.radiance_sh_at([0.0, 0.0, 0.0]), a);
-        assert_eq!(grid.radiance_sh_at([1.0, 0.0, 0.0]), b);
-        let mid = grid.radiance_sh_at([0.5, 0.0, 0.0]);
-        assert!((mid[0][0] - 2.0).abs() < 1e-6 && (mid[2][1] - 0.25).abs() < 1e-6, "{mid:?}");
-        // Probe 1 sees a wall 0.1 away toward the point: it all but drops out.
-        for t in &mut grid.visibility[texels..] {
-            *t = [0.1, 0.01];
-        }
-        let behind_wall = grid.radiance_sh_at([0.5, 0.0, 0.0]);
-        assert!((behind_wall[0][0] - 1.0).abs() < 1e-2, "{behind_wall:?}");
-    }
 
     #[test]
     fn octahedral_map_round_trips_and_covers_every_texel() {

@@ -3,7 +3,6 @@
 //! octahedral visibility texels (mean and mean squared distance), as two storage buffers the
 //! shaders read with `sidecar::ProbeGrid::irradiance_of`'s weights (DDGI).
 
-use super::lighting::subtract_area_lights;
 use crate::gpu::Gpu;
 use crate::light_layers::AreaSample;
 use crate::live::LiveLight;
@@ -36,8 +35,8 @@ pub(super) fn indirect_probe_sh(
 ) -> Vec<[[f32; 3]; SH_COEFFICIENTS]> {
     let mut all = grid.radiance_sh.clone();
     if grid.emitters_seen {
+        let n = grid.counts.map(|c| c as usize);
         for (index, sh) in all.iter_mut().enumerate() {
-            let n = grid.counts.map(|c| c as usize);
             let cell = [index % n[0], (index / n[0]) % n[1], index / (n[0] * n[1])];
             let p = grid.probe_position(cell.map(|c| c as u32));
             let p = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
@@ -45,6 +44,60 @@ pub(super) fn indirect_probe_sh(
         }
     }
     all
+}
+
+/// Subtracts from radiance SH `sh` at `p` the area lights' direct light there, as the shaders
+/// add it (unshadowed).
+fn subtract_area_lights(sh: &mut [[f32; 3]; 9], lights: &[LiveLight], samples: &[Vec<AreaSample>], p: DVec3) {
+    let mut subtract = |dir: DVec3, e: glam::Vec3| {
+        let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
+        for (c, yi) in sh.iter_mut().zip(y) {
+            for k in 0..3 {
+                c[k] -= yi * e[k];
+            }
+        }
+    };
+    for (k, light) in lights.iter().enumerate() {
+        let LiveLight::Area { radiance, area, two_sided, .. } = light else { continue };
+        match samples.get(k).filter(|s| !s.is_empty()) {
+            Some(samples) => {
+                let total: f64 = samples.iter().map(|s| s.area).sum();
+                for s in samples {
+                    let v = s.position - p;
+                    let d2 = v.length_squared().max(1e-30);
+                    let l = v / d2.sqrt();
+                    let c = s.normal.dot(-l);
+                    let cos_e = if *two_sided { c.abs() } else { c.max(0.0) };
+                    if cos_e > 0.0 && total > 0.0 {
+                        subtract(l, *radiance * (area / total * s.area * cos_e / d2) as f32);
+                    }
+                }
+            }
+            None => {
+                if let Some((dir, e)) = area_light_at_centroid(light, p) {
+                    subtract(dir, e);
+                }
+            }
+        }
+    }
+}
+
+/// Direction toward an area light seen as one point at its centroid, and the irradiance it
+/// gives a surface facing it at `p`, as `composite.wgsl`'s `shade` computes it without the
+/// light's emitter samples (`None` for other lights).
+fn area_light_at_centroid(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
+    let LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } = light else { return None };
+    let v = *centroid - p;
+    let d2 = v.length_squared().max(1e-30);
+    let l = v / d2.sqrt();
+    let lobe = match normal {
+        Some(n) => {
+            let c = n.dot(-l) as f32;
+            if *two_sided { c.abs() } else { c.max(0.0) }
+        }
+        None => 0.25,
+    };
+    Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
 }
 
 /// Uploads `grid` with each probe's SH from [`indirect_probe_sh`]; without probes, one zero

@@ -5,7 +5,6 @@ use super::{Compositor, MAX_LIGHTS};
 
 /// Most spheres casting shadows with light layers in one frame (further ones cast none).
 pub const MAX_SHADOW_SPHERES: usize = 8;
-use crate::light_layers::AreaSample;
 use crate::live::{LiveLight, LiveObjects, Material, ShadowSource};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
@@ -95,65 +94,6 @@ pub(super) struct MeshUniform {
     pub(super) camera_from_object: [[f32; 4]; 4],
     pub(super) normal_from_object: [[f32; 4]; 4],
     pub(super) material: GpuMaterial,
-}
-
-/// Subtracts from radiance SH `sh` at `p` the area lights' direct light there, as the shaders
-/// add it (unshadowed).
-pub(super) fn subtract_area_lights(
-    sh: &mut [[f32; 3]; 9],
-    lights: &[LiveLight],
-    samples: &[Vec<AreaSample>],
-    p: DVec3,
-) {
-    let mut subtract = |dir: DVec3, e: glam::Vec3| {
-        let y = sidecar::sh::sh_basis([dir.x as f32, dir.y as f32, dir.z as f32]);
-        for (c, yi) in sh.iter_mut().zip(y) {
-            for k in 0..3 {
-                c[k] -= yi * e[k];
-            }
-        }
-    };
-    for (k, light) in lights.iter().enumerate() {
-        let LiveLight::Area { radiance, area, two_sided, .. } = light else { continue };
-        match samples.get(k).filter(|s| !s.is_empty()) {
-            Some(samples) => {
-                let total: f64 = samples.iter().map(|s| s.area).sum();
-                for s in samples {
-                    let v = s.position - p;
-                    let d2 = v.length_squared().max(1e-30);
-                    let l = v / d2.sqrt();
-                    let c = s.normal.dot(-l);
-                    let cos_e = if *two_sided { c.abs() } else { c.max(0.0) };
-                    if cos_e > 0.0 && total > 0.0 {
-                        subtract(l, *radiance * (area / total * s.area * cos_e / d2) as f32);
-                    }
-                }
-            }
-            None => {
-                if let Some((dir, e)) = area_light_at_centroid(light, p) {
-                    subtract(dir, e);
-                }
-            }
-        }
-    }
-}
-
-/// Direction toward an area light seen as one point at its centroid, and the irradiance it
-/// gives a surface facing it at `p`, as `composite.wgsl`'s `shade` computes it without the
-/// light's emitter samples (`None` for other lights).
-fn area_light_at_centroid(light: &LiveLight, p: DVec3) -> Option<(DVec3, glam::Vec3)> {
-    let LiveLight::Area { centroid, normal, two_sided, radiance, area, .. } = light else { return None };
-    let v = *centroid - p;
-    let d2 = v.length_squared().max(1e-30);
-    let l = v / d2.sqrt();
-    let lobe = match normal {
-        Some(n) => {
-            let c = n.dot(-l) as f32;
-            if *two_sided { c.abs() } else { c.max(0.0) }
-        }
-        None => 0.25,
-    };
-    Some((l, *radiance * (*area as f32) * lobe / d2 as f32))
 }
 
 pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
