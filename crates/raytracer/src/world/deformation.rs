@@ -372,8 +372,7 @@ impl World {
         let ray = query.ray;
         let (t_min, time) = (ray.t_min, ray.time);
         let Some((mut tray, shear)) = Self::blas_ray(inst, query, *t_max) else { return };
-        let tray_direction = tray.direction;
-        let (o64, d64) = (Vec3::from(tray.origin).as_dvec3(), Vec3::from(tray.direction).as_dvec3());
+        let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         let mut test = |t_max: f32, slot: u32| match blas.prims[slot as usize] {
             Prim::Triangle(i) => {
                 let tri = &blas.triangles[i as usize];
@@ -383,7 +382,7 @@ impl World {
                     return None;
                 }
                 let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (hits_front(p[0], p[1], p[2], Vec3::from(tray_direction)) == reverse) {
+                if one_sided && (hits_front(p[0], p[1], p[2], direction) == reverse) {
                     return None;
                 }
                 *best =
@@ -392,13 +391,7 @@ impl World {
             }
             Prim::Quadric(i) => {
                 let q = deforming.quadric(i, time)?;
-                let oo = q.object_from_blas.transform_point3(o64);
-                let od = q.object_from_blas.transform_vector3(d64);
-                let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
-                let h = q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
-                    let t32 = h.t as f32;
-                    t32 > t_min && t32 < t_max && !(one_sided && ((h.n.dot(od) < 0.0) == reverse))
-                })?;
+                let h = self.quadric_hit(inst, blas, &q, (origin, direction), (t_min, t_max))?;
                 let t = h.t as f32;
                 *best = Some(Hit { t, instance, detail: HitDetail::Quadric(i, h), csg_entering: None });
                 Some(t)
@@ -420,8 +413,7 @@ impl World {
         let ray = query.ray;
         let (t_min, t_max, time) = (ray.t_min, ray.t_max, ray.time);
         let Some((tray, shear)) = Self::blas_ray(inst, query, t_max) else { return };
-        let tray_direction = tray.direction;
-        let (o64, d64) = (Vec3::from(tray.origin).as_dvec3(), Vec3::from(tray.direction).as_dvec3());
+        let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         let mut blocks = |slot: u32| {
             let crossing = |shape: u32, tr: &mut Vec3| {
                 let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
@@ -436,28 +428,14 @@ impl World {
                     let Some(p) = deforming.triangle(tri.index, time) else { return false };
                     let Some(h) = intersect_triangle(&shear, p[0], p[1], p[2], t_max) else { return false };
                     let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                    if h.t <= t_min
-                        || (one_sided
-                            && (hits_front(p[0], p[1], p[2], Vec3::from(tray_direction)) == reverse))
-                    {
+                    if h.t <= t_min || (one_sided && (hits_front(p[0], p[1], p[2], direction) == reverse)) {
                         return false;
                     }
                     crossing(tri.shape, tr);
                 }
                 Prim::Quadric(i) => {
                     let Some(q) = deforming.quadric(i, time) else { return false };
-                    let oo = q.object_from_blas.transform_point3(o64);
-                    let od = q.object_from_blas.transform_vector3(d64);
-                    let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
-                    // Visit every crossing (a closed quadric is crossed twice).
-                    q.quadric.intersect(oo, od, f64::from(t_min), f64::from(t_max), |h| {
-                        let t32 = h.t as f32;
-                        if !(t32 > t_min && t32 < t_max) || (one_sided && ((h.n.dot(od) < 0.0) == reverse)) {
-                            return false;
-                        }
-                        crossing(q.shape, tr);
-                        *tr == Vec3::ZERO
-                    });
+                    return self.quadric_blocks(inst, blas, &q, (origin, direction), (t_min, t_max), tr);
                 }
             }
             *tr == Vec3::ZERO

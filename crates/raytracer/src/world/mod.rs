@@ -471,7 +471,8 @@ impl World {
                         Some(h.t)
                     }
                     Prim::Quadric(i) => {
-                        let h = self.quadric_hit(inst, blas, i, (origin, direction), (t_min, t_max))?;
+                        let q = &blas.quadrics[i as usize];
+                        let h = self.quadric_hit(inst, blas, q, (origin, direction), (t_min, t_max))?;
                         let t = h.t as f32;
                         *best =
                             Some(Hit { t, instance, detail: HitDetail::Quadric(i, h), csg_entering: None });
@@ -483,19 +484,19 @@ impl World {
         *t_max = tray.t_max;
     }
 
-    /// The first crossing of quadric `i` of `blas` by the BLAS-space ray `(origin, direction)`
-    /// with its `f32` parameter in `(t_min, t_max)` and on a side the instance sees. Out of line:
-    /// kept out of the traversal loop, which inlines the triangle test.
+    /// The first crossing of quadric `q` of `blas` (one of its quadrics, or a deforming one at
+    /// the ray's time) by the BLAS-space ray `(origin, direction)` with its `f32` parameter in
+    /// `(t_min, t_max)` and on a side the instance sees. Out of line: kept out of the traversal
+    /// loop, which inlines the triangle test.
     #[inline(never)]
     fn quadric_hit(
         &self,
         inst: &Instance,
         blas: &Blas,
-        i: u32,
+        q: &QuadricPrim,
         (origin, direction): (Vec3, Vec3),
         (t_min, t_max): (f32, f32),
     ) -> Option<QuadricHit> {
-        let q = &blas.quadrics[i as usize];
         let oo = q.object_from_blas.transform_point3(origin.as_dvec3());
         let od = q.object_from_blas.transform_vector3(direction.as_dvec3());
         let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);

@@ -1,7 +1,7 @@
 //! Shadow queries: the fraction of light passing along a segment, stopping at the first surface
 //! that blocks it (any-hit traversal).
 
-use super::{Blas, HitDetail, Instance, Prim, Ray, RayQuery, World, clipping, csg};
+use super::{Blas, HitDetail, Instance, Prim, QuadricPrim, Ray, RayQuery, World, clipping, csg};
 use crate::accel::TraversalRay;
 use crate::shapes::{hits_front, intersect_triangle};
 use glam::Vec3;
@@ -107,28 +107,33 @@ impl World {
                         }
                     }
                 }
-                Prim::Quadric(i) => {
-                    self.quadric_blocks(inst, blas, i, (origin, direction), (t_min, t_max), tr)
-                }
+                Prim::Quadric(i) => self.quadric_blocks(
+                    inst,
+                    blas,
+                    &blas.quadrics[i as usize],
+                    (origin, direction),
+                    (t_min, t_max),
+                    tr,
+                ),
             },
         );
     }
 
-    /// Crosses quadric `i` of `blas` along the BLAS-space segment `(origin, direction)`,
+    /// Crosses quadric `q` of `blas` (one of its quadrics, or a deforming one at the ray's time)
+    /// along the BLAS-space segment `(origin, direction)`,
     /// `(t_min, t_max)`, attenuating `tr` at each crossing on a side the instance sees; true
     /// when the segment is blocked. Out of line, as `World::quadric_hit`, so that the traversal
     /// loop inlines the triangle test.
     #[inline(never)]
-    fn quadric_blocks(
+    pub(super) fn quadric_blocks(
         &self,
         inst: &Instance,
         blas: &Blas,
-        i: u32,
+        q: &QuadricPrim,
         (origin, direction): (Vec3, Vec3),
         (t_min, t_max): (f32, f32),
         tr: &mut Vec3,
     ) -> bool {
-        let q = &blas.quadrics[i as usize];
         let oo = q.object_from_blas.transform_point3(origin.as_dvec3());
         let od = q.object_from_blas.transform_vector3(direction.as_dvec3());
         let (one_sided, reverse) = self.sidedness(inst, blas, q.shape);
