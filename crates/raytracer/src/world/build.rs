@@ -219,37 +219,40 @@ impl World {
         // Shapes that deform while the shutter is open get a BLAS of their own holding their
         // keys (`deformation.rs`), in render space or, when they also move, in object space.
         let mut deforming_shapes: Vec<(&ShapeEntity, Deformation)> = Vec::new();
+        // Whether shape `i`, which moves or deforms over the shutter, is held at shutter open
+        // instead (inside a solid, or an area light: `why` says so for each), warning once if so.
+        let held_at_open = |i: usize, entity: &ShapeEntity, why: [&str; 2], diagnostics: &mut Diagnostics| {
+            let held = if in_solid_blas[i] {
+                Some(why[0])
+            } else if scene.attributes_of(entity.attributes).area_light.is_some() {
+                Some(why[1])
+            } else {
+                None
+            };
+            if let Some(why) = held {
+                diagnostics.warn_once(Some(&entity.loc), why.to_string());
+            }
+            held.is_some()
+        };
         for (i, entity) in scene.shapes.iter().enumerate() {
             if let Some(deformation) = shutter_deformation(scene, &entity.deformation) {
-                let static_why = if in_solid_blas[i] {
-                    Some("a deforming shape inside SolidBegin is drawn at shutter open (no deformation blur)")
-                } else if scene.attributes_of(entity.attributes).area_light.is_some() {
-                    Some("a deforming area light is drawn at shutter open (no deformation blur)")
-                } else {
-                    None
-                };
-                match static_why {
-                    Some(why) => diagnostics.warn_once(Some(&entity.loc), why.to_string()),
-                    None => {
-                        deforming_shapes.push((entity, deformation));
-                        continue;
-                    }
+                let why = [
+                    "a deforming shape inside SolidBegin is drawn at shutter open (no deformation blur)",
+                    "a deforming area light is drawn at shutter open (no deformation blur)",
+                ];
+                if !held_at_open(i, entity, why, diagnostics) {
+                    deforming_shapes.push((entity, deformation));
+                    continue;
                 }
             }
             if let Some(motion) = shutter_motion(scene, &entity.motion, &render_from_world) {
-                let static_why = if in_solid_blas[i] {
-                    Some("a moving shape inside SolidBegin is placed at shutter open (no motion blur)")
-                } else if scene.attributes_of(entity.attributes).area_light.is_some() {
-                    Some("a moving area light is placed at shutter open (no motion blur)")
-                } else {
-                    None
-                };
-                match static_why {
-                    Some(why) => diagnostics.warn_once(Some(&entity.loc), why.to_string()),
-                    None => {
-                        moving_shapes.push((entity, motion));
-                        continue;
-                    }
+                let why = [
+                    "a moving shape inside SolidBegin is placed at shutter open (no motion blur)",
+                    "a moving area light is placed at shutter open (no motion blur)",
+                ];
+                if !held_at_open(i, entity, why, diagnostics) {
+                    moving_shapes.push((entity, motion));
+                    continue;
                 }
             }
             if !in_solid_blas[i] {
