@@ -173,7 +173,6 @@ fn probes_that_saw_only_a_sampled_area_light_add_nothing() {
 /// its own light and a wall hiding some of them, has radiance `E(p, n) / pi` at every pixel.
 #[test]
 fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
-    let gpu = gpu();
     let texels = sidecar::VISIBILITY_TEXELS * sidecar::VISIBILITY_TEXELS;
     let (centre, radius) = (DVec3::new(0.05, -0.1, 0.1), 0.45);
     let mut grid = uniform_probe([0.0; 3]);
@@ -198,15 +197,7 @@ fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
     scene.set_probes(grid.clone());
     let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
     let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
-    let mut c = Compositor::new(
-        &gpu,
-        &scene,
-        CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() },
-    )
-    .unwrap();
-    c.render(&live).unwrap();
-    let linear = c.read_back_linear().unwrap();
-    let mask = c.read_back().unwrap().mask;
+    let (linear, mask) = render_linear(&scene, &live);
     let camera = scene.camera();
     let (w, _) = scene.size();
     let (mut checked, mut spread) = (0, (f32::INFINITY, 0.0f32));
@@ -222,7 +213,7 @@ fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
         }
         let e = grid.irradiance(p.as_vec3().to_array(), n.as_vec3().to_array());
         for (ch, e) in e.iter().enumerate() {
-            let (got, want) = (linear.rgba[4 * k + ch], e / std::f32::consts::PI);
+            let (got, want) = (linear[4 * k + ch], e / std::f32::consts::PI);
             assert!(
                 (got - want).abs() <= 2e-3 * want.max(0.05),
                 "pixel ({i}, {j}) channel {ch}: {got} vs {want}"
