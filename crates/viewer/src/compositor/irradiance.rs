@@ -108,15 +108,15 @@ pub(super) fn upload(
     lights: &[LiveLight],
     samples: &[Vec<AreaSample>],
 ) -> GpuIrradiance {
-    let (sh, visibility): (Vec<[f32; 4]>, Vec<[f32; 2]>) = match grid {
+    let (sh, visibility): (Vec<[f32; 4]>, &[[f32; 2]]) = match grid {
         Some(g) => (
             indirect_probe_sh(g, lights, samples)
                 .iter()
                 .flat_map(|probe| probe.iter().map(|c| [c[0], c[1], c[2], 0.0]))
                 .collect(),
-            g.visibility.clone(),
+            &g.visibility,
         ),
-        None => (vec![[0.0; 4]; SH_COEFFICIENTS], vec![[0.0; 2]]),
+        None => (vec![[0.0; 4]; SH_COEFFICIENTS], &[[0.0; 2]]),
     };
     let buffer = |label: &str, contents: &[u8]| {
         gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -135,7 +135,7 @@ pub(super) fn upload(
     };
     GpuIrradiance {
         sh: buffer("irradiance probe SH", bytemuck::cast_slice(&sh)),
-        visibility: buffer("irradiance probe visibility", bytemuck::cast_slice(&visibility)),
+        visibility: buffer("irradiance probe visibility", bytemuck::cast_slice(visibility)),
         origin,
         spacing,
         counts,
