@@ -195,3 +195,51 @@ fn a_deformation_under_a_moving_transformation_composes_with_it() {
     let worst = both.iter().zip(&still).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
     assert!(worst <= 1.0 / 64.0, "worst pixel difference {worst}");
 }
+
+#[test]
+fn a_bicubic_patch_whose_edge_bulges_covers_each_pixel_for_the_time_it_spends_there() {
+    // A Bezier patch over x in [-1, 0] whose right edge bows out to x = G(v) = 4 v (1 - v) at
+    // the last key: x(u, v) = -1 + u (1 + t G(v)) at shutter fraction t (the control points
+    // move linearly, and a point of fixed (u, v) with them). The keys differ in curvature, so
+    // on their own they are diced at other rates. Near v = 1/2 (the rows), G = 1: a point x in
+    // [0, 1] is covered once t > x, a fraction 1 - x; x < 0 always.
+    let patch = |bulge: f64| {
+        let mut p = String::new();
+        for (j, g) in [0.0, bulge, bulge, 0.0].iter().enumerate() {
+            for i in 0..4 {
+                let x = -1.0 + f64::from(i) / 3.0 * (1.0 + g);
+                p += &format!("{x} {} 0  ", -10.0 + 20.0 * j as f64 / 3.0);
+            }
+        }
+        format!("Patch \"bicubic\" \"P\" [{p}]")
+    };
+    let bulge = keys("0 1", &[patch(0.0), patch(4.0 / 3.0)]);
+    let out = rendered(&format!("{}{}", camera(32, 2, "Shutter 0 1"), world(&bulge)), 256, false);
+    assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+    let mut worst = 0.0f64;
+    for (k, p) in out.image.pixels.iter().enumerate() {
+        let x = -1.0 + (k % 32) as f64 / 16.0 + 1.0 / 32.0;
+        let expected = if x < 0.0 { 1.0 } else { (1.0 - x).max(0.0) };
+        worst = worst.max((f64::from(p[3]) - expected).abs());
+    }
+    eprintln!("bulging bicubic patch: worst pixel coverage error {worst}");
+    assert!(worst < 0.02, "worst pixel coverage error {worst}");
+}
+
+#[test]
+fn blobby_keys_are_drawn_at_shutter_open_with_the_reason() {
+    // Two blobs moving apart: their keys' isosurfaces have no corresponding triangles, so it is
+    // the first key (shutter open is key 0) with a warning that says why.
+    let blobs = |d: f64| {
+        let at = |x: f64| format!("0.6 0 0 0 0 0.6 0 0 0 0 0.6 0 {x} 0 0 1");
+        format!("Blobby 2 [1001 0 1001 16 0 2 0 1] [{} {}] [\"\"]", at(-d), at(d))
+    };
+    let cam = camera(32, 2, "Shutter 0 1");
+    let out = rendered(&format!("{cam}{}", world(&keys("0 1", &[blobs(0.2), blobs(0.7)]))), 16, false);
+    let said = |w: &raytracer::diagnostics::Warning| {
+        w.message.contains("deforming Blobby drawn at shutter open") && w.message.contains("no corresponding")
+    };
+    assert!(out.warnings.iter().any(said), "{:?}", out.warnings);
+    let still = rendered(&format!("{cam}{}", world(&blobs(0.2))), 16, false);
+    assert_eq!(out.image.pixels, still.image.pixels);
+}

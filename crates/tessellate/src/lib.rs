@@ -7,6 +7,8 @@
 //! - [`tessellate`] turns one shape into a [`TriangleMesh`] in its **object space**.
 //! - [`tessellate_placed`] does the same and places the result with a `world_from_object`
 //!   transform (applied in `f64`), orienting it as the RenderMan Interface says.
+//! - [`tessellate_placed_keys`] tessellates the keys of a deforming shape (`MotionBegin`) so
+//!   that every key has the same triangles, each with its own vertex positions.
 //! - [`tessellate_scene`] yields a world-space mesh for every
 //!   [`ShapeEntity`](rib_parser::scene::ShapeEntity) and every shape of every object instance of a
 //!   [`Scene`](rib_parser::scene::Scene), with its [`AttributesId`](rib_parser::scene::AttributesId).
@@ -55,6 +57,7 @@
 mod blobby;
 mod curves;
 mod grid;
+mod keys;
 mod mesh;
 mod nurbs;
 mod patch;
@@ -71,6 +74,7 @@ pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
 pub use curves::{
     CurvePolyline, RibbonFacing, curve_polylines, curve_ribbons, curve_ribbons_keys, point_widths,
 };
+pub use keys::tessellate_placed_keys;
 pub use mesh::TriangleMesh;
 pub use placed::{
     MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,

@@ -137,31 +137,52 @@ impl Direction {
     }
 }
 
-pub(crate) fn tessellate_patches(
-    pm: &PatchMesh,
-    tol: &Tolerance,
-    scale: f64,
-) -> Result<TriangleMesh, TessellateError> {
-    let du = Direction::new(pm.kind, pm.nu, pm.u_wrap, &pm.u_basis, "u")?;
-    let dv = Direction::new(pm.kind, pm.nv, pm.v_wrap, &pm.v_basis, "v")?;
-    let expected = du.n * dv.n;
-    if pm.positions.len() != expected {
-        return Err(invalid(format!("{} control points given, nu * nv = {expected}", pm.positions.len())));
-    }
-    let control: Vec<DVec4> = pm.positions.iter().map(|p| p.as_dvec4()).collect();
-    if !control.iter().all(|p| p.is_finite()) {
-        return Err(TessellateError::NonFinite { kind: KIND, reason: "control point".into() });
-    }
-    let max_w = check_weights(KIND, control.iter().map(|p| p.w))?;
-    // Size from the control points that have a usable weight.
-    let size =
-        diagonal_of(KIND, control.iter().filter(|p| p.w.abs() > 1e-12 * max_w).map(|p| p.truncate() / p.w))?;
-    let eps = tol.effective(size, scale)?;
-    check_budget(KIND, 2.0 * du.patches as f64 * dv.patches as f64, tol)?;
+/// A patch mesh as a function of its parameters `(u, v)` in `[0, patches u] x [0, patches v]`.
+pub(crate) struct PatchSurface {
+    du: Direction,
+    dv: Direction,
+    control: Vec<DVec4>,
+    homogeneous: bool,
+    max_w: f64,
+    /// The diagonal of the control points' box (those with a usable weight).
+    pub size: f64,
+    /// Set when an evaluation met a vanishing homogeneous weight.
+    pub bad_weight: Cell<bool>,
+}
 
-    let homogeneous = control.iter().any(|p| p.w != 1.0);
-    let bad_weight = Cell::new(false);
-    let eval_full = |u: f64, v: f64| -> (DVec3, DVec3) {
+impl PatchSurface {
+    pub fn new(pm: &PatchMesh) -> Result<PatchSurface, TessellateError> {
+        let du = Direction::new(pm.kind, pm.nu, pm.u_wrap, &pm.u_basis, "u")?;
+        let dv = Direction::new(pm.kind, pm.nv, pm.v_wrap, &pm.v_basis, "v")?;
+        let expected = du.n * dv.n;
+        if pm.positions.len() != expected {
+            return Err(invalid(format!(
+                "{} control points given, nu * nv = {expected}",
+                pm.positions.len()
+            )));
+        }
+        let control: Vec<DVec4> = pm.positions.iter().map(|p| p.as_dvec4()).collect();
+        if !control.iter().all(|p| p.is_finite()) {
+            return Err(TessellateError::NonFinite { kind: KIND, reason: "control point".into() });
+        }
+        let max_w = check_weights(KIND, control.iter().map(|p| p.w))?;
+        // Size from the control points that have a usable weight.
+        let size = diagonal_of(
+            KIND,
+            control.iter().filter(|p| p.w.abs() > 1e-12 * max_w).map(|p| p.truncate() / p.w),
+        )?;
+        let homogeneous = control.iter().any(|p| p.w != 1.0);
+        Ok(PatchSurface { du, dv, control, homogeneous, max_w, size, bad_weight: Cell::new(false) })
+    }
+
+    /// The number of patches in u and in v.
+    pub fn patches(&self) -> (usize, usize) {
+        (self.du.patches, self.dv.patches)
+    }
+
+    /// The position and `S_u x S_v` at `(u, v)`.
+    pub fn eval(&self, u: f64, v: f64) -> (DVec3, DVec3) {
+        let (du, dv) = (&self.du, &self.dv);
         let (pu, tu) = du.locate(u);
         let (pv, tv) = dv.locate(v);
         let (iu, cu) = du.controls(pu);
@@ -173,7 +194,7 @@ pub(crate) fn tessellate_patches(
             let row = iv[b] * du.n;
             let (mut r, mut r_u) = (DVec4::ZERO, DVec4::ZERO);
             for a in 0..cu {
-                let g = control[row + iu[a]];
+                let g = self.control[row + iu[a]];
                 r += wu[a] * g;
                 r_u += dwu[a] * g;
             }
@@ -181,14 +202,27 @@ pub(crate) fn tessellate_patches(
             h_u += wv[b] * r_u;
             h_v += dwv[b] * r;
         }
-        if !homogeneous {
+        if !self.homogeneous {
             // Points given as "P" or "Pz" are not homogeneous: the Hermite and power bases'
             // weights do not sum to one (tangents and coefficients are no points), so the
             // weight must not be summed with them.
             (h.w, h_u.w, h_v.w) = (1.0, 0.0, 0.0);
         }
-        rational(h, h_u, h_v, max_w, &bad_weight)
-    };
+        rational(h, h_u, h_v, self.max_w, &self.bad_weight)
+    }
+}
+
+pub(crate) fn tessellate_patches(
+    pm: &PatchMesh,
+    tol: &Tolerance,
+    scale: f64,
+) -> Result<TriangleMesh, TessellateError> {
+    let surface = PatchSurface::new(pm)?;
+    let (du, dv, size, bad_weight) = (&surface.du, &surface.dv, surface.size, &surface.bad_weight);
+    let eps = tol.effective(size, scale)?;
+    check_budget(KIND, 2.0 * du.patches as f64 * dv.patches as f64, tol)?;
+
+    let eval_full = |u: f64, v: f64| surface.eval(u, v);
     let eval_position = |u: f64, v: f64| eval_full(u, v).0;
 
     let u_breaks: Vec<f64> = (0..=du.patches).map(|k| k as f64).collect();
@@ -215,7 +249,7 @@ pub(crate) fn tessellate_patches(
         });
     }
 
-    let st_fn = texture_coordinates(pm, &du, &dv);
+    let st_fn = texture_coordinates(pm, du, dv);
     let mut eval = eval_full;
     let weld = weld_distance(size, eps);
     let mut grid = Grid::evaluate(&spec, &mut eval, weld, Some(&*st_fn));

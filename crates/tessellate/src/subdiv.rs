@@ -748,9 +748,8 @@ fn refine(
     nodes: &mut Vec<Node>,
     root: usize,
     root_candidates: Vec<usize>,
-    eps: f64,
-    boundary: Boundary,
-    tol: &Tolerance,
+    (eps, boundary, tol): (f64, Boundary, &Tolerance),
+    planning: &mut Planning,
 ) -> Result<(), TessellateError> {
     let (mut id, mut candidates, mut depth) = (root, root_candidates, 0u32);
     let mut faces_so_far = nodes[root].level.face_count() as f64;
@@ -760,27 +759,46 @@ fn refine(
         check_budget(KIND, 2.0 * (faces_so_far + 4.0 * ring.mesh.face_count() as f64), tol)?;
         let child_level = subdivide(&ring.mesh, boundary);
         let child_limit = limit(&child_level, boundary);
-        // Each candidate against the child's edge and face points on the limit.
-        let ring_limit: Vec<DVec3> = ring.global.iter().map(|&g| nodes[id].limit.0[g as usize]).collect();
-        let deviations = face_deviations(&ring.mesh, &ring_limit, &child_limit.0);
-        if deviations.iter().any(|d| !d.is_finite()) {
-            return Err(TessellateError::NonFinite { kind: KIND, reason: "subdivision diverged".into() });
-        }
-        let level = &nodes[id].level;
-        let rule = rules(level, boundary);
-        let bad: Vec<bool> = candidates
-            .iter()
-            .enumerate()
-            .map(|(i, &f)| {
-                // Faces at sharp corners (cone points) converge only linearly however far they
-                // are refined: they do not decide anything.
-                let at_corner = level.face(f).any(|c| rule[level.face_verts[c] as usize] == Rule::Corner);
-                deviations[ring.face_of[i] as usize] > eps && !at_corner
-            })
-            .collect();
+        let bad: Vec<bool> = match planning {
+            // Another key's choice, face for face.
+            Planning::Replay(plan) => match plan.refined.get(depth as usize) {
+                Some(bad) if bad.len() == candidates.len() => bad.clone(),
+                Some(_) => return Err(invalid("its keys refine different faces".into())),
+                None => break,
+            },
+            _ => {
+                // Each candidate against the child's edge and face points on the limit.
+                let ring_limit: Vec<DVec3> =
+                    ring.global.iter().map(|&g| nodes[id].limit.0[g as usize]).collect();
+                let deviations = face_deviations(&ring.mesh, &ring_limit, &child_limit.0);
+                if deviations.iter().any(|d| !d.is_finite()) {
+                    return Err(TessellateError::NonFinite {
+                        kind: KIND,
+                        reason: "subdivision diverged".into(),
+                    });
+                }
+                let level = &nodes[id].level;
+                let rule = rules(level, boundary);
+                candidates
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &f)| {
+                        // Faces at sharp corners (cone points) converge only linearly however far
+                        // they are refined: they do not decide anything.
+                        let at_corner =
+                            level.face(f).any(|c| rule[level.face_verts[c] as usize] == Rule::Corner);
+                        deviations[ring.face_of[i] as usize] > eps && !at_corner
+                    })
+                    .collect()
+            }
+        };
         if !bad.contains(&true) {
             break;
         }
+        if let Planning::Record(plan) = planning {
+            plan.refined.push(bad.clone());
+        }
+        let level = &nodes[id].level;
         // The bad faces are replaced by their children; the others stay drawn here.
         let mut split = HashMap::new();
         let n_ring = ring.mesh.positions.len() as u32;
@@ -834,6 +852,39 @@ pub(crate) fn tessellate_subdivision(
     tol: &Tolerance,
     scale: f64,
 ) -> Result<TriangleMesh, TessellateError> {
+    tessellate_subdivision_planned(sm, tol, scale, &mut Planning::Free)
+}
+
+/// How the position-dependent choices of a tessellation (levels, refined faces, quad
+/// diagonals) are made: from the mesh's own positions, recorded as well, or replayed from
+/// another key of a deforming mesh so that every key gives the same triangles.
+pub(crate) enum Planning {
+    Free,
+    Record(SubdivPlan),
+    Replay(SubdivPlan),
+}
+
+/// The choices one key's positions led to (see [`Planning`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct SubdivPlan {
+    /// The uniform level drawn.
+    level: u32,
+    /// Faces of that level refined on their own.
+    candidates: Vec<usize>,
+    /// At each adaptive step, which of its candidates were refined.
+    refined: Vec<Vec<bool>>,
+    /// For every quad drawn, in order: split along its 1-3 diagonal (else 0-2).
+    diagonals: Vec<bool>,
+}
+
+/// [`tessellate_subdivision`] with its choices made as `planning` says. Recorded and replayed
+/// meshes keep their zero-area triangles (a key may give them area).
+pub(crate) fn tessellate_subdivision_planned(
+    sm: &SubdivisionMesh,
+    tol: &Tolerance,
+    scale: f64,
+    planning: &mut Planning,
+) -> Result<TriangleMesh, TessellateError> {
     let (control, boundary, degenerate) = control_level(sm)?;
     let size = diagonal_of(KIND, control.positions.iter().copied())?;
     let eps = tol.effective(size, scale)?;
@@ -869,12 +920,23 @@ pub(crate) fn tessellate_subdivision(
     let mut current_limit = limit(&current, boundary);
     let mut k = 1u32;
     let mut measured: Vec<f64> = Vec::new();
-    // The drawn level, its limit, and the faces to refine further (None: those around
-    // special vertices).
+    if let Planning::Replay(plan) = planning {
+        check_budget(KIND, triangles_at(plan.level), tol)?;
+        while k < plan.level.min(MAX_LEVEL) {
+            current = subdivide(&current, boundary);
+            k += 1;
+        }
+        current_limit = limit(&current, boundary);
+    }
+    // The drawn level, its number, its limit, and the faces to refine further (None: those
+    // around special vertices).
     let drawn = loop {
+        if let Planning::Replay(plan) = planning {
+            break (current, k, current_limit, Some(plan.candidates.clone()));
+        }
         // Measuring needs the next level; it is only built while it is affordable.
         if k >= MAX_LEVEL || triangles_at(k + 1) > 4.0 * cap {
-            break (current, current_limit, None);
+            break (current, k, current_limit, None);
         }
         let stable = match measured[..] {
             [.., a, b, c] if b > 0.0 && c > 0.0 => ((a / b) / (b / c) - 1.0).abs() < 0.15 && b / c >= 3.0,
@@ -896,7 +958,7 @@ pub(crate) fn tessellate_subdivision(
                 }
                 current_limit = limit(&current, boundary);
             }
-            break (current, current_limit, None);
+            break (current, k, current_limit, None);
         }
         let next = subdivide(&current, boundary);
         let next_limit = limit(&next, boundary);
@@ -918,7 +980,7 @@ pub(crate) fn tessellate_subdivision(
         let bad: Vec<usize> =
             visible.iter().copied().filter(|&f| deviations[f] > eps && !at_corner(f)).collect();
         if k >= min_level && (bad.is_empty() || (!regular.is_empty() && bad.len() * 10 <= visible.len())) {
-            break (current, current_limit, Some(bad));
+            break (current, k, current_limit, Some(bad));
         }
         // A level with no regular face yet says nothing about the decay.
         if !regular.is_empty() {
@@ -926,13 +988,13 @@ pub(crate) fn tessellate_subdivision(
         }
         if measured.len() == 1 && d / 4.0 <= eps && k + 1 >= min_level {
             check_budget(KIND, triangles_at(k + 1), tol)?;
-            break (next, next_limit, None);
+            break (next, k + 1, next_limit, None);
         }
         current = next;
         current_limit = next_limit;
         k += 1;
     };
-    let (level, level_limit, known_bad) = drawn;
+    let (level, level_number, level_limit, known_bad) = drawn;
     check_budget(KIND, 2.0 * level.face_count() as f64, tol)?;
 
     // Faces around special vertices: refined on their own, level by level, until they meet
@@ -945,10 +1007,16 @@ pub(crate) fn tessellate_subdivision(
             })
             .collect()
     });
+    if candidates.iter().any(|&f| f >= level.face_count()) {
+        return Err(invalid("its keys refine different faces".into()));
+    }
+    if let Planning::Record(plan) = planning {
+        (plan.level, plan.candidates) = (level_number, candidates.clone());
+    }
     let drawn: Vec<usize> = (0..level.face_count()).filter(|&f| !level.face_hidden[f]).collect();
     let mut nodes = vec![Node { level, limit: level_limit, parent: None, drawn, split: HashMap::new() }];
-    refine(&mut nodes, 0, candidates, eps, boundary, tol)?;
-    let mesh = emit(&nodes, degenerate);
+    refine(&mut nodes, 0, candidates, (eps, boundary, tol), planning)?;
+    let mesh = emit(&nodes, degenerate, planning)?;
     check_budget(KIND, mesh.triangle_count() as f64, tol)?;
     Ok(mesh)
 }
@@ -965,6 +1033,11 @@ struct Output {
     /// Without st: the output vertex of each node's vertices, a table instead of hashing.
     plain: Vec<Vec<u32>>,
     with_st: bool,
+    /// A key of a deforming mesh: zero-area triangles are kept, quad diagonals recorded or
+    /// replayed (see [`Planning`]).
+    keyed: bool,
+    diagonals: Vec<bool>,
+    replayed: Option<std::vec::IntoIter<bool>>,
 }
 
 impl Output {
@@ -1021,7 +1094,8 @@ impl Output {
 
     fn triangle(&mut self, t: [u32; 3], face: u32) {
         let [a, b, c] = t.map(|i| self.mesh.positions[i as usize].as_dvec3());
-        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && (b - a).cross(c - a) != DVec3::ZERO {
+        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && (self.keyed || (b - a).cross(c - a) != DVec3::ZERO)
+        {
             self.mesh.indices.push(t);
             self.mesh.face_index.push(face);
         }
@@ -1030,7 +1104,14 @@ impl Output {
     /// Two triangles of a quad, split along its shorter diagonal.
     fn quad(&mut self, ids: [u32; 4], face: u32) {
         let p = |i: usize| self.mesh.positions[ids[i] as usize];
-        let tris = if p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3)) {
+        let shorter_02 = match self.replayed.as_mut() {
+            Some(recorded) => recorded.next().unwrap_or(true),
+            None => p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3)),
+        };
+        if self.keyed {
+            self.diagonals.push(shorter_02);
+        }
+        let tris = if shorter_02 {
             [[ids[0], ids[1], ids[2]], [ids[0], ids[2], ids[3]]]
         } else {
             [[ids[0], ids[1], ids[3]], [ids[1], ids[2], ids[3]]]
@@ -1116,8 +1197,16 @@ fn output_vertex(nodes: &[Node], out: &mut Output, node: usize, v: u32, st: Opti
 /// Triangles of every node's drawn faces on the limit surface. A drawn face next to refined
 /// ones is fanned from its centre through the vertices they add on the shared edges, so the
 /// mesh stays closed.
-fn emit(nodes: &[Node], degenerate: u32) -> TriangleMesh {
-    let mut out = Output { with_st: nodes[0].level.st.is_some(), ..Default::default() };
+fn emit(nodes: &[Node], degenerate: u32, planning: &mut Planning) -> Result<TriangleMesh, TessellateError> {
+    let mut out = Output {
+        with_st: nodes[0].level.st.is_some(),
+        keyed: !matches!(planning, Planning::Free),
+        replayed: match planning {
+            Planning::Replay(plan) => Some(plan.diagonals.clone().into_iter()),
+            _ => None,
+        },
+        ..Default::default()
+    };
     out.mesh.degenerate_faces = degenerate;
     // Deepest nodes first, so the vertices shared along split edges exist with their st.
     for node in (0..nodes.len()).rev() {
@@ -1168,5 +1257,12 @@ fn emit(nodes: &[Node], degenerate: u32) -> TriangleMesh {
             }
         }
     }
-    out.finish()
+    match planning {
+        Planning::Record(plan) => plan.diagonals = std::mem::take(&mut out.diagonals),
+        Planning::Replay(plan) if out.diagonals != plan.diagonals => {
+            return Err(invalid("its keys draw different quads".into()));
+        }
+        _ => {}
+    }
+    Ok(out.finish())
 }

@@ -6,8 +6,10 @@
 //!   with one tolerance; when the keys' meshes have the same triangles (vertex `i` of one is
 //!   vertex `i` of the others) the triangle at a ray's time has the keys' vertices interpolated
 //!   linearly and is tested watertight like any other (shared vertices interpolate to the same
-//!   bits, so the deforming mesh stays closed). Keys whose tessellations differ (adaptive
-//!   refinement chose other rates) are drawn at shutter open, with a warning.
+//!   bits, so the deforming mesh stays closed). Patches, NURBS and subdivision surfaces, whose
+//!   rates adapt to their positions, are tessellated by `tessellate_placed_keys`: the key that
+//!   needs the most triangles chooses the rates (parameters, refined faces) of every key.
+//!   Keys whose tessellations still differ are drawn at shutter open, with a warning.
 //! - Quadrics and `Points` spheres: their parameters (radius, heights, sweep, centre) are
 //!   interpolated and the quadric at the ray's time is solved exactly.
 //! - Bounds: a triangle's box holds every key's vertices (a vertex moves on a segment between
@@ -25,7 +27,7 @@ use super::placement::{
 use super::*;
 use rib_parser::deformation::{Deformation, key_segment, lerp_shape};
 use rib_parser::scene::{Scene, Shape};
-use tessellate::{curve_ribbons_keys, is_quadric};
+use tessellate::{curve_ribbons_keys, is_quadric, tessellate_placed_keys};
 
 /// The keys of a deforming BLAS (one shape), aligned with its triangles (by their mesh index)
 /// and quadrics (by index).
@@ -280,6 +282,22 @@ pub(super) fn deforming_blas(
             meshes.push(m);
         }
     }
+    if meshes.is_empty()
+        && matches!(*shapes[0], Shape::Patches(_) | Shape::NuPatch(_) | Shape::SubdivisionMesh(_))
+    {
+        // Adaptive surfaces: the key that needs the most triangles decides the rates of all.
+        let cap = tolerance.max_triangles.min((left / shapes.len()) as u64);
+        if cap == 0 {
+            return Err(format!("its keys would make more than the world's {MAX_WORLD_TRIANGLES} triangles"));
+        }
+        let keys: Vec<&Shape> = shapes.iter().map(|s| &**s).collect();
+        for m in tessellate_placed_keys(&keys, blas_from_object, false, &tolerance.with_max_triangles(cap))
+            .map_err(|e| e.to_string())?
+        {
+            left = left.saturating_sub(m.indices.len());
+            meshes.push(m);
+        }
+    }
     let tessellate_each = meshes.is_empty();
     for shape in shapes.iter().filter(|_| tessellate_each) {
         let cap = tolerance.max_triangles.min(left as u64);
@@ -296,6 +314,13 @@ pub(super) fn deforming_blas(
     }
     let first = &meshes[0];
     if meshes.iter().any(|m| m.indices != first.indices || m.positions.len() != first.positions.len()) {
+        if let Shape::Blobby(_) = *shapes[0] {
+            // An isosurface has no parametrisation to carry from key to key: each key's
+            // marching-cubes triangles are its own.
+            return Err("a Blobby is ray traced as its tessellated isosurface, and the isosurfaces of \
+                 different keys have no corresponding triangles to interpolate"
+                .into());
+        }
         return Err(
             "its keys tessellate to different meshes (the surface is refined differently at each key)".into(),
         );

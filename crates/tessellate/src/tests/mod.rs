@@ -2,6 +2,7 @@
 
 mod blobby;
 mod curves;
+mod keys;
 mod nurbs;
 mod patch;
 mod placed;

@@ -46,7 +46,7 @@ pub(crate) fn nupatch(
 }
 
 /// A cylinder of radius `r` from z = 0 to 1: the circle in u, a line in v.
-fn nurbs_cylinder(r: f32) -> NuPatch {
+pub(crate) fn nurbs_cylinder(r: f32) -> NuPatch {
     let mut p = Vec::new();
     for z in [0.0, 1.0] {
         for (x, y, w) in CIRCLE {

@@ -1,0 +1,107 @@
+//! Keys of deforming shapes whose own tessellations differ (other curvature, so other rates)
+//! come out with the same triangles, each key's vertices on its own surface.
+
+use super::nurbs::nurbs_cylinder;
+use super::patch::{BEZIER, mesh};
+use super::polygon::{CUBE_FACES, CUBE_POSITIONS};
+use super::subdiv::subdivision;
+use super::{assert_well_formed, max_distance_to_mesh};
+use crate::subdiv::{Planning, SubdivPlan, tessellate_subdivision_planned};
+use crate::{Tolerance, TriangleMesh, tessellate, tessellate_placed, tessellate_placed_keys};
+use glam::{DMat4, Vec3, Vec4};
+use rib_parser::scene::{PatchKind, Shape, Wrap};
+
+fn keyed(keys: &[&Shape], eps: f64) -> Vec<TriangleMesh> {
+    let meshes = tessellate_placed_keys(keys, &DMat4::IDENTITY, false, &Tolerance::absolute(eps)).unwrap();
+    assert_eq!(meshes.len(), keys.len());
+    for m in &meshes {
+        assert_eq!(m.indices, meshes[0].indices);
+        assert_eq!(m.face_index, meshes[0].face_index);
+        assert_eq!(m.positions.len(), meshes[0].positions.len());
+        assert_eq!(m.normals.as_ref().map(Vec::len), Some(m.positions.len()));
+    }
+    meshes
+}
+
+/// The unit square as one bicubic Bezier patch, its four inner control points raised by `h`:
+/// `z = 9 h u (1 - u) v (1 - v)` at `(x, y) = (u, v)`.
+fn bump(h: f32) -> Shape {
+    let mut p = Vec::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            let inner = (1..3).contains(&i) && (1..3).contains(&j);
+            p.push(Vec4::new(i as f32 / 3.0, j as f32 / 3.0, if inner { h } else { 0.0 }, 1.0));
+        }
+    }
+    mesh(PatchKind::Bicubic, 4, 4, (Wrap::NonPeriodic, Wrap::NonPeriodic), BEZIER, p)
+}
+
+#[test]
+fn a_flat_and_a_bulging_patch_share_triangles_each_on_its_own_surface() {
+    let (flat, bulging) = (bump(0.0), bump(1.0));
+    let eps = 1e-3;
+    let own = |s: &Shape| tessellate(s, &Tolerance::absolute(eps)).unwrap();
+    // On their own the keys are diced at other rates.
+    assert!(own(&flat).triangle_count() < own(&bulging).triangle_count());
+    let meshes = keyed(&[&flat, &bulging], eps);
+    // The bulging key decides, and keeps its own mesh.
+    let placed = tessellate_placed(&bulging, &DMat4::IDENTITY, false, &Tolerance::absolute(eps)).unwrap();
+    assert!(meshes[1] == placed, "the deciding key's mesh is not its own");
+    for (key, h) in [(&meshes[0], 0.0), (&meshes[1], 1.0)] {
+        assert_well_formed(key);
+        for p in key.positions.iter().map(|p| p.as_dvec3()) {
+            let z = 9.0 * h * p.x * (1.0 - p.x) * p.y * (1.0 - p.y);
+            assert!((p.z - z).abs() < 1e-5, "key with h = {h}: {p} against z = {z}");
+        }
+    }
+}
+
+#[test]
+fn nurbs_cylinders_of_two_radii_share_triangles_each_on_its_own_circle() {
+    let cylinder = |r: f32| Shape::NuPatch(nurbs_cylinder(r));
+    let (thin, thick) = (cylinder(1.0), cylinder(3.0));
+    let eps = 1e-3;
+    let own = |s: &Shape| tessellate(s, &Tolerance::absolute(eps)).unwrap().triangle_count();
+    assert!(own(&thin) < own(&thick));
+    let meshes = keyed(&[&thin, &thick], eps);
+    for (key, r) in [(&meshes[0], 1.0), (&meshes[1], 3.0)] {
+        for p in key.positions.iter().map(|p| p.as_dvec3()) {
+            assert!((p.truncate().length() - r).abs() < 1e-5 * r, "radius {r}: {p}");
+        }
+    }
+}
+
+#[test]
+fn subdivision_keys_share_triangles_stay_closed_and_lie_on_their_own_limit_surfaces() {
+    // The unit cube, and the cube with one corner pulled far out (another level and other
+    // adaptively refined faces on its own).
+    let cube = subdivision(&CUBE_POSITIONS, &CUBE_FACES, Vec::new());
+    let mut pulled = cube.clone();
+    pulled.positions[6] = Vec3::new(3.0, 2.5, 4.0);
+    let (a, b) = (Shape::SubdivisionMesh(cube.clone()), Shape::SubdivisionMesh(pulled.clone()));
+    let eps = 2e-3;
+    let own = |s: &Shape, eps: f64| tessellate(s, &Tolerance::absolute(eps)).unwrap();
+    assert_ne!(own(&a, eps).triangle_count(), own(&b, eps).triangle_count());
+    let meshes = keyed(&[&a, &b], eps);
+    for (k, key) in [&a, &b].into_iter().enumerate() {
+        assert!(meshes[k].is_closed(), "key {k} is not closed");
+        // Every vertex on the key's own limit surface: against a much finer mesh of it.
+        let gap = max_distance_to_mesh(&meshes[k], &own(key, eps / 20.0));
+        assert!(gap < 2.0 * eps, "key {k}: a vertex {gap} from its limit surface");
+    }
+}
+
+#[test]
+fn a_replayed_subdivision_plan_reproduces_the_recorded_mesh() {
+    let mut pulled = subdivision(&CUBE_POSITIONS, &CUBE_FACES, Vec::new());
+    pulled.positions[6] = Vec3::new(3.0, 2.5, 4.0);
+    let tol = Tolerance::absolute(2e-3);
+    let free = tessellate(&Shape::SubdivisionMesh(pulled.clone()), &tol).unwrap();
+    let mut record = Planning::Record(SubdivPlan::default());
+    let recorded = tessellate_subdivision_planned(&pulled, &tol, 1.0, &mut record).unwrap();
+    let Planning::Record(plan) = record else { panic!("still recording") };
+    let replayed = tessellate_subdivision_planned(&pulled, &tol, 1.0, &mut Planning::Replay(plan)).unwrap();
+    // No zero-area triangle here, so recording changes nothing either.
+    assert!(recorded == free, "recording changed the mesh");
+    assert!(replayed == free, "replaying changed the mesh");
+}
