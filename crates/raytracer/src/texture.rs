@@ -6,7 +6,7 @@
 //! `texture()` do by default). Wrap modes are `MakeTexture`'s: periodic (the default for a
 //! picture read directly), clamp, or black.
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
 
 /// How coordinates outside `[0, 1)` are read.
@@ -154,6 +154,35 @@ impl Texture {
         finest.bilinear(st, (Wrap::Periodic, Wrap::Clamp))
     }
 
+    /// The texture read as a lat-long map (periodic in `s`, clamped in `t`) seen through a box
+    /// filter `blur` wide in `s` and in `t`, in texture coordinates as RenderMan's `"blur"`
+    /// (`blur = 0.1`: a tenth of the map's width and of its height), built from the finest
+    /// level; `None` unless `blur` is finite and positive.
+    pub fn blurred_lat_long(&self, blur: f32) -> Option<Texture> {
+        if !(blur.is_finite() && blur > 0.0) {
+            return None;
+        }
+        let finest = &self.levels[0];
+        let (w, h) = (finest.width as usize, finest.height as usize);
+        let mut texels = finest.texels.clone();
+        let across = f64::from(blur) * w as f64;
+        for row in texels.chunks_mut(w) {
+            let filtered = box_filter(row, across, true);
+            row.copy_from_slice(&filtered);
+        }
+        let down = f64::from(blur) * h as f64;
+        let mut column = vec![Vec3::ZERO; h];
+        for x in 0..w {
+            for (y, c) in column.iter_mut().enumerate() {
+                *c = texels[y * w + x];
+            }
+            for (y, c) in box_filter(&column, down, false).into_iter().enumerate() {
+                texels[y * w + x] = c;
+            }
+        }
+        Some(Texture::from_rgb(finest.width, finest.height, texels)?.with_wrap(self.wrap.0, self.wrap.1))
+    }
+
     /// The finest level of the pyramid with at most `max_texels` texels (the coarsest, 1x1,
     /// when none is that small): `(width, height, texels)`, row 0 at the top.
     pub fn level_within(&self, max_texels: usize) -> (u32, u32, &[Vec3]) {
@@ -184,6 +213,47 @@ impl Texture {
         }
         a.lerp(self.levels[lo + 1].bilinear(st, self.wrap), f)
     }
+}
+
+/// Each texel of `line` (texel `k` covering `[k, k + 1]`, constant over it) averaged over a box
+/// `width` texels wide around its centre: periodic, or beyond the ends the end texels repeat.
+/// Exact for any width, through the running integral of the line (in `f64`).
+fn box_filter(line: &[Vec3], width: f64, periodic: bool) -> Vec<Vec3> {
+    let n = line.len();
+    if n == 0 || !(width > 0.0) {
+        return line.to_vec();
+    }
+    let mut running = Vec::with_capacity(n + 1);
+    running.push(DVec3::ZERO);
+    for c in line {
+        let last = running[running.len() - 1];
+        running.push(last + c.as_dvec3());
+    }
+    let total = running[n];
+    // The integral of the line from 0 to x.
+    let integral = |x: f64| -> DVec3 {
+        let (turns, x) = if periodic {
+            let turns = (x / n as f64).floor();
+            (turns, x - turns * n as f64)
+        } else {
+            (0.0, x)
+        };
+        let inside = if x <= 0.0 {
+            line[0].as_dvec3() * x
+        } else if x >= n as f64 {
+            total + line[n - 1].as_dvec3() * (x - n as f64)
+        } else {
+            let k = (x.floor() as usize).min(n - 1);
+            running[k] + line[k].as_dvec3() * (x - k as f64)
+        };
+        total * turns + inside
+    };
+    (0..n)
+        .map(|k| {
+            let centre = k as f64 + 0.5;
+            ((integral(centre + 0.5 * width) - integral(centre - 0.5 * width)) / width).as_vec3()
+        })
+        .collect()
 }
 
 /// A lat-long map resampled from `MakeCubeFaceEnvironment`'s six faces (in the order
@@ -228,6 +298,44 @@ pub fn lat_long_from_cube_faces(faces: [&Texture; 6], fov_degrees: f32) -> Optio
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn box_filters_average_exactly_over_their_width() {
+        let line: Vec<Vec3> = [0.0, 0.0, 4.0, 0.0, 0.0, 0.0].map(Vec3::splat).to_vec();
+        // Three texels wide: the bright texel spread over its neighbours, the sum kept.
+        let periodic = box_filter(&line, 3.0, true);
+        let values: Vec<f32> = periodic.iter().map(|c| c.x).collect();
+        let third = 4.0 / 3.0;
+        for (got, want) in values.iter().zip([0.0, third, third, third, 0.0, 0.0]) {
+            assert!((got - want).abs() < 1e-6, "{values:?}");
+        }
+        // Two texels wide: half of each neighbour, and the texel itself.
+        let two = box_filter(&line, 2.0, true);
+        assert!(
+            (two[1].x - 1.0).abs() < 1e-6 && (two[2].x - 2.0).abs() < 1e-6 && (two[3].x - 1.0).abs() < 1e-6
+        );
+        // Wider than the line: every texel is the mean when periodic.
+        for c in box_filter(&line, 6.0, true) {
+            assert!((c.x - 4.0 / 6.0).abs() < 1e-6, "{c}");
+        }
+        // Clamped: beyond the ends the end texels repeat, so a ramp's ends keep their values.
+        let ramp: Vec<Vec3> = (0..5).map(|k| Vec3::splat(k as f32)).collect();
+        let clamped = box_filter(&ramp, 3.0, false);
+        assert!((clamped[0].x - 1.0 / 3.0).abs() < 1e-6 && (clamped[2].x - 2.0).abs() < 1e-6);
+        assert!((clamped[4].x - 11.0 / 3.0).abs() < 1e-6, "{clamped:?}");
+    }
+
+    #[test]
+    fn a_blurred_lat_long_map_is_its_rows_mean_when_blurred_by_the_whole_width() {
+        let texels = (0..8 * 4).map(|i| Vec3::splat(if i % 8 == 3 { 8.0 } else { 0.0 })).collect();
+        let map = Texture::from_rgb(8, 4, texels).unwrap();
+        let blurred = map.blurred_lat_long(1.0).unwrap();
+        for c in &blurred.levels[0].texels {
+            assert!((c.x - 1.0).abs() < 1e-6, "{c}");
+        }
+        assert!(map.blurred_lat_long(0.0).is_none() && map.blurred_lat_long(f32::NAN).is_none());
+        assert!(map.blurred_lat_long(-0.1).is_none());
+    }
 
     #[test]
     fn bilinear_and_wrap() {

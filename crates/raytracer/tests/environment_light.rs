@@ -292,3 +292,28 @@ fn the_sky_through_coloured_opacity_is_tinted() {
         assert!((m - Vec3::new(0.0, 1.0, 2.0)).abs().max_element() < 0.15, "{integrator}: {m}");
     }
 }
+
+/// RenderMan's `"blur"` on an environment light: the map through a box filter `blur` wide in
+/// `s` and `t`. The sky of `a_lat_long_map_lights_from_where_it_is_bright` (white above the
+/// horizon, black below, its top row repeated beyond the pole) blurred by 1 is `1 - t` above
+/// the horizon (`t = theta / pi`), so an upward plane of `Kd` 0.8 has radiance
+/// `0.8 * 2 * int (1 - theta / pi) cos sin dtheta = 0.8 * (1 - 1 / 4) = 0.6` instead of 0.8.
+#[test]
+fn an_environment_light_blur_filters_its_map() {
+    let dir = tempfile::tempdir().unwrap();
+    write_png(&dir.path().join("sky.png"), 16, 64, |_, y| if y < 32 { [255; 3] } else { [0; 3] });
+    let rib = format!(
+        "{}WorldBegin\nLightSource \"envlight\" 1 \"string envmap\" [\"sky.png\"] \"float blur\" [1]\n{PLANE}WorldEnd\n",
+        camera(0.9, PATH)
+    );
+    let out = run_in(Some(dir.path()), &rib, false);
+    assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+    let m = mean(&out);
+    eprintln!("blurred sky: plane radiance {m} against 0.6");
+    assert!((m - Vec3::splat(0.6)).abs().max_element() < 0.015, "{m} vs 0.6");
+    // A width that is no width: a warning, and the map unblurred.
+    let rib = rib.replace("[1]", "[-1]");
+    let out = run_in(Some(dir.path()), &rib, false);
+    assert!(out.warnings.iter().any(|w| w.to_string().contains("\"blur\" -1")), "{:?}", out.warnings);
+    assert!((mean(&out) - Vec3::splat(0.8)).abs().max_element() < 0.02);
+}

@@ -115,6 +115,22 @@ fn environment_light(
         }
         None => None,
     };
+    // RenderMan's "blur": the map seen through a box filter that wide (a light without a map
+    // is constant and has nothing to blur).
+    let map = match (map, params.blur) {
+        (map, 0.0) => map,
+        (Some(map), blur) => match map.blurred_lat_long(blur) {
+            Some(blurred) => Some(Arc::new(blurred)),
+            None => {
+                diagnostics.warn_once(
+                    loc,
+                    format!("light \"{name}\": \"blur\" {blur} is not a finite width >= 0: the map is read unblurred"),
+                );
+                Some(map)
+            }
+        },
+        (None, _) => None,
+    };
     let render_from_light = glam::DMat3::from_mat4(*render_from_world * light.world_from_light);
     match EnvironmentLight::new(params.color * params.intensity, map, render_from_light) {
         Some(env) => Some(Light::Environment(Arc::new(env))),

@@ -47,6 +47,10 @@ pub struct EnvironmentLight {
     pub intensity: f32,
     /// `lightcolor` times pbrt's `L`.
     pub color: Vec3,
+    /// `blur`: the width of a box filter over the map, in texture coordinates (a fraction of
+    /// the map's width in `s` and of its height in `t`), as RenderMan's `environment()` takes
+    /// it; 0 without one.
+    pub blur: f32,
 }
 
 /// The environment light `call` describes, when its shader is one of [`ENVIRONMENT_LIGHTS`].
@@ -60,7 +64,8 @@ pub fn environment_light(call: &ShaderCall) -> Option<EnvironmentLight> {
         ENVIRONMENT_MAP_PARAMS.iter().find_map(|n| p.string(n)).filter(|m| !m.is_empty()).map(str::to_string);
     let intensity = p.float("intensity").unwrap_or(1.0) * p.float("scale").unwrap_or(1.0);
     let color = p.vec3("lightcolor").unwrap_or(Vec3::ONE) * p.vec3("L").unwrap_or(Vec3::ONE);
-    Some(EnvironmentLight { map, intensity, color })
+    let blur = p.float("blur").unwrap_or(0.0);
+    Some(EnvironmentLight { map, intensity, color, blur })
 }
 
 /// The standard light a shader name stands for (itself, or the one a shadow-map light extends).
