@@ -228,8 +228,9 @@ fn a_bicubic_patch_whose_edge_bulges_covers_each_pixel_for_the_time_it_spends_th
 
 #[test]
 fn blobby_keys_are_drawn_at_shutter_open_with_the_reason() {
-    // Two blobs moving apart: their keys' isosurfaces have no corresponding triangles, so it is
-    // the first key (shutter open is key 0) with a warning that says why.
+    // Two blobs coming apart: the first key's triangles cannot be carried onto the last key's
+    // two separate surfaces, so it is the first key (shutter open is key 0) with a warning
+    // that says why.
     let blobs = |d: f64| {
         let at = |x: f64| format!("0.6 0 0 0 0 0.6 0 0 0 0 0.6 0 {x} 0 0 1");
         format!("Blobby 2 [1001 0 1001 16 0 2 0 1] [{} {}] [\"\"]", at(-d), at(d))
@@ -237,7 +238,7 @@ fn blobby_keys_are_drawn_at_shutter_open_with_the_reason() {
     let cam = camera(32, 2, "Shutter 0 1");
     let out = rendered(&format!("{cam}{}", world(&keys("0 1", &[blobs(0.2), blobs(0.7)]))), 16, false);
     let said = |w: &raytracer::diagnostics::Warning| {
-        w.message.contains("deforming Blobby drawn at shutter open") && w.message.contains("no corresponding")
+        w.message.contains("deforming Blobby drawn at shutter open") && w.message.contains("cannot be mapped")
     };
     assert!(out.warnings.iter().any(said), "{:?}", out.warnings);
     let still = rendered(&format!("{cam}{}", world(&blobs(0.2))), 16, false);

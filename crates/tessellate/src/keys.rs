@@ -11,9 +11,16 @@
 //!   refined adaptively and the same quad diagonals (subdivision is linear in the control
 //!   points, so each key's vertices are the same stencils applied to its own points).
 //!
+//! - `Blobby`: an isosurface has no parameters to carry, so every vertex of the deciding key's
+//!   mesh is moved onto each other key's isosurface by Newton steps along the field's
+//!   gradient. That holds while the blobs keep their topology; where they split or merge
+//!   (a triangle bridging two blobs ends far from the surface, or turns over) the keys are
+//!   refused with the reason.
+//!
 //! Zero-area triangles are kept in the keyed meshes (another key may give them area), and the
 //! keys' texture coordinates are the deciding key's. Other shapes are tessellated key by key.
 
+use super::blobby::{BLOBBY_THRESHOLD, BlobbyField};
 use super::nurbs::Surface;
 use super::patch::PatchSurface;
 use super::placed::{spectral_norm, transform_mesh};
@@ -45,6 +52,7 @@ pub fn tessellate_placed_keys(
     let mut meshes = match keys {
         [Shape::SubdivisionMesh(_), ..] => subdivision_keys(keys, tol, scale)?,
         [Shape::Patches(_) | Shape::NuPatch(_), ..] => parametric_keys(keys, tol, scale)?,
+        [Shape::Blobby(_), ..] => blobby_keys(keys, tol, scale)?,
         _ => keys
             .iter()
             .map(|k| tessellate_scaled(k, tol, scale, ShapeOptions::default()))
@@ -230,4 +238,95 @@ fn same_triangles(meshes: &[TriangleMesh]) -> Result<(), TessellateError> {
         });
     }
     Ok(())
+}
+
+fn blobby_keys(keys: &[&Shape], tol: &Tolerance, scale: f64) -> Result<Vec<TriangleMesh>, TessellateError> {
+    let own: Vec<TriangleMesh> = keys
+        .iter()
+        .map(|k| tessellate_scaled(k, tol, scale, ShapeOptions::default()))
+        .collect::<Result<_, _>>()?;
+    // Keys that tessellate alike (a blob that only scales, its grid scaling with it) need nothing more.
+    if same_triangles(&own).is_ok() {
+        return Ok(own);
+    }
+    let decider = finest(&own);
+    let template = &own[decider];
+    let refuse = |why: &str| TessellateError::InvalidShape {
+        kind: "Blobby",
+        reason: format!("its keys' isosurfaces cannot be mapped onto one another ({why})"),
+    };
+    let field_of = |shape: &Shape| match shape {
+        Shape::Blobby(b) => BlobbyField::new(b),
+        other => {
+            Err(TessellateError::InvalidShape { kind: shape_kind(other), reason: "not a Blobby".into() })
+        }
+    };
+    let eps_of = |field: &BlobbyField| -> Result<f64, TessellateError> {
+        tol.effective(field.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length()), scale)
+    };
+    let eps_decider = eps_of(&field_of(keys[decider])?)?;
+    let mut scratch = Vec::new();
+    let mut out = Vec::with_capacity(keys.len());
+    for (k, key) in keys.iter().enumerate() {
+        if k == decider {
+            out.push(template.clone());
+            continue;
+        }
+        let field = field_of(key)?;
+        let eps = eps_of(&field)?;
+        let mut positions = Vec::with_capacity(template.positions.len());
+        let mut normals = Vec::with_capacity(template.positions.len());
+        for p in &template.positions {
+            let (x, g) = onto_isosurface(&field, p.as_dvec3(), eps, &mut scratch)
+                .ok_or_else(|| refuse("a vertex finds no surface nearby"))?;
+            positions.push(x.as_vec3());
+            normals.push((-g).normalize_or(DVec3::Z).as_vec3());
+        }
+        let mesh = TriangleMesh { positions, normals: Some(normals), ..template.clone() };
+        // Triangles that bridge blobs that came apart end far from the surface, or turn over.
+        let limit = 4.0 * eps.max(eps_decider);
+        let vertex_normals = mesh.normals.as_deref().unwrap_or(&[]);
+        for t in 0..mesh.indices.len() {
+            let [a, b, c] = mesh.triangle(t).map(|p| p.as_dvec3());
+            let (v, g) = field.eval((a + b + c) / 3.0, &mut scratch);
+            let smooth = mesh.indices[t]
+                .map(|i| vertex_normals.get(i as usize).copied().unwrap_or(glam::Vec3::Z).as_dvec3());
+            let creased =
+                smooth[0].dot(smooth[1]).min(smooth[1].dot(smooth[2])).min(smooth[0].dot(smooth[2])) < 0.9;
+            if !creased && g.length() > 0.0 && (v - BLOBBY_THRESHOLD).abs() / g.length() > limit {
+                return Err(refuse("the blobs split, merge or move too far"));
+            }
+            let cross = mesh.face_cross(t);
+            if cross != DVec3::ZERO && smooth.iter().any(|n| n.dot(cross) < 0.0) && !creased {
+                return Err(refuse("a triangle turns over"));
+            }
+        }
+        out.push(mesh);
+    }
+    same_triangles(&out)?;
+    Ok(out)
+}
+
+/// The point of the field's level set reached from `p` by Newton steps along the gradient, with
+/// the gradient there, or `None` when the steps do not converge (no surface nearby).
+fn onto_isosurface(
+    field: &BlobbyField,
+    p: DVec3,
+    eps: f64,
+    scratch: &mut Vec<(f64, DVec3)>,
+) -> Option<(DVec3, DVec3)> {
+    let mut x = p;
+    for _ in 0..64 {
+        let (v, g) = field.eval(x, scratch);
+        let g2 = g.length_squared();
+        if !(g2 > 0.0 && v.is_finite()) {
+            return None;
+        }
+        let step = (v - BLOBBY_THRESHOLD) / g2;
+        if (step * g2.sqrt()).abs() <= 1e-6 * eps {
+            return Some((x, g));
+        }
+        x -= g * step;
+    }
+    None
 }

@@ -6,9 +6,11 @@
 //!   with one tolerance; when the keys' meshes have the same triangles (vertex `i` of one is
 //!   vertex `i` of the others) the triangle at a ray's time has the keys' vertices interpolated
 //!   linearly and is tested watertight like any other (shared vertices interpolate to the same
-//!   bits, so the deforming mesh stays closed). Patches, NURBS and subdivision surfaces, whose
-//!   rates adapt to their positions, are tessellated by `tessellate_placed_keys`: the key that
-//!   needs the most triangles chooses the rates (parameters, refined faces) of every key.
+//!   bits, so the deforming mesh stays closed). Patches, NURBS, subdivision surfaces and
+//!   Blobby, whose tessellations adapt to their positions, are tessellated by
+//!   `tessellate_placed_keys`: the key that needs the most triangles chooses the rates
+//!   (parameters, refined faces) of every key, or, for a Blobby, its vertices are carried
+//!   onto the other keys' isosurfaces.
 //!   Keys whose tessellations still differ are drawn at shutter open, with a warning.
 //! - Quadrics and `Points` spheres: their parameters (radius, heights, sweep, centre) are
 //!   interpolated and the quadric at the ray's time is solved exactly.
@@ -283,9 +285,13 @@ pub(super) fn deforming_blas(
         }
     }
     if meshes.is_empty()
-        && matches!(*shapes[0], Shape::Patches(_) | Shape::NuPatch(_) | Shape::SubdivisionMesh(_))
+        && matches!(
+            *shapes[0],
+            Shape::Patches(_) | Shape::NuPatch(_) | Shape::SubdivisionMesh(_) | Shape::Blobby(_)
+        )
     {
-        // Adaptive surfaces: the key that needs the most triangles decides the rates of all.
+        // Adaptive surfaces: the key that needs the most triangles decides the rates of all
+        // (a Blobby's vertices are carried onto the other keys' isosurfaces).
         let cap = tolerance.max_triangles.min((left / shapes.len()) as u64);
         if cap == 0 {
             return Err(format!("its keys would make more than the world's {MAX_WORLD_TRIANGLES} triangles"));
@@ -314,13 +320,6 @@ pub(super) fn deforming_blas(
     }
     let first = &meshes[0];
     if meshes.iter().any(|m| m.indices != first.indices || m.positions.len() != first.positions.len()) {
-        if let Shape::Blobby(_) = *shapes[0] {
-            // An isosurface has no parametrisation to carry from key to key: each key's
-            // marching-cubes triangles are its own.
-            return Err("a Blobby is ray traced as its tessellated isosurface, and the isosurfaces of \
-                 different keys have no corresponding triangles to interpolate"
-                .into());
-        }
         return Err(
             "its keys tessellate to different meshes (the surface is refined differently at each key)".into(),
         );

@@ -6,11 +6,11 @@ use glam::DVec3;
 use rib_parser::scene::{Blobby, ParamList, Shape};
 
 /// A 1001 ellipsoid with the row-vector matrix `diag(sx, sy, sz)` translated by `t`.
-fn ellipsoid_floats(s: [f32; 3], t: [f32; 3]) -> Vec<f32> {
+pub(crate) fn ellipsoid_floats(s: [f32; 3], t: [f32; 3]) -> Vec<f32> {
     vec![s[0], 0., 0., 0., 0., s[1], 0., 0., 0., 0., s[2], 0., t[0], t[1], t[2], 1.]
 }
 
-fn blobby(leaf_count: u32, code: Vec<i32>, floats: Vec<f32>) -> Shape {
+pub(crate) fn blobby(leaf_count: u32, code: Vec<i32>, floats: Vec<f32>) -> Shape {
     Shape::Blobby(Blobby {
         leaf_count,
         code,

@@ -1,13 +1,18 @@
 //! Keys of deforming shapes whose own tessellations differ (other curvature, so other rates)
-//! come out with the same triangles, each key's vertices on its own surface.
+//! come out with the same triangles, each key's vertices on its own surface; Blobby keys whose
+//! blobs come apart are refused.
 
+use super::blobby::{blobby, ellipsoid_floats};
 use super::nurbs::nurbs_cylinder;
 use super::patch::{BEZIER, mesh};
 use super::polygon::{CUBE_FACES, CUBE_POSITIONS};
 use super::subdiv::subdivision;
 use super::{assert_well_formed, max_distance_to_mesh};
 use crate::subdiv::{Planning, SubdivPlan, tessellate_subdivision_planned};
-use crate::{Tolerance, TriangleMesh, tessellate, tessellate_placed, tessellate_placed_keys};
+use crate::{
+    BLOBBY_THRESHOLD, BlobbyField, Tolerance, TriangleMesh, tessellate, tessellate_placed,
+    tessellate_placed_keys,
+};
 use glam::{DMat4, Vec3, Vec4};
 use rib_parser::scene::{PatchKind, Shape, Wrap};
 
@@ -104,4 +109,39 @@ fn a_replayed_subdivision_plan_reproduces_the_recorded_mesh() {
     // No zero-area triangle here, so recording changes nothing either.
     assert!(recorded == free, "recording changed the mesh");
     assert!(replayed == free, "replaying changed the mesh");
+}
+
+/// Two unit-size blobs (radius about 0.5 each) at `x = -d` and `d`, added.
+fn two_blobs(d: f32) -> Shape {
+    let mut floats = ellipsoid_floats([1.0; 3], [-d, 0.0, 0.0]);
+    floats.extend(ellipsoid_floats([1.0; 3], [d, 0.0, 0.0]));
+    blobby(2, vec![1001, 0, 1001, 16, 0, 2, 0, 1], floats)
+}
+
+#[test]
+fn blobs_that_move_but_stay_merged_share_triangles_on_their_own_isosurfaces() {
+    let (near, apart) = (two_blobs(0.2), two_blobs(0.35));
+    let eps = 2e-3;
+    let own = |s: &Shape| tessellate(s, &Tolerance::absolute(eps)).unwrap();
+    assert_ne!(own(&near).indices, own(&apart).indices);
+    let meshes = keyed(&[&near, &apart], eps);
+    let mut scratch = Vec::new();
+    for (key, shape) in meshes.iter().zip([&near, &apart]) {
+        assert!(key.is_closed());
+        let Shape::Blobby(b) = shape else { panic!("not a Blobby") };
+        let field = BlobbyField::new(b).unwrap();
+        for p in &key.positions {
+            let (v, g) = field.eval(p.as_dvec3(), &mut scratch);
+            // On the surface to f32 rounding.
+            assert!((v - BLOBBY_THRESHOLD).abs() / g.length() < 1e-6, "{p}: off by {}", v - BLOBBY_THRESHOLD);
+        }
+    }
+}
+
+#[test]
+fn blobs_that_come_apart_are_refused_with_the_reason() {
+    let (merged, split) = (two_blobs(0.2), two_blobs(0.9));
+    let tol = Tolerance::absolute(2e-3);
+    let why = tessellate_placed_keys(&[&merged, &split], &DMat4::IDENTITY, false, &tol).unwrap_err();
+    assert!(why.to_string().contains("cannot be mapped onto one another"), "{why}");
 }

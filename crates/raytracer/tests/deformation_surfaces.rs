@@ -1,6 +1,7 @@
-//! A deforming subdivision surface (issue 11): keys of other curvature, which on their own are
-//! refined differently, make one moving shape whose every interpolated mesh is closed, and
-//! which at shutter open and close is the first and the last key.
+//! Deforming adaptive surfaces (issue 11): a subdivision surface whose keys differ in
+//! curvature, and a Blobby whose blobs move (keys that on their own are tessellated
+//! differently), make one moving shape whose every interpolated mesh is closed, and which at
+//! shutter open and close is the first and the last key.
 
 use glam::{DVec3, Vec3};
 use raytracer::diagnostics::Diagnostics;
@@ -82,11 +83,46 @@ fn a_deforming_subdivision_surface_is_closed_at_every_time() {
 
 #[test]
 fn at_shutter_open_and_close_the_deforming_surface_is_its_first_and_last_key() {
-    let eye = DVec3::new(1.0, -2.0, 8.0);
     let keys = format!("MotionBegin [0 1]\n{}\n{}\nMotionEnd", lumpy_cube(STILL), lumpy_cube(PULLED));
-    let (deforming, _) = world(&keys, eye);
-    let (first, _) = world(&lumpy_cube(STILL), eye);
-    let (last, _) = world(&lumpy_cube(PULLED), eye);
+    let worst = open_and_close(&keys, &lumpy_cube(STILL), &lumpy_cube(PULLED));
+    assert!(worst[0] < 0.02 && worst[1] < 0.02, "{worst:?}");
+    // The keys themselves are far apart, so the comparison tells them apart.
+    assert!(worst[2] > 0.5, "{worst:?}");
+}
+
+/// Two blobs of radius about 0.75 at `x = -d` and `d`, added.
+fn two_blobs(d: f64) -> String {
+    let at = |x: f64| format!("1.5 0 0 0 0 1.5 0 0 0 0 1.5 0 {x} 0 0 1");
+    format!("Blobby 2 [1001 0 1001 16 0 2 0 1] [{} {}] [\"\"]", at(-d), at(d))
+}
+
+#[test]
+fn blobs_that_move_apart_but_stay_merged_blur_and_end_on_their_keys() {
+    let keys = format!("MotionBegin [0 1]\n{}\n{}\nMotionEnd", two_blobs(0.2), two_blobs(0.5));
+    let (deforming, warnings) = world(&keys, DVec3::new(1.0, -2.0, 8.0));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    // Closed at every time: rays towards points near the centre always meet it first.
+    let (mut rng, length, mut leaks) = (Rng(3), 8.0, 0);
+    let eye = DVec3::new(1.0, -2.0, 8.0);
+    for _ in 0..2000 {
+        let (target, direction) = (rng.unit() * 0.3 * rng.next(), rng.unit());
+        let hit = deforming.intersect(&ray(eye, target - direction * length, direction, rng.next() as f32));
+        leaks += usize::from(!hit.is_some_and(|h| f64::from(h.t) <= length));
+    }
+    assert_eq!(leaks, 0, "{leaks} of 2000 rays went through the deforming Blobby");
+    let worst = open_and_close(&keys, &two_blobs(0.2), &two_blobs(0.5));
+    assert!(worst[0] < 0.02 && worst[1] < 0.02, "{worst:?}");
+    assert!(worst[2] > 0.2, "{worst:?}");
+}
+
+/// Over 2000 rays towards the centre from all around: the largest difference in hit distance
+/// between the deforming world at shutter open and the first key alone, at shutter close and
+/// the last key alone, and between the two keys.
+fn open_and_close(keys: &str, first: &str, last: &str) -> [f64; 3] {
+    let eye = DVec3::new(1.0, -2.0, 8.0);
+    let (deforming, _) = world(keys, eye);
+    let (first, _) = world(first, eye);
+    let (last, _) = world(last, eye);
     // Rays towards the centre from all around: the distances agree within a few tessellation
     // tolerances (each world dices its own way; a pixel here is 1e-3 of the distance, ~0.01).
     let (mut rng, length) = (Rng(5), 10.0);
@@ -107,14 +143,13 @@ fn at_shutter_open_and_close_the_deforming_surface_is_its_first_and_last_key() {
         "open against the first key {}, close against the last {}, keys apart {}",
         worst[0], worst[1], worst[2]
     );
-    assert!(worst[0] < 0.02 && worst[1] < 0.02, "{worst:?}");
-    // The keys themselves are far apart, so the comparison tells them apart.
-    assert!(worst[2] > 0.5, "{worst:?}");
+    worst
 }
 
 #[test]
 fn each_key_alone_is_refined_differently() {
-    // What the two tests above rely on: on their own the keys give other triangle counts.
+    // What the subdivision tests above rely on: on their own the keys give other triangle
+    // counts.
     let count = |pull| {
         let rib = format!("WorldBegin\n{}\nWorldEnd\n", lumpy_cube(pull));
         let scene = rib_parser::load_bytes("k.rib", rib.into_bytes(), &Default::default()).unwrap().scene;
