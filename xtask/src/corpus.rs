@@ -488,8 +488,20 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "As above, from the ray tracer: displacement is a gap still to build.",
     ),
     (
-        "deformation motion blur",
-        "Gap: deformation blur (geometry, lights or attributes inside `MotionBegin`) is not built; the first sample is used. Transformation motion blur is rendered.",
+        "drawn at shutter open",
+        "Gap, narrowed: deformation blur is rendered for every shape whose keys can be interpolated (quadrics, points, polygons, curves, and patches, NURBS, subdivision surfaces and Blobby tessellated alike at every key; see docs/raytracer.md). The warning says why this one is not: a Blobby whose blobs split or merge between keys, a deforming shape inside `SolidBegin` or an area light.",
+    ),
+    (
+        "deformation motion blur inside ObjectBegin",
+        "Gap: deformation inside an object definition keeps its first key (move the `ObjectInstance` instead).",
+    ),
+    (
+        "without deformation blur",
+        "The keys of a motion block are not one request with one topology (another shape type, other counts): a scene error RenderMan refuses too; the first key is used, reported.",
+    ),
+    (
+        "motion blur of lights and attributes",
+        "Gap: lights and attributes inside `MotionBegin` keep their first sample (geometry and transformations are blurred).",
     ),
     (
         "camera's motion block",
