@@ -5,6 +5,7 @@
 use super::blobby::{blobby, ellipsoid_floats};
 use super::nurbs::nurbs_cylinder;
 use super::patch::{BEZIER, mesh};
+use super::polygon::float_param;
 use super::polygon::{CUBE_FACES, CUBE_POSITIONS};
 use super::subdiv::subdivision;
 use super::{assert_well_formed, max_distance_to_mesh};
@@ -14,7 +15,7 @@ use crate::{
     tessellate_placed_keys,
 };
 use glam::{DMat4, Vec3, Vec4};
-use rib_parser::scene::{PatchKind, Shape, Wrap};
+use rib_parser::scene::{ParamType, PatchKind, Shape, StorageClass, Wrap};
 
 fn keyed(keys: &[&Shape], eps: f64) -> Vec<TriangleMesh> {
     let meshes = tessellate_placed_keys(keys, &DMat4::IDENTITY, false, &Tolerance::absolute(eps)).unwrap();
@@ -57,6 +58,27 @@ fn a_flat_and_a_bulging_patch_share_triangles_each_on_its_own_surface() {
         for p in key.positions.iter().map(|p| p.as_dvec3()) {
             let z = 9.0 * h * p.x * (1.0 - p.x) * p.y * (1.0 - p.y);
             assert!((p.z - z).abs() < 1e-5, "key with h = {h}: {p} against z = {z}");
+        }
+    }
+}
+
+#[test]
+fn patch_keys_with_texture_coordinates_keep_them_and_are_still_evaluated_at_their_parameters() {
+    // st = (2u, 4v) at the corners: the vertex parameters must not be read from it.
+    let with_st = |h: f32| {
+        let Shape::Patches(mut pm) = bump(h) else { panic!("not a patch mesh") };
+        let corners = vec![0.0, 0.0, 2.0, 0.0, 0.0, 4.0, 2.0, 4.0];
+        pm.primvars.0.push(float_param("st", StorageClass::Varying, ParamType::Float, 2, corners));
+        Shape::Patches(pm)
+    };
+    let (flat, bulging) = (with_st(0.0), with_st(1.0));
+    let meshes = keyed(&[&flat, &bulging], 1e-3);
+    for (key, h) in [(&meshes[0], 0.0), (&meshes[1], 1.0)] {
+        let st = key.st.as_ref().expect("st");
+        for (p, st) in key.positions.iter().map(|p| p.as_dvec3()).zip(st) {
+            let z = 9.0 * h * p.x * (1.0 - p.x) * p.y * (1.0 - p.y);
+            assert!((p.z - z).abs() < 1e-5, "key with h = {h}: {p} against z = {z}");
+            assert!((st.as_dvec2() - glam::DVec2::new(2.0 * p.x, 4.0 * p.y)).length() < 1e-5, "{p} {st}");
         }
     }
 }
