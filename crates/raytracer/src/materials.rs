@@ -81,7 +81,12 @@ pub struct Material {
 #[derive(Clone, Debug, PartialEq)]
 pub enum MaterialNote {
     UnknownShader(String),
-    TextureUnreadable { path: String, reason: String },
+    TextureUnreadable {
+        path: String,
+        reason: String,
+    },
+    /// A `"blur"` that is not a finite width >= 0: the texture is read unblurred.
+    BadBlur(f32),
 }
 
 fn param(params: &ParamList, name: &str, default: f32) -> f32 {
@@ -113,9 +118,19 @@ impl Material {
         let p = |n: &str, d: f32| param(&params, n, d);
         let roughness = |d: f32| p("roughness", d).max(1e-4);
         let specular_color = params.vec3("specularcolor").map(clamp_color).unwrap_or(Vec3::ONE);
-        let mut texture = || match params.string("texturename") {
+        // RenderMan's "blur" of the texture lookups: the map seen through a box filter that
+        // wide (`lat_long`: as the environment map `shinymetal` reads, periodic in s).
+        let blur = params.float("blur").unwrap_or(0.0);
+        let mut texture = |lat_long: bool| match params.string("texturename") {
             Some(path) if !path.is_empty() => match load_texture(path) {
-                Ok(t) => Some(t),
+                Ok(t) if blur == 0.0 => Some(t),
+                Ok(t) => {
+                    let blurred = if lat_long { t.blurred_lat_long(blur) } else { t.blurred(blur) };
+                    if blurred.is_none() {
+                        notes.push(MaterialNote::BadBlur(blur));
+                    }
+                    Some(blurred.map_or(t, Arc::new))
+                }
                 Err(reason) => {
                     notes.push(MaterialNote::TextureUnreadable { path: path.to_string(), reason });
                     None
@@ -143,7 +158,7 @@ impl Material {
                     ks: p("Ks", 0.5),
                     roughness: roughness(0.1),
                     specular_color,
-                    texture: texture(),
+                    texture: texture(false),
                 },
                 p("Ka", 1.0),
             ),
@@ -153,7 +168,7 @@ impl Material {
                     ks: p("Ks", 1.0),
                     kr: p("Kr", 1.0),
                     roughness: roughness(0.1),
-                    environment: texture(),
+                    environment: texture(true),
                 },
                 p("Ka", 1.0),
             ),

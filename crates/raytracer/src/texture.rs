@@ -154,11 +154,21 @@ impl Texture {
         finest.bilinear(st, (Wrap::Periodic, Wrap::Clamp))
     }
 
-    /// The texture read as a lat-long map (periodic in `s`, clamped in `t`) seen through a box
-    /// filter `blur` wide in `s` and in `t`, in texture coordinates as RenderMan's `"blur"`
-    /// (`blur = 0.1`: a tenth of the map's width and of its height), built from the finest
-    /// level; `None` unless `blur` is finite and positive.
+    /// The texture seen through a box filter `blur` wide in `s` and in `t`, in texture
+    /// coordinates as RenderMan's `"blur"` (`blur = 0.1`: a tenth of the texture's width and of
+    /// its height), beyond its edges as its wrap modes say, built from the finest level; `None`
+    /// unless `blur` is finite and positive.
+    pub fn blurred(&self, blur: f32) -> Option<Texture> {
+        self.blurred_with(blur, self.wrap)
+    }
+
+    /// [`Texture::blurred`] for the texture read as a lat-long map: periodic in `s`, clamped in
+    /// `t` (the poles), whatever its own wrap modes.
     pub fn blurred_lat_long(&self, blur: f32) -> Option<Texture> {
+        self.blurred_with(blur, (Wrap::Periodic, Wrap::Clamp))
+    }
+
+    fn blurred_with(&self, blur: f32, (s_edge, t_edge): (Wrap, Wrap)) -> Option<Texture> {
         if !(blur.is_finite() && blur > 0.0) {
             return None;
         }
@@ -167,7 +177,7 @@ impl Texture {
         let mut texels = finest.texels.clone();
         let across = f64::from(blur) * w as f64;
         for row in texels.chunks_mut(w) {
-            let filtered = box_filter(row, across, true);
+            let filtered = box_filter(row, across, s_edge);
             row.copy_from_slice(&filtered);
         }
         let down = f64::from(blur) * h as f64;
@@ -176,7 +186,7 @@ impl Texture {
             for (y, c) in column.iter_mut().enumerate() {
                 *c = texels[y * w + x];
             }
-            for (y, c) in box_filter(&column, down, false).into_iter().enumerate() {
+            for (y, c) in box_filter(&column, down, t_edge).into_iter().enumerate() {
                 texels[y * w + x] = c;
             }
         }
@@ -216,9 +226,10 @@ impl Texture {
 }
 
 /// Each texel of `line` (texel `k` covering `[k, k + 1]`, constant over it) averaged over a box
-/// `width` texels wide around its centre: periodic, or beyond the ends the end texels repeat.
-/// Exact for any width, through the running integral of the line (in `f64`).
-fn box_filter(line: &[Vec3], width: f64, periodic: bool) -> Vec<Vec3> {
+/// `width` texels wide around its centre, beyond the ends as `edge` says (periodic, the end
+/// texels repeated, or black). Exact for any width, through the running integral of the line
+/// (in `f64`).
+fn box_filter(line: &[Vec3], width: f64, edge: Wrap) -> Vec<Vec3> {
     let n = line.len();
     if n == 0 || !(width > 0.0) {
         return line.to_vec();
@@ -232,16 +243,18 @@ fn box_filter(line: &[Vec3], width: f64, periodic: bool) -> Vec<Vec3> {
     let total = running[n];
     // The integral of the line from 0 to x.
     let integral = |x: f64| -> DVec3 {
-        let (turns, x) = if periodic {
+        let (turns, x) = if edge == Wrap::Periodic {
             let turns = (x / n as f64).floor();
             (turns, x - turns * n as f64)
         } else {
             (0.0, x)
         };
+        // Beyond the ends, black adds nothing and clamping repeats the end texel.
+        let clamp = f64::from(u8::from(edge == Wrap::Clamp));
         let inside = if x <= 0.0 {
-            line[0].as_dvec3() * x
+            line[0].as_dvec3() * (x * clamp)
         } else if x >= n as f64 {
-            total + line[n - 1].as_dvec3() * (x - n as f64)
+            total + line[n - 1].as_dvec3() * ((x - n as f64) * clamp)
         } else {
             let k = (x.floor() as usize).min(n - 1);
             running[k] + line[k].as_dvec3() * (x - k as f64)
@@ -303,26 +316,29 @@ mod tests {
     fn box_filters_average_exactly_over_their_width() {
         let line: Vec<Vec3> = [0.0, 0.0, 4.0, 0.0, 0.0, 0.0].map(Vec3::splat).to_vec();
         // Three texels wide: the bright texel spread over its neighbours, the sum kept.
-        let periodic = box_filter(&line, 3.0, true);
+        let periodic = box_filter(&line, 3.0, Wrap::Periodic);
         let values: Vec<f32> = periodic.iter().map(|c| c.x).collect();
         let third = 4.0 / 3.0;
         for (got, want) in values.iter().zip([0.0, third, third, third, 0.0, 0.0]) {
             assert!((got - want).abs() < 1e-6, "{values:?}");
         }
         // Two texels wide: half of each neighbour, and the texel itself.
-        let two = box_filter(&line, 2.0, true);
+        let two = box_filter(&line, 2.0, Wrap::Periodic);
         assert!(
             (two[1].x - 1.0).abs() < 1e-6 && (two[2].x - 2.0).abs() < 1e-6 && (two[3].x - 1.0).abs() < 1e-6
         );
         // Wider than the line: every texel is the mean when periodic.
-        for c in box_filter(&line, 6.0, true) {
+        for c in box_filter(&line, 6.0, Wrap::Periodic) {
             assert!((c.x - 4.0 / 6.0).abs() < 1e-6, "{c}");
         }
         // Clamped: beyond the ends the end texels repeat, so a ramp's ends keep their values.
         let ramp: Vec<Vec3> = (0..5).map(|k| Vec3::splat(k as f32)).collect();
-        let clamped = box_filter(&ramp, 3.0, false);
+        let clamped = box_filter(&ramp, 3.0, Wrap::Clamp);
         assert!((clamped[0].x - 1.0 / 3.0).abs() < 1e-6 && (clamped[2].x - 2.0).abs() < 1e-6);
         assert!((clamped[4].x - 11.0 / 3.0).abs() < 1e-6, "{clamped:?}");
+        // Black: nothing beyond the ends.
+        let black = box_filter(&ramp, 3.0, Wrap::Black);
+        assert!((black[0].x - 1.0 / 3.0).abs() < 1e-6 && (black[4].x - 7.0 / 3.0).abs() < 1e-6, "{black:?}");
     }
 
     #[test]

@@ -103,6 +103,10 @@ impl World {
                         loc,
                         format!("texture \"{path}\" cannot be read ({reason}): rendered without it"),
                     ),
+                    MaterialNote::BadBlur(blur) => diagnostics.warn_once(
+                        loc,
+                        format!("\"blur\" {blur} is not a finite width >= 0: the texture is read unblurred"),
+                    ),
                 }
             }
             if attrs.displacement.is_some() {
