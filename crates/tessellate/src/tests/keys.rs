@@ -161,9 +161,12 @@ fn blobs_that_move_but_stay_merged_share_triangles_on_their_own_isosurfaces() {
 }
 
 #[test]
-fn blobs_that_come_apart_are_refused_with_the_reason() {
+fn blobs_that_come_apart_or_together_are_refused_with_the_reason() {
     let (merged, split) = (two_blobs(0.2), two_blobs(0.9));
     let tol = Tolerance::absolute(2e-3);
     let why = tessellate_placed_keys(&[&merged, &split], &DMat4::IDENTITY, false, &tol).unwrap_err();
+    assert!(why.to_string().contains("cannot be mapped onto one another"), "{why}");
+    // And blobs that come together.
+    let why = tessellate_placed_keys(&[&split, &merged], &DMat4::IDENTITY, false, &tol).unwrap_err();
     assert!(why.to_string().contains("cannot be mapped onto one another"), "{why}");
 }
