@@ -4,12 +4,11 @@
 //! The photons are sorted by cell into flat columns (one array per coordinate of the position,
 //! normal, direction and power), and an open-addressing hash table maps each occupied cell to
 //! its range. A query visits the cells that overlap the search sphere's bounding box, skips
-//! those the sphere misses, and tests the photons of the rest. With cells about as wide as the
-//! radius, about 2.5 photons are tested per photon found, where the kd-tree's range search
-//! tested about 6 and paid for its descent besides (pbrt-v4's and Mitsuba's SPPM use such grids
-//! for the same reason). The estimate of a matte surface with the box filter, the common case,
-//! sums a cell's photons without branches ([`PhotonGrid::sum_power_within`]), four lanes at a
-//! time.
+//! those the sphere misses, and tests the photons of the rest. With cells one radius wide, 2.4
+//! photons were tested per photon found, where the kd-tree's range search tested about 6 and
+//! paid for its descent besides (pbrt-v4's and Mitsuba's SPPM use such grids for the same
+//! reason). The estimate of a matte surface with the box filter, the common case, sums a cell's
+//! photons without branches ([`PhotonGrid::sum_power_within`]), four at a time.
 //!
 //! Photons keep their order within a cell and cells are laid out in the order their first
 //! photon came, so the grid, and the order a query visits photons in, depend only on the input:
