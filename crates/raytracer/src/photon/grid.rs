@@ -188,23 +188,6 @@ impl PhotonGrid {
         self.len() == 0
     }
 
-    /// The cell width.
-    pub fn cell(&self) -> f32 {
-        self.cell
-    }
-
-    /// Bytes held by the grid.
-    pub fn bytes(&self) -> usize {
-        let c = &self.columns;
-        self.cells.capacity() * std::mem::size_of::<Cell>()
-            + self.table.capacity() * 4
-            + [&c.p, &c.n, &c.wi, &c.power]
-                .iter()
-                .flat_map(|col| col.iter())
-                .map(|v| v.capacity() * 4)
-                .sum::<usize>()
-    }
-
     /// The cell of `p`, clamped to one cell beyond the photons' on each side (those cells
     /// are empty, so a clamped query misses nothing). Monotone in each coordinate, which is
     /// what makes a query's range of cells hold every photon within its radius.
