@@ -187,6 +187,8 @@ fn scenes(root: &Path, quick: bool) -> Vec<BenchScene> {
         for (photons, gather) in [(100_000, 4), (25_000, 4)] {
             cornell.extend([4, 16, 48].map(|passes| progressive_rung(photons, 1, passes, gather)));
         }
+        // Two gather rays per pass, far enough to show the trend toward relMSE 1e-4.
+        cornell.extend([32, 128, 512].map(|passes| progressive_rung(25_000, 1, passes, 2)));
         cornell.extend(pm(&[50_000, 200_000, 800_000], &[(2, 4), (4, 4), (4, 8), (8, 8), (16, 8), (16, 16)]));
         // Fewer gather rays for more pixel samples (what pays near relMSE 1e-2), and the bias
         // floor: gather samples far past the point where pixel noise dominates.

@@ -3,6 +3,7 @@
 
 use super::{Photon, unpack_unit};
 use crate::bsdf::{Bsdf, LobeFlags};
+use crate::photon::grid::{GridPhoton, PhotonGrid};
 use crate::photon::kdtree::{KdTree, KnnHeap};
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -132,32 +133,36 @@ pub fn radiance(
     sum / (filter.normalisation() * PI * r2)
 }
 
-/// Radiance reflected toward `wo` by the non-specular part of `bsdf` from every photon of `map`
+/// Radiance reflected toward `wo` by the non-specular part of `bsdf` from every photon of `grid`
 /// within `sqrt(q.max_d2)` of `q.p`: the fixed-radius estimate of progressive photon mapping,
 /// summed during the search (no photon is kept, so a dense region costs time, never memory).
-pub fn radiance_within(map: &KdTree<Photon>, q: &Query, bsdf: &Bsdf, wo: Vec3, filter: PhotonFilter) -> Vec3 {
+pub fn radiance_within(grid: &PhotonGrid, q: &Query, bsdf: &Bsdf, wo: Vec3, filter: PhotonFilter) -> Vec3 {
     let r2 = q.max_d2;
     if !(r2 > 0.0) || !r2.is_finite() {
         return Vec3::ZERO;
     }
-    let accept = |ph: &Photon| unpack_unit(ph.n).dot(q.n) > NORMAL_COSINE;
+    let accept = |ph: &GridPhoton| ph.n.dot(q.n) > NORMAL_COSINE;
     let lambertian = bsdf
         .lobes()
         .iter()
         .all(|l| matches!(l, crate::bsdf::Lobe::Lambert { .. }) || l.flags().is_specular());
     let mut sum = Vec3::ZERO;
-    if lambertian {
+    if lambertian && filter == PhotonFilter::Box {
+        // Every photon on the viewer's side weighs the same: a plain sum, without branches.
+        sum = grid.sum_power_within(q.p, r2, q.n, bsdf.ng, wo.dot(bsdf.ng));
+        sum *= bsdf.diffuse_reflectance() * std::f32::consts::FRAC_1_PI;
+    } else if lambertian {
         // `f` is the same for every photon on the viewer's side.
         let wo_side = wo.dot(bsdf.ng);
-        map.for_each_within(q.p, r2, accept, |d2, ph| {
-            if unpack_unit(ph.wi).dot(bsdf.ng) * wo_side > 0.0 {
+        grid.for_each_within(q.p, r2, accept, |d2, ph| {
+            if ph.wi.dot(bsdf.ng) * wo_side > 0.0 {
                 sum += ph.power * filter.weight(d2, r2);
             }
         });
         sum *= bsdf.diffuse_reflectance() * std::f32::consts::FRAC_1_PI;
     } else {
-        map.for_each_within(q.p, r2, accept, |d2, ph| {
-            let f = bsdf.f(wo, unpack_unit(ph.wi), LobeFlags::NON_SPECULAR);
+        grid.for_each_within(q.p, r2, accept, |d2, ph| {
+            let f = bsdf.f(wo, ph.wi, LobeFlags::NON_SPECULAR);
             sum += f * ph.power * filter.weight(d2, r2);
         });
     }

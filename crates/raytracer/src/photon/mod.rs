@@ -29,6 +29,7 @@
 
 pub mod cull;
 pub mod estimate;
+pub mod grid;
 pub mod kdtree;
 pub mod progressive;
 mod render;
@@ -439,10 +440,8 @@ pub struct PhotonMapper {
     cull_lights: bool,
     stats: PhotonStats,
     counters: SharedCounters,
-    /// Progressive mode: all stored photons in one map, read where gather rays land.
-    global: Option<KdTree<Photon>>,
-    /// Progressive mode: the fixed search radii of this pass.
-    fixed: Option<progressive::Radii>,
+    /// Progressive mode: the fixed search radii of this pass and its photons in grids for them.
+    fixed: Option<progressive::FixedRadius>,
     /// The render's seed and this map's pass (progressive mode prepares one mapper per pass).
     seed: u64,
     pass: u32,
@@ -583,7 +582,7 @@ impl PhotonMapper {
 
         let build_start = Instant::now();
         // Progressive gathering reads every stored photon with one fixed-radius estimate.
-        let global_photons = (settings.progressive && gather)
+        let global_photons: Option<Vec<Photon>> = (settings.progressive && gather)
             .then(|| [&shot.direct, &shot.indirect, &shot.caustic].into_iter().flatten().copied().collect());
         let tree = |photons: Vec<Photon>, paths: u64, stats: &mut Option<MapStats>| {
             if photons.is_empty() {
@@ -597,22 +596,32 @@ impl PhotonMapper {
         let caustic = tree(shot.caustic, shot.caustic_paths, &mut stats.caustic);
         let direct = tree(shot.direct, shot.indirect_paths, &mut stats.direct);
         let indirect = tree(shot.indirect, shot.indirect_paths, &mut stats.indirect);
-        let global = global_photons.and_then(|p: Vec<Photon>| (!p.is_empty()).then(|| KdTree::build(p)));
-        stats.time_build = build_start.elapsed();
-        let (fixed, first_radii) = if settings.progressive {
-            let k = settings.n_used as usize;
-            let first = first_radii.unwrap_or_else(|| progressive::Radii {
-                global: progressive::RadiusField::new(global.as_ref().or(indirect.as_ref()), k, max_d2)
-                    .map(std::sync::Arc::new),
-                caustic: progressive::RadiusField::new(caustic.as_ref(), k, max_d2).map(std::sync::Arc::new),
-                scale: 1.0,
+        let fixed = settings.progressive.then(|| {
+            let global_or_indirect = global_photons.as_deref().or(indirect.as_ref().map(|t| t.items()));
+            let first = first_radii.unwrap_or_else(|| {
+                // The first pass's radii: k-nearest searches, which the kd-tree serves.
+                let k = settings.n_used as usize;
+                let global = global_photons.clone().map(KdTree::build);
+                progressive::Radii {
+                    global: progressive::RadiusField::new(global.as_ref().or(indirect.as_ref()), k, max_d2)
+                        .map(std::sync::Arc::new),
+                    caustic: progressive::RadiusField::new(caustic.as_ref(), k, max_d2)
+                        .map(std::sync::Arc::new),
+                    scale: 1.0,
+                }
             });
             let radii = first.at_pass(pass, settings.alpha);
             stats.progressive = Some((pass, radii.clone()));
-            (Some(radii), Some(first))
-        } else {
-            (None, None)
+            (
+                progressive::FixedRadius::new(radii, global_or_indirect, caustic.as_ref().map(|t| t.items())),
+                first,
+            )
+        });
+        let (fixed, first_radii) = match fixed {
+            Some((f, first)) => (Some(f), Some(first)),
+            None => (None, None),
         };
+        stats.time_build = build_start.elapsed();
 
         let radiance_start = Instant::now();
         let radiance = if gather && settings.radiance_photons && !shot.sites.is_empty() {
@@ -660,7 +669,6 @@ impl PhotonMapper {
             cull_lights: analysis,
             stats,
             counters: SharedCounters::default(),
-            global,
             fixed,
             seed: render_seed,
             pass,

@@ -153,10 +153,10 @@ impl PhotonMapper {
                 if let Some(map) = &self.caustic {
                     scratch.lookups += 1;
                     l += match &self.fixed {
-                        Some(r) => {
-                            let q = Query { p: si.p, n, max_d2: r.caustic_d2(si.p) };
-                            estimate::radiance_within(map, &q, &bsdf, si.wo, self.settings.filter)
-                        }
+                        Some(f) => f.caustic.as_ref().map_or(Vec3::ZERO, |grid| {
+                            let q = Query { p: si.p, n, max_d2: f.radii.caustic_d2(si.p) };
+                            estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter)
+                        }),
                         None => {
                             let q = Query { p: si.p, n, max_d2: self.max_d2 };
                             estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap)
@@ -168,10 +168,10 @@ impl PhotonMapper {
                 } else if let Some(map) = &self.indirect {
                     scratch.lookups += 1;
                     l += match &self.fixed {
-                        Some(r) => {
-                            let q = Query { p: si.p, n, max_d2: r.global_d2(si.p) };
-                            estimate::radiance_within(map, &q, &bsdf, si.wo, self.settings.filter)
-                        }
+                        Some(f) => f.global.as_ref().map_or(Vec3::ZERO, |grid| {
+                            let q = Query { p: si.p, n, max_d2: f.radii.global_d2(si.p) };
+                            estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter)
+                        }),
                         None => {
                             let q = Query { p: si.p, n, max_d2: self.max_d2 };
                             estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap)
@@ -403,9 +403,12 @@ impl PhotonMapper {
     fn exitant(&self, si: &SurfaceInteraction, bsdf: &Bsdf, scratch: &mut Scratch) -> Vec3 {
         let n = facing_normal(si);
         scratch.lookups += 1;
-        if let (Some(map), Some(r)) = (&self.global, &self.fixed) {
-            let q = Query { p: si.p, n, max_d2: r.global_d2(si.p) };
-            return estimate::radiance_within(map, &q, bsdf, si.wo, self.settings.filter);
+        if let Some(f) = &self.fixed {
+            // In progressive mode the grid holds every stored photon (the mode builds no
+            // radiance photons).
+            let Some(grid) = &f.global else { return Vec3::ZERO };
+            let q = Query { p: si.p, n, max_d2: f.radii.global_d2(si.p) };
+            return estimate::radiance_within(grid, &q, bsdf, si.wo, self.settings.filter);
         }
         if let Some(rp) = &self.radiance {
             return match rp.nearest(si.p, self.max_d2, |r| unpack_unit(r.n).dot(n) > NORMAL_COSINE) {
