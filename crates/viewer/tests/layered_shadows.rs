@@ -76,7 +76,8 @@ fn a_point_light_layer_is_removed_exactly_where_the_sphere_hides_the_light() {
         for i in 0..512u32 {
             let k = (j * 512 + i) as usize;
             let r = s.depth().get(i, j).unwrap();
-            if frame.mask[k] == 255 || !r.is_finite() {
+            // Pixels next to the live object's mask hold part of its antialiased edge.
+            if next_to_mask(&frame.mask, 512, k) || !r.is_finite() {
                 continue;
             }
             let ray = camera.pixel_centre_ray(i, j);

@@ -579,9 +579,10 @@ fn vs_sphere(@builtin(vertex_index) index: u32) -> SphereVertexOut {
     return out;
 }
 
-@fragment
-fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
-    let ray = ray_through_raster(position.xy);
+// The sphere's nearest visible hit along the ray through `raster`: camera-space point and
+// window depth, w < 0 when the ray misses it or its hits lie outside the depth range.
+fn sphere_hit(raster: vec2<f32>) -> vec4<f32> {
+    let ray = ray_through_raster(raster);
     let c = frame.sphere.xyz;
     let r = frame.sphere.w;
     // Numerically robust ray-sphere intersection (Haines et al., Ray Tracing Gems, ch. 7).
@@ -590,7 +591,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     let q_perp = f - b * ray.direction;
     let disc = r * r - dot(q_perp, q_perp);
     if disc < 0.0 {
-        discard;
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
     }
     let root = sqrt(disc);
     let q = -b - select(-root, root, b >= 0.0);
@@ -611,14 +612,24 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
         p = ray.origin + t * ray.direction;
         depth = window_depth(p);
         if t <= 0.0 || !(depth >= 0.0 && depth <= 1.0) {
-            discard;
+            return vec4<f32>(0.0, 0.0, 0.0, -1.0);
         }
     }
-    let n = (p - c) / r;
+    return vec4<f32>(p, depth);
+}
+
+@fragment
+fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
+    let hit = sphere_hit(position.xy);
+    if hit.w < 0.0 {
+        discard;
+    }
+    let p = hit.xyz;
+    let n = (p - frame.sphere.xyz) / frame.sphere.w;
     var out: LiveOut;
-    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray.direction));
+    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(position.xy).direction));
     out.mask = vec4<f32>(1.0);
-    out.depth = depth;
+    out.depth = hit.w;
     return out;
 }
 
@@ -646,11 +657,15 @@ struct MeshFragmentOut {
     @location(1) mask: vec4<f32>,
 }
 
-@fragment
-fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
+fn mesh_colour(in: MeshVertexOut) -> vec4<f32> {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
-    return MeshFragmentOut(to_image_units(shade(mesh.material, in.p_camera, n, ray.direction)), vec4<f32>(1.0));
+    return to_image_units(shade(mesh.material, in.p_camera, n, ray.direction));
+}
+
+@fragment
+fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
+    return MeshFragmentOut(mesh_colour(in), vec4<f32>(1.0));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -180,3 +180,31 @@ pub fn grey_cornell(lights: Vec<LiveLight>, grey: u8) -> ViewerScene {
     )
     .unwrap()
 }
+
+/// Whether any pixel of the 3x3 block about pixel `k` of a `width`-wide mask satisfies `test`.
+fn any_in_block(mask: &[u8], width: usize, k: usize, test: impl Fn(u8) -> bool) -> bool {
+    let height = mask.len() / width;
+    let (i, j) = ((k % width) as i64, (k / width) as i64);
+    (-1..=1).any(|dy| {
+        (-1..=1).any(|dx| {
+            let (x, y) = (i + dx, j + dy);
+            x >= 0
+                && y >= 0
+                && (x as usize) < width
+                && (y as usize) < height
+                && test(mask[y as usize * width + x as usize])
+        })
+    })
+}
+
+/// Whether pixel `k` is on or next to a live object's mask: such pixels may hold part of its
+/// antialiased edge.
+pub fn next_to_mask(mask: &[u8], width: usize, k: usize) -> bool {
+    any_in_block(mask, width, k, |m| m == 255)
+}
+
+/// Whether pixel `k` and its eight neighbours are all inside a live object's mask: such a pixel
+/// shows the live object alone, away from its antialiased edge.
+pub fn inside_mask(mask: &[u8], width: usize, k: usize) -> bool {
+    !any_in_block(mask, width, k, |m| m != 255)
+}
