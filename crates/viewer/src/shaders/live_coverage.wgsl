@@ -28,8 +28,8 @@ struct CoverageOut {
     @builtin(sample_mask) samples: u32,
 }
 
-// The sphere covers the samples whose rays hit it; it is shaded at the pixel centre's hit, or
-// at the first covered sample's when the centre ray misses it.
+// The sphere covers the samples whose rays hit it; it is shaded at the first covered sample's
+// hit where the centre ray misses it (elsewhere the resolve uses the centre frame's colour).
 @fragment
 fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
     // The standard 4x sample positions from the pixel's top-left corner
@@ -54,6 +54,15 @@ fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
     }
     if samples == 0u {
         discard;
+    }
+    // Where the pixel centre shows the sphere (clearly in front of the pre-rendered surface),
+    // the resolve takes the centre frame's colour: no need to shade it again.
+    if raster.x == position.x && raster.y == position.y {
+        let surface = textureLoad(backdrop_radial_depth, vec2<i32>(position.xy), 0).r;
+        let distance = select(hit.z, length(hit.xyz), frame.raster.w > 0.5);
+        if distance < surface * (1.0 - 1e-5) {
+            return CoverageOut(vec4<f32>(0.0, 0.0, 0.0, 1.0), hit.w, samples);
+        }
     }
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;

@@ -4,7 +4,7 @@
 // filter's weight: a live sample with its colour, any other with the pixel's own backdrop after
 // shadows (what the scene shows there without the live object), so that an edge pixel blends
 // the two by the share of the filter the live object covers, as in the ray tracer's image.
-// With a live pixel centre, the live colour is the centre frame's own.
+// Samples of a pixel whose centre is live take the centre frame's colour.
 
 struct Resolve {
     // The filter's kind (pixel_filter.rs FilterKind::code), reach in pixels along x and y.
@@ -93,6 +93,10 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
             if any(q < vec2<i32>(0)) || any(q >= size) {
                 continue;
             }
+            // A live pixel centre's colour is the centre frame's, shaded in full precision
+            // (the samples are half floats, and the sphere leaves them unshaded there).
+            let q_live = textureLoad(centre_mask, q, 0).r > 0.5;
+            let q_colour = textureLoad(centre_frame, q, 0).rgb;
             for (var s = 0u; s < 4u; s = s + 1u) {
                 let offset = vec2<f32>(f32(dx), f32(dy)) + positions[s] - vec2<f32>(0.5);
                 let w = filter_weight(offset.x, offset.y);
@@ -104,7 +108,7 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
                 if sample.a > 0.5 {
                     any_live = true;
                     live_weight = live_weight + w;
-                    live = live + w * sample.rgb;
+                    live = live + w * select(sample.rgb, q_colour, q_live);
                 }
             }
         }
@@ -112,12 +116,7 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
     if !any_live || abs(total) < 1e-6 {
         return centre;
     }
-    // Where the pixel centre shows the live object, its colour is the centre frame's, shaded
-    // in full precision (the samples are half floats); else the samples' filtered colour.
-    var live_colour = live / live_weight;
-    if textureLoad(centre_mask, pixel, 0).r > 0.5 {
-        live_colour = centre.rgb;
-    }
+    let live_colour = live / live_weight;
     let share = live_weight / total;
     let backdrop = textureLoad(backdrop_shadowed, pixel, 0).rgb;
     return vec4<f32>(max(share * live_colour + (1.0 - share) * backdrop, vec3<f32>(0.0)), centre.a);
