@@ -35,8 +35,6 @@ pub(super) struct Antialias {
     /// The centre-sampled frame, drawn first.
     pub(super) centre_texture: wgpu::Texture,
     pub(super) centre_view: wgpu::TextureView,
-    /// The frame's backdrop after shadows, before live objects.
-    pub(super) backdrop_texture: wgpu::Texture,
     samples_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
     backdrop_pipeline: wgpu::RenderPipeline,
@@ -57,6 +55,8 @@ pub(super) struct AntialiasSetup<'a> {
     pub(super) linear_format: wgpu::TextureFormat,
     /// The centre-sampled live-object mask.
     pub(super) mask_view: &'a wgpu::TextureView,
+    /// The frame after shadows, before live objects.
+    pub(super) shadowed_view: &'a wgpu::TextureView,
     pub(super) size: (u32, u32),
     pub(super) filter: PixelFilter,
 }
@@ -95,8 +95,6 @@ impl Antialias {
             1,
             U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
         );
-        let backdrop_texture =
-            texture("backdrop after shadows", setup.linear_format, 1, U::COPY_DST | U::TEXTURE_BINDING);
         let samples_texture =
             texture("live samples", SAMPLE_FORMAT, SAMPLE_COUNT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
         let depth_texture =
@@ -253,7 +251,7 @@ impl Antialias {
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&view(&backdrop_texture)),
+                    resource: wgpu::BindingResource::TextureView(setup.shadowed_view),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
@@ -301,7 +299,6 @@ impl Antialias {
         Antialias {
             centre_texture,
             centre_view,
-            backdrop_texture,
             samples_view,
             depth_view: view(&depth_texture),
             backdrop_pipeline,

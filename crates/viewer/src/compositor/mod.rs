@@ -84,6 +84,8 @@ pub struct Compositor {
     readback_pipeline: wgpu::ComputePipeline,
     readback_bind_group: wgpu::BindGroup,
     depth_storage: wgpu::Buffer,
+    /// The frame after shadows, before live objects (copied each frame with live objects).
+    shadowed_texture: wgpu::Texture,
     /// Live objects' edges at four samples per pixel, filtered (`None`: off, for the reason
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
@@ -202,6 +204,10 @@ impl Compositor {
             U::RENDER_ATTACHMENT | U::COPY_SRC | U::COPY_DST | U::TEXTURE_BINDING,
         );
         let colour_texture = texture("backdrop colour", LINEAR_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
+        // The frame after shadows, before live objects: what the shadows took, for the live
+        // objects' own shading and the antialiased edges' backdrop.
+        let shadowed_texture =
+            texture("backdrop after shadows", linear_format, U::TEXTURE_BINDING | U::COPY_DST);
         let display_texture = texture("backdrop display", FRAME_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
         let window_depth_texture =
             texture("backdrop window depth", wgpu::TextureFormat::R32Float, U::TEXTURE_BINDING | U::COPY_DST);
@@ -283,6 +289,10 @@ impl Compositor {
                 },
                 wgpu::BindGroupEntry { binding: 9, resource: gpu_irradiance.sh.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 10, resource: gpu_irradiance.visibility.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: wgpu::BindingResource::TextureView(&view(&shadowed_texture)),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -466,6 +476,7 @@ impl Compositor {
                 nearer,
                 linear_format,
                 mask_view: &view(&mask_texture),
+                shadowed_view: &view(&shadowed_texture),
                 size: (width, height),
                 filter: scene.pixel_filter(),
             };
@@ -604,6 +615,7 @@ impl Compositor {
             readback_pipeline,
             readback_bind_group,
             depth_storage,
+            shadowed_texture,
             antialias,
             antialias_off,
         })
@@ -709,26 +721,33 @@ impl Compositor {
             self.antialias.as_ref().and_then(|aa| Some((aa, self.live_bounds(&uniform, live, &draws)?)));
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        if let Some((aa, bounds)) = antialiased {
-            // The backdrop after shadows is kept for the resolve's blend at live objects' edges.
+        // Live objects' edges are resolved from a centre-sampled copy into the linear frame.
+        let (target, target_texture) = match antialiased {
+            Some((aa, _)) => (&aa.centre_view, &aa.centre_texture),
+            None => (&self.linear_view, &self.linear_texture),
+        };
+        if !draws.is_empty() || sphere {
+            // The backdrop after shadows is kept for the live objects' shading (the light their
+            // shadows took) and their edges.
             {
-                let mut pass = self.begin_frame_pass(&mut encoder, &aa.centre_view, true);
+                let mut pass = self.begin_frame_pass(&mut encoder, target, true);
                 self.record_backdrop(&mut pass, &uniform);
             }
             encoder.copy_texture_to_texture(
-                aa.centre_texture.as_image_copy(),
-                aa.backdrop_texture.as_image_copy(),
+                target_texture.as_image_copy(),
+                self.shadowed_texture.as_image_copy(),
                 wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
             );
             {
-                let mut pass = self.begin_frame_pass(&mut encoder, &aa.centre_view, false);
+                let mut pass = self.begin_frame_pass(&mut encoder, target, false);
                 self.record_live(&mut pass, &draws, sphere);
             }
-            self.record_antialiased(&mut encoder, bounds, &draws, sphere);
+            if let Some((_, bounds)) = antialiased {
+                self.record_antialiased(&mut encoder, bounds, &draws, sphere);
+            }
         } else {
-            let mut pass = self.begin_frame_pass(&mut encoder, &self.linear_view, true);
+            let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass, &uniform);
-            self.record_live(&mut pass, &draws, sphere);
         }
         self.encode.record(&mut encoder, &self.frame_view);
         self.gpu.queue.submit([encoder.finish()]);

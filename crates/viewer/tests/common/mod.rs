@@ -208,3 +208,35 @@ pub fn next_to_mask(mask: &[u8], width: usize, k: usize) -> bool {
 pub fn inside_mask(mask: &[u8], width: usize, k: usize) -> bool {
     !any_in_block(mask, width, k, |m| m != 255)
 }
+
+/// The Cornell camera and depth with a flat backdrop of `level`, one white point light at
+/// `light` and light layers: all of the backdrop in `light.0` (or in `indirect` when
+/// `indirect`), normals facing up.
+pub fn layered_cornell(light: DVec3, indirect: bool, level: f32) -> ViewerScene {
+    let (w, h) = (512u32, 512u32);
+    let n = (w * h) as usize;
+    let linear = [level, level, level, 1.0].repeat(n);
+    let backdrop = viewer::Backdrop::from_linear(w, h, linear, 1.0).unwrap();
+    let point = LiveLight::Point { position: light, colour: Vec3::splat(1.0) };
+    let mut s = ViewerScene::with_backdrop(
+        cornell_camera(),
+        backdrop,
+        cornell_depth(),
+        vec![point],
+        ToneMap::default(),
+    )
+    .unwrap();
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers =
+        sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "pointlight")]);
+    let target = if indirect { &mut layers.indirect } else { &mut layers.light[0] };
+    target.iter_mut().for_each(|v| *v = [level; 3]);
+    layers.normal.iter_mut().for_each(|v| *v = [0.0, 1.0, 0.0]);
+    s.set_light_layers(viewer::SceneLayers {
+        layers,
+        layer_of_light: vec![Some(0)],
+        area_samples: vec![vec![]],
+    })
+    .unwrap();
+    s
+}
