@@ -453,7 +453,7 @@ fn blinn_lobe_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, exponent: f32) -> f3
 // fragment as toward the eye.
 
 const SHADOW_GATHER_DIRECTIONS: u32 = 16u;
-const SHADOW_GATHER_STEPS: u32 = 24u;
+const SHADOW_GATHER_STEPS: u32 = 16u;
 const GOLDEN_ANGLE: f32 = 2.39996323;
 
 // How far from a fragment the live objects' shadows are looked for: as far as their occlusion
@@ -543,29 +543,41 @@ fn shadow_loss_along(p: vec3<f32>, w: vec3<f32>, reach: f32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// The irradiance at p (normal n, camera space) the live objects' shadows took away, in the
-// image's units.
-fn shadow_loss_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// What the live objects' shadows took from the light a fragment at p (normal n, camera space,
+// seen from v) receives, in the image's units: the irradiance its diffuse lobe loses and the
+// radiance its Blinn lobe (`exponent`) loses, both from the same directions.
+struct ShadowLoss {
+    irradiance: vec3<f32>,
+    glossy: vec3<f32>,
+}
+
+fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> ShadowLoss {
     let reach = shadow_gather_reach();
     if reach <= 0.0 {
-        return vec3<f32>(0.0);
+        return ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
     }
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let tangent = normalize(cross(helper, n));
     let bitangent = cross(n, tangent);
     // Start off the surface, so the march never finds the fragment's own pixel's surface.
     let origin = p + n * (reach * 1e-3);
-    var sum = vec3<f32>(0.0);
+    var irradiance = vec3<f32>(0.0);
+    var glossy = vec3<f32>(0.0);
     for (var i = 0u; i < SHADOW_GATHER_DIRECTIONS; i = i + 1u) {
         // Cosine-distributed directions on a spiral (uniform in the disc, lifted).
         let u = (f32(i) + 0.5) / f32(SHADOW_GATHER_DIRECTIONS);
         let radius = sqrt(u);
         let phi = f32(i) * GOLDEN_ANGLE;
-        let w = tangent * (radius * cos(phi)) + bitangent * (radius * sin(phi)) + n * sqrt(1.0 - u);
-        sum += shadow_loss_along(origin, w, reach);
+        let cos_w = sqrt(1.0 - u);
+        let w = tangent * (radius * cos(phi)) + bitangent * (radius * sin(phi)) + n * cos_w;
+        let loss = shadow_loss_along(origin, w, reach);
+        irradiance += loss;
+        // The Blinn lobe's BRDF times cosine over the directions' density (cos / pi).
+        glossy += loss * (blinn_lobe_cos(n, v, w, exponent) / cos_w);
     }
-    // E = pi / N * sum of L over cosine-distributed directions.
-    return sum * (PI / f32(SHADOW_GATHER_DIRECTIONS));
+    // Over cosine-distributed directions: E = pi / N * sum of L, L_o = pi / N * sum of f L.
+    let scale = PI / f32(SHADOW_GATHER_DIRECTIONS);
+    return ShadowLoss(irradiance * scale, glossy * scale);
 }
 
 fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
@@ -649,34 +661,29 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
         diffuse += e * n_dot_l;
         specular += e * blinn_lobe_cos(n, v, l, exponent);
     }
+    // The probes saw the scene before the live objects' shadows took light from it.
+    var loss = ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
+    if frame.counts.y == 1u && (frame.counts.w == 1u || reflections) {
+        loss = shadow_loss(p, n, v, exponent);
+        let to_radiance = 1.0 / max(frame.tone.x, 1e-30);
+        loss = ShadowLoss(loss.irradiance * to_radiance, loss.glossy * to_radiance);
+    }
     // With the renderer's irradiance probes, the scene's indirect light at this fragment
-    // (compositor/irradiance.rs) joins the lights'.
+    // (compositor/irradiance.rs) joins the lights', less what the shadows took.
     if frame.counts.w == 1u {
         let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
         let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
-        var indirect = field_irradiance(p_world, n_world);
-        // Less what the live objects' shadows took from the surfaces it came from.
-        if frame.counts.y == 1u {
-            indirect = max(indirect - shadow_loss_irradiance(p, n) / max(frame.tone.x, 1e-30), vec3<f32>(0.0));
-        }
-        diffuse += indirect;
+        diffuse += max(field_irradiance(p_world, n_world) - loss.irradiance, vec3<f32>(0.0));
     }
     // With the reflection probes, the scene's prefiltered radiance in the reflected direction
-    // times the lobe's albedo (the split sum).
+    // times the lobe's albedo (the split sum), less what the shadows took.
     if reflections {
         let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
         let r = reflect(view_dir, n);
         let r_world = normalize((frame.world_from_camera * vec4<f32>(r, 0.0)).xyz);
-        var reflected = reflection_radiance_at(p_world, r_world, material.specular_colour.w);
-        // Less what the live objects' shadows took from the surface reflected (the lobe's axis).
-        if frame.counts.y == 1u {
-            let reach = shadow_gather_reach();
-            if reach > 0.0 {
-                let loss = shadow_loss_along(p + n * (reach * 1e-3), r, reach) / max(frame.tone.x, 1e-30);
-                reflected = max(reflected - loss, vec3<f32>(0.0));
-            }
-        }
-        specular += blinn_albedo(material, dot(n, v)) * reflected;
+        let reflected = blinn_albedo(material, dot(n, v))
+            * reflection_radiance_at(p_world, r_world, material.specular_colour.w);
+        specular += max(reflected - loss.glossy, vec3<f32>(0.0));
     }
     let cs = material.colour.rgb;
     return cs * (ka * ambient + kd / PI * diffuse) + material.specular_colour.rgb * ks * specular;
