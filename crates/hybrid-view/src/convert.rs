@@ -28,7 +28,7 @@ pub fn pixel_filter(scene: &Scene, skipped: &mut Skipped) -> viewer::PixelFilter
             .push(format!("PixelFilter: {why}; live objects' edges use gaussian 2 2, as the renderer does"));
         viewer::PixelFilter::RENDERMAN_DEFAULT
     });
-    if let Some(note) = filter.note() {
+    if let Some(note) = viewer::pixel_filter::note(&filter) {
         skipped.warnings.push(format!("PixelFilter: {note}"));
     }
     filter

@@ -85,12 +85,13 @@ impl ViewerScene {
             layers: None,
             probes: None,
             reflections: None,
-            pixel_filter: PixelFilter::default(),
+            pixel_filter: PixelFilter::BOX,
         })
     }
 
     /// Sets the pixel filter the image was rendered with (the RIB's `PixelFilter`): live
-    /// objects' edges are filtered with it. Without this call it is [`PixelFilter::BOX`].
+    /// objects' edges are filtered with it. Without this call it is `PixelFilter::BOX` (each
+    /// sample counts for its own pixel).
     pub fn set_pixel_filter(&mut self, filter: PixelFilter) {
         self.pixel_filter = filter;
     }

@@ -13,7 +13,7 @@ use super::Compositor;
 use super::lighting::FrameUniform;
 use super::live_objects::MeshVertex;
 use crate::live::LiveObjects;
-use crate::pixel_filter::{MAX_FILTER_MARGIN, PixelFilter};
+use crate::pixel_filter::{MAX_FILTER_MARGIN, PixelFilter, kind_code};
 use glam::DVec3;
 
 /// Samples per pixel of the live objects' coverage.
@@ -198,7 +198,7 @@ impl Antialias {
         let (reach_x, reach_y) = setup.filter.pixel_margin();
         let reach = (reach_x.min(MAX_FILTER_MARGIN), reach_y.min(MAX_FILTER_MARGIN));
         let uniform = ResolveUniform {
-            kind_reach: [setup.filter.kind.code(), reach.0, reach.1, 0],
+            kind_reach: [kind_code(setup.filter.kind), reach.0, reach.1, 0],
             widths: [setup.filter.x_width, setup.filter.y_width, 0.0, 0.0],
         };
         let resolve_uniform = wgpu::util::DeviceExt::create_buffer_init(
