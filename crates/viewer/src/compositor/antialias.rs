@@ -42,6 +42,8 @@ pub(super) struct Antialias {
     mesh_pipeline: wgpu::RenderPipeline,
     resolve_pipeline: wgpu::RenderPipeline,
     resolve_bind_group: wgpu::BindGroup,
+    /// The centre-sampled mask, for the mesh coverage pass (group 2).
+    mask_bind_group: wgpu::BindGroup,
     /// How many pixels the filter reaches along x and y.
     pub(super) reach: (u32, u32),
 }
@@ -116,9 +118,30 @@ impl Antialias {
             bind_group_layouts: &[Some(setup.frame_layout)],
             immediate_size: 0,
         });
+        let mask_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("coverage mask"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            }],
+        });
+        let mask_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("coverage mask"),
+            layout: &mask_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(setup.mask_view),
+            }],
+        });
         let with_mesh = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("coverage, frame and mesh"),
-            bind_group_layouts: &[Some(setup.frame_layout), Some(setup.mesh_layout)],
+            label: Some("coverage, frame, mesh and mask"),
+            bind_group_layouts: &[Some(setup.frame_layout), Some(setup.mesh_layout), Some(&mask_layout)],
             immediate_size: 0,
         });
         let mesh_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
@@ -306,6 +329,7 @@ impl Antialias {
             mesh_pipeline,
             resolve_pipeline,
             resolve_bind_group,
+            mask_bind_group,
             reach,
         }
     }
@@ -389,6 +413,7 @@ impl Compositor {
             pass.draw(0..3, 0..1);
             if !draws.is_empty() {
                 pass.set_pipeline(&aa.mesh_pipeline);
+                pass.set_bind_group(2, &aa.mask_bind_group, &[]);
                 for (slot, &k) in draws.iter().enumerate() {
                     let mesh = &self.meshes[k];
                     let offset = (slot as u64 * self.mesh_uniform_stride) as u32;

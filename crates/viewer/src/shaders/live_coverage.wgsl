@@ -70,8 +70,15 @@ fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
     return CoverageOut(coverage_colour(colour), hit.w, samples);
 }
 
-// Meshes: the rasteriser decides which samples a triangle covers.
+// The centre-sampled frame's live-object mask (compositor/antialias.rs binds it for meshes).
+@group(2) @binding(0) var coverage_centre_mask: texture_2d<f32>;
+
+// Meshes: the rasteriser decides which samples a triangle covers. Where the pixel centre shows
+// a live object, the resolve takes the centre frame's colour: no need to shade it again.
 @fragment
 fn fs_mesh_coverage(in: MeshVertexOut) -> @location(0) vec4<f32> {
+    if textureLoad(coverage_centre_mask, vec2<i32>(in.position.xy), 0).r > 0.5 {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
     return coverage_colour(mesh_colour(in));
 }
