@@ -1,4 +1,4 @@
-//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse]`: how well a live object passes
+//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse] [--viewer-arg ARG]...`: how well a live object passes
 //! for part of the ray-traced scene (issue 10).
 //!
 //! For each scene (the Cornell box, the caustics scene, the room), each placement and each
@@ -199,6 +199,7 @@ fn render(
 /// The composite of `live` over `image`, as linear radiance, and the live object's mask.
 fn composite(
     viewer: &Path,
+    viewer_args: &[String],
     (image, depth): (&Path, &Path),
     scene_rib: &Path,
     live: &Path,
@@ -207,7 +208,7 @@ fn composite(
     let (shot, mask) = (out.with_extension("exr"), out.with_extension("mask.png"));
     let mut cmd = Command::new(viewer);
     cmd.arg(image).arg(depth).arg(scene_rib).arg("--live").arg(live).arg("--headless");
-    cmd.arg("--screenshot").arg(&shot).arg("--mask").arg(&mask);
+    cmd.arg("--screenshot").arg(&shot).arg("--mask").arg(&mask).args(viewer_args);
     let r = run_measured(&mut cmd)?;
     if !r.success {
         return Err(format!("hybrid-view failed:\n{}", r.stderr));
@@ -326,6 +327,7 @@ fn contact_sheet(rows: &[Vec<Rgb>], path: &Path) -> Result<(), String> {
 /// Median frame time in ms of the viewer over the image at `size`, from `--stats`.
 fn frame_time(
     viewer: &Path,
+    viewer_args: &[String],
     lrt: &Path,
     dir: &Path,
     scene: &IllusionScene,
@@ -338,7 +340,7 @@ fn frame_time(
     write(&live, &live_rib(&scene.placements[0], MATERIALS[1].1))?;
     let mut cmd = Command::new(viewer);
     cmd.arg(&image).arg(&depth).arg(dir.join(format!("{name}.rib"))).arg("--live").arg(&live);
-    cmd.args(["--headless", "--frames", "20", "--stats"]);
+    cmd.args(["--headless", "--frames", "20", "--stats"]).args(viewer_args);
     let r = run_measured(&mut cmd)?;
     if !r.success {
         return Err(format!("hybrid-view failed:\n{}", r.stderr));
@@ -355,6 +357,7 @@ fn frame_time(
 pub fn illusion(args: &[String]) -> Result<(), String> {
     let (mut spp, mut size, mut only): (u32, u32, Option<Vec<String>>) = (64, 256, None);
     let mut reuse = false;
+    let mut viewer_args = Vec::new();
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or(format!("{a} needs a value"));
@@ -363,6 +366,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
             "--size" => size = value()?.parse().map_err(|_| "--size needs a pixel count")?,
             "--scenes" => only = Some(value()?.split(',').map(str::to_string).collect()),
             "--reuse" => reuse = true,
+            "--viewer-arg" => viewer_args.push(value()?.clone()),
             other => return Err(format!("illusion: unknown argument {other}")),
         }
     }
@@ -407,6 +411,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
                 let truth = read_exr(&truth_exr)?;
                 let (comp, mask) = composite(
                     &viewer,
+                    &viewer_args,
                     (&image, &depth),
                     &base_rib,
                     &live,
@@ -450,7 +455,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
         contact_sheet(&rows, &picture)?;
         pictures.push(scene.name);
         for frame_size in [512, 2048] {
-            let ms = frame_time(&viewer, &lrt, &dir, &scene, frame_size)?;
+            let ms = frame_time(&viewer, &viewer_args, &lrt, &dir, &scene, frame_size)?;
             let _ = writeln!(frames, "| {} | {frame_size} | {ms:.2} |", scene.name);
         }
     }
@@ -458,7 +463,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     let mut doc = String::new();
     let _ = writeln!(
         doc,
-        "# The illusion, measured (`cargo xtask illusion`)\n\nMade by `cargo xtask illusion --spp {spp} --size {size}` \
+        "# The illusion, measured (`cargo xtask illusion`)\n\nMade by `cargo xtask illusion --spp {spp} --size {size}{}` \
          (load average {load_start} at the start, {} at the end). Each row: a sphere placed in the scene, \
          composited live by `hybrid-view --live` over `lrt-depth`'s render of the scene without it, against \
          `lrt-depth`'s render of the scene with it (photon mapping, {spp} spp, {size} px, the same seed). \
@@ -466,6 +471,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
          viewer's mask), the region the sphere changes (other pixels where the truth differs from the \
          render without it by more than 3% of the local level, 5x5 means) and everywhere else. \
          Issue 10's targets: inside <= 1e-2, changed <= 5e-3, elsewhere <= 1.5e-3.\n",
+        viewer_args.iter().map(|a| format!(" --viewer-arg {a}")).collect::<String>(),
         load_average()
     );
     doc.push_str(

@@ -66,6 +66,7 @@ mod exr_io;
 pub mod float_text;
 pub mod mapping;
 pub mod paper;
+pub mod pixel_filter;
 pub mod precision;
 pub mod remap;
 pub mod table;

@@ -55,6 +55,10 @@ pub struct Args {
     /// Do not darken the pre-rendered scene where the sphere shadows the dominant light.
     #[arg(long)]
     pub no_shadows: bool,
+    /// Draw live objects at pixel centres only, without filtering their edges with the
+    /// image's pixel filter.
+    #[arg(long)]
+    pub no_antialias: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -177,6 +181,8 @@ pub struct Settings {
     pub sphere_colour: Option<DVec3>,
     pub unlit: bool,
     pub shadows: Option<f32>,
+    /// Live objects' edges filtered with the image's pixel filter (`--no-antialias` clears it).
+    pub antialias: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
@@ -236,6 +242,7 @@ impl Args {
             sphere_colour: self.sphere_colour,
             unlit: self.unlit,
             shadows: (!self.no_shadows).then_some(self.shadow_strength),
+            antialias: !self.no_antialias,
             depth_settings,
             backends,
             stats: self.stats,

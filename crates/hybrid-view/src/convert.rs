@@ -17,6 +17,23 @@ pub fn tone_map(scene: &Scene) -> ToneMap {
     ToneMap { gain: scene.render.exposure.gain, gamma: scene.render.exposure.gamma }
 }
 
+/// The pixel filter the image was rendered with, which the viewer applies to live objects'
+/// edges. A filter `lrt-depth` cannot use is replaced by RenderMan's default there, so here too
+/// (with a warning); a filter wider than the viewer gathers is cut, with a warning.
+pub fn pixel_filter(scene: &Scene, skipped: &mut Skipped) -> viewer::PixelFilter {
+    let f = &scene.render.pixel_filter;
+    let filter = viewer::PixelFilter::from_rib(&f.name, f.x_width, f.y_width).unwrap_or_else(|why| {
+        skipped
+            .warnings
+            .push(format!("PixelFilter: {why}; live objects' edges use gaussian 2 2, as the renderer does"));
+        viewer::PixelFilter::RENDERMAN_DEFAULT
+    });
+    if let Some(note) = viewer::pixel_filter::note(&filter) {
+        skipped.warnings.push(format!("PixelFilter: {note}"));
+    }
+    filter
+}
+
 /// Warns when the pre-rendered image has camera effects the live objects are drawn without:
 /// they are drawn with a pinhole, so they stay sharp where the image is defocused, and at one
 /// instant, so they stay sharp where the image is motion blurred (its depth table holds the

@@ -77,7 +77,9 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
             settings.scene.display()
         )));
     }
+    let pixel_filter = convert::pixel_filter(&rib, &mut skipped);
     let mut scene = ViewerScene::with_backdrop(camera, image, depth, lights, tone)?;
+    scene.set_pixel_filter(pixel_filter);
     if settings.shadows.is_some() {
         attach_light_layers(settings, &mut scene, &sourced, rib.lights.len())?;
     }
@@ -93,6 +95,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         depth: settings.depth_settings,
         depth_range: None,
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
+        antialias: settings.antialias,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
@@ -312,6 +315,13 @@ fn print_stats(
         if planes.infinite_far { "infinite".to_string() } else { planes.far.to_string() }
     );
     eprintln!("lights: {} used by the live objects", scene.lights().len());
+    let f = scene.pixel_filter();
+    match compositor.antialias_off() {
+        None => {
+            eprintln!("live edges: 4 samples per pixel, filtered {:?} {} {}", f.kind, f.x_width, f.y_width)
+        }
+        Some(why) => eprintln!("live edges: pixel centres only ({why})"),
+    }
     if let Some(p) = scene.probes() {
         let [x, y, z] = p.counts;
         eprintln!("irradiance probes: {x}x{y}x{z}, live objects' diffuse light");

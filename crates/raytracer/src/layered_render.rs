@@ -198,7 +198,7 @@ pub(crate) fn reconstruct(
                     let base = (((qy - sy0) as usize) * sw + (qx - sx0) as usize) * spp;
                     for s in base..base + spp {
                         let [px, py] = positions[s];
-                        let wgt = filter.eval(px - cx, py - cy);
+                        let wgt = filter.weight(px - cx, py - cy);
                         if wgt != 0.0 {
                             let wgt = f64::from(wgt);
                             for (acc, v) in sum.iter_mut().zip(&values[s * stride..(s + 1) * stride]) {

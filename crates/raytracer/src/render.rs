@@ -340,9 +340,9 @@ fn render_in_pool(
     let prepare_start = Instant::now();
     let mut integrator = kind.prepare(&world, PrepareContext { seed: options.seed, threads });
     let mut time_prepare = prepare_start.elapsed();
-    let filter = Filter::from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
+    let filter = crate::film::filter_from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
-        Filter { kind: crate::film::FilterKind::Gaussian, x_width: 2.0, y_width: 2.0 }
+        Filter::RENDERMAN_DEFAULT
     });
     // PixelSamples x y asks for x * y samples; the sampler stratifies any count.
     let spp = match options.spp {
@@ -669,7 +669,7 @@ fn render_tile(
                 for qx in (x as i64 - i64::from(mx))..=(x as i64 + i64::from(mx)) {
                     let base = (((qy - sy0) as usize) * sw + (qx - sx0) as usize) * spp;
                     for s in &samples[base..base + spp] {
-                        let wgt = filter.eval(s.x - cx, s.y - cy);
+                        let wgt = filter.weight(s.x - cx, s.y - cy);
                         if wgt != 0.0 {
                             let wgt = f64::from(wgt);
                             sum[0] += wgt * f64::from(s.rgb.x);

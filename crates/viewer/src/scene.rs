@@ -4,6 +4,7 @@ use crate::backdrop::{Backdrop, Rgba8Image, ToneMap};
 use crate::error::ViewerError;
 use crate::light_layers::SceneLayers;
 use crate::live::LiveLight;
+use crate::pixel_filter::PixelFilter;
 use depth_remap::{Camera, DepthTable};
 use glam::DVec3;
 
@@ -18,6 +19,7 @@ pub struct ViewerScene {
     layers: Option<std::sync::Arc<SceneLayers>>,
     probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
     reflections: Option<std::sync::Arc<sidecar::ReflectionProbes>>,
+    pixel_filter: PixelFilter,
 }
 
 /// Most reflection probes the viewer binds: the texture-array layers every wgpu adapter has
@@ -83,7 +85,20 @@ impl ViewerScene {
             layers: None,
             probes: None,
             reflections: None,
+            pixel_filter: PixelFilter::BOX,
         })
+    }
+
+    /// Sets the pixel filter the image was rendered with (the RIB's `PixelFilter`): live
+    /// objects' edges are filtered with it. Without this call it is `PixelFilter::BOX` (each
+    /// sample counts for its own pixel).
+    pub fn set_pixel_filter(&mut self, filter: PixelFilter) {
+        self.pixel_filter = filter;
+    }
+
+    /// The pixel filter the image was rendered with.
+    pub fn pixel_filter(&self) -> PixelFilter {
+        self.pixel_filter
     }
 
     /// Binds the renderer's light layers: shadows of live objects then remove exactly the

@@ -157,7 +157,12 @@ fn sphere_casts_a_shadow_on_the_pre_rendered_floor() {
     assert!(darkened > 100, "a visible shadow ({darkened} pixels)");
 
     let plain = render(&scene, &live, None);
-    assert!((0..plain.mask.len()).filter(|&k| plain.mask[k] == 0).all(|k| plain.colour.pixels[4 * k] == 200));
+    // Away from the sphere's antialiased edge (pixels next to its mask), nothing changes.
+    assert!(
+        (0..plain.mask.len())
+            .filter(|&k| !next_to_mask(&plain.mask, 512, k))
+            .all(|k| plain.colour.pixels[4 * k] == 200)
+    );
 }
 
 /// A live mesh (a box) pushed half through the back wall: its visible part matches the analytic

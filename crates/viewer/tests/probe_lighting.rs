@@ -50,8 +50,9 @@ fn a_white_matte_sphere_in_a_uniform_probe_field_has_the_field_s_radiance() {
     let linear = c.read_back_linear().unwrap();
     let mask = c.read_back().unwrap().mask;
     let mut inside = 0;
-    for (k, &m) in mask.iter().enumerate() {
-        if m == 255 {
+    for k in 0..mask.len() {
+        // The antialiased edge blends in the backdrop.
+        if inside_mask(&mask, 512, k) {
             inside += 1;
             for (ch, want) in l.iter().enumerate() {
                 let got = linear.rgba[4 * k + ch];
@@ -208,7 +209,7 @@ fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
         let p = ray.origin + t * ray.direction;
         let n = (p - centre) / radius;
         // Skip the silhouette, where f32 and f64 may disagree on the hit.
-        if m != 255 || n.dot(-ray.direction) < 0.05 {
+        if !inside_mask(&mask, w as usize, k) || m != 255 || n.dot(-ray.direction) < 0.05 {
             continue;
         }
         let e = grid.irradiance(p.as_vec3().to_array(), n.as_vec3().to_array());
@@ -225,4 +226,93 @@ fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
     assert!(checked > 5000, "{checked}");
     // The field varies over the sphere: one SH for the whole object would not pass.
     assert!(spread.1 > 1.5 * spread.0, "{spread:?}");
+}
+
+/// A live sphere's own shadow darkens its underside: the floor under it reflects less light
+/// than the probes (baked without the sphere) remember. A white matte sphere in a uniform probe
+/// field of radiance 1 hangs over the Cornell floor under a point light; the light layers hold
+/// the whole backdrop (0.5) as the light's direct light, so the floor in the sphere's shadow
+/// lost 0.5. Each fragment facing away from the light loses 0.5 times the share of its 16
+/// cosine-distributed gather directions that reach the shadowed floor: checked against the same
+/// directions traced to the exact floor plane on the CPU (a direction grazing the shadow's edge
+/// may fall either way).
+#[test]
+fn a_sphere_s_underside_sees_its_own_shadow() {
+    let light = DVec3::new(-0.2, 0.9, 0.1);
+    let (centre, radius) = (DVec3::new(-0.2, -0.55, 0.1), 0.25);
+    let mut scene = layered_cornell(light, false, 0.5);
+    scene.set_probes(uniform_probe([1.0; 3]));
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let (linear, mask) = render_linear(&scene, &live);
+    let camera = scene.camera();
+    let (w, _) = scene.size();
+    let reach = 8.0 * radius;
+    let (mut checked, mut wrong, mut far_off, mut darkened) = (0, 0, 0, 0);
+    for k in 0..mask.len() {
+        if !inside_mask(&mask, w as usize, k) {
+            continue;
+        }
+        let (i, j) = ((k as u32) % w, (k as u32) / w);
+        let ray = camera.pixel_centre_world_ray(i, j);
+        let Some(t) = ray_sphere(ray.origin, ray.direction, centre, radius) else { continue };
+        let p = ray.origin + t * ray.direction;
+        let n = (p - centre) / radius;
+        if n.dot(light - p) > 0.0 {
+            continue;
+        }
+        // The shader's directions (composite.wgsl shadow_loss_irradiance), built as it builds
+        // them in camera space, then taken to world space.
+        let n_camera = camera.camera_from_world().transform_vector3(n).normalize();
+        let helper = if n_camera.x.abs() > 0.9 { DVec3::Y } else { DVec3::X };
+        let tangent = helper.cross(n_camera).normalize();
+        let bitangent = n_camera.cross(tangent);
+        let world = |v: DVec3| camera.world_from_camera().transform_vector3(v).normalize();
+        let mut in_shadow = 0;
+        for d in 0..16 {
+            let u = (f64::from(d) + 0.5) / 16.0;
+            let phi = f64::from(d) * 2.399_963_23;
+            let dir = world(
+                tangent * (u.sqrt() * phi.cos())
+                    + bitangent * (u.sqrt() * phi.sin())
+                    + n_camera * (1.0 - u).sqrt(),
+            );
+            if dir.y >= 0.0 {
+                continue;
+            }
+            let s = (-1.0 - p.y) / dir.y;
+            let floor = p + dir * s;
+            let to_light = light - floor;
+            let shadowed = ray_sphere(floor, to_light.normalize(), centre, radius).is_some();
+            // The march finds surfaces the eye sees in the render without the sphere only.
+            let seen = raster_of(camera, floor);
+            let (fi, fj) = (seen.x.floor() as u32, seen.y.floor() as u32);
+            let visible = fi < w
+                && fj < w
+                && scene.depth().get(fi, fj).is_some_and(|r| {
+                    let eye_ray = camera.pixel_centre_world_ray(fi, fj);
+                    (f64::from(r) - (floor - eye_ray.origin).length()).abs() < 0.02
+                });
+            in_shadow += usize::from(s <= reach && shadowed && visible);
+        }
+        let got = linear[4 * k];
+        // The GPU's count of directions reaching the shadow, from the fragment's radiance.
+        let gpu_count = (1.0 - got) / 0.5 * 16.0;
+        assert!(
+            (gpu_count - gpu_count.round()).abs() < 0.01,
+            "pixel ({i}, {j}): {got} is not a whole number of directions"
+        );
+        let off = (gpu_count.round() as i64 - in_shadow as i64).abs();
+        checked += 1;
+        darkened += usize::from(got < 0.97);
+        wrong += usize::from(off == 1);
+        far_off += usize::from(off > 1);
+    }
+    eprintln!("checked {checked}, darkened {darkened}, off by one direction {wrong}, by more {far_off}");
+    assert!(checked > 500 && darkened > 300, "checked {checked}, darkened {darkened}");
+    assert!(wrong * 10 <= checked, "{wrong} of {checked} fragments off the CPU's count by a direction");
+    assert!(
+        far_off * 200 <= checked,
+        "{far_off} of {checked} fragments off the CPU's count by more than a direction"
+    );
 }

@@ -21,6 +21,8 @@ pub(super) struct GpuMesh {
     pub(super) vertices: wgpu::Buffer,
     pub(super) indices: wgpu::Buffer,
     pub(super) index_count: u32,
+    /// Object-space bounds of the vertices (`None` for a mesh without vertices).
+    pub(super) bounds: Option<(glam::DVec3, glam::DVec3)>,
 }
 
 impl Compositor {
@@ -79,6 +81,10 @@ impl Compositor {
             vertices: make("mesh vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX),
             indices: make("mesh indices", bytemuck::cast_slice(&mesh.indices), wgpu::BufferUsages::INDEX),
             index_count: mesh.indices.len() as u32,
+            bounds: mesh.positions.iter().fold(None, |b, p| {
+                let p = p.as_dvec3();
+                Some(b.map_or((p, p), |(lo, hi): (glam::DVec3, glam::DVec3)| (lo.min(p), hi.max(p))))
+            }),
         };
         self.meshes.push(gpu_mesh);
         Ok(self.meshes.len() - 1)

@@ -1,6 +1,7 @@
 //! The GPU compositor: the pre-rendered image and its depth, then live objects, into an
 //! offscreen frame (colour, live-object mask and depth) that can be read back or presented.
 
+mod antialias;
 mod backdrop_points;
 mod bindings;
 mod encode;
@@ -83,6 +84,12 @@ pub struct Compositor {
     readback_pipeline: wgpu::ComputePipeline,
     readback_bind_group: wgpu::BindGroup,
     depth_storage: wgpu::Buffer,
+    /// The frame after shadows, before live objects (copied each frame with live objects).
+    shadowed_texture: wgpu::Texture,
+    /// Live objects' edges at four samples per pixel, filtered (`None`: off, for the reason
+    /// in `antialias_off`).
+    antialias: Option<antialias::Antialias>,
+    antialias_off: Option<String>,
 }
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -188,11 +195,19 @@ impl Compositor {
         use wgpu::TextureUsages as U;
         let frame_texture =
             texture("frame", FRAME_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING);
-        let mask_texture = texture("mask", MASK_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
+        let mask_texture =
+            texture("mask", MASK_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING);
         let depth_texture = texture("depth", depth_format, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
-        let linear_texture =
-            texture("linear frame", linear_format, U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING);
+        let linear_texture = texture(
+            "linear frame",
+            linear_format,
+            U::RENDER_ATTACHMENT | U::COPY_SRC | U::COPY_DST | U::TEXTURE_BINDING,
+        );
         let colour_texture = texture("backdrop colour", LINEAR_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
+        // The frame after shadows, before live objects: what the shadows took, for the live
+        // objects' own shading and the antialiased edges' backdrop.
+        let shadowed_texture =
+            texture("backdrop after shadows", linear_format, U::TEXTURE_BINDING | U::COPY_DST);
         let display_texture = texture("backdrop display", FRAME_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
         let window_depth_texture =
             texture("backdrop window depth", wgpu::TextureFormat::R32Float, U::TEXTURE_BINDING | U::COPY_DST);
@@ -274,6 +289,10 @@ impl Compositor {
                 },
                 wgpu::BindGroupEntry { binding: 9, resource: gpu_irradiance.sh.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 10, resource: gpu_irradiance.visibility.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: wgpu::BindingResource::TextureView(&view(&shadowed_texture)),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -440,6 +459,36 @@ impl Compositor {
             &write_all,
         );
 
+        let (antialias, antialias_off) = if !settings.antialias {
+            (None, Some("turned off".to_string()))
+        } else if gpu.adapter.get_info().backend == wgpu::Backend::Gl {
+            // wgpu's GLSL output assigns the sample mask with the wrong type (it fails to link,
+            // and only after the error scopes have closed), so GL keeps centre samples.
+            (
+                None,
+                Some("the GL backend cannot write the sample mask the sphere's coverage needs".to_string()),
+            )
+        } else {
+            let setup = antialias::AntialiasSetup {
+                frame_layout: &frame_layout,
+                mesh_layout: &mesh_layout,
+                depth_format,
+                nearer,
+                linear_format,
+                mask_view: &view(&mask_texture),
+                shadowed_view: &view(&shadowed_texture),
+                size: (width, height),
+                filter: scene.pixel_filter(),
+            };
+            match antialias::Antialias::new(device, &setup) {
+                Ok(a) => (Some(a), None),
+                Err(e) => (
+                    None,
+                    Some(format!("this adapter cannot draw live objects at four samples per pixel: {e}")),
+                ),
+            }
+        };
+
         // Depth readback through a compute pass (GL cannot copy depth textures to buffers).
         let readback_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("readback.wgsl"),
@@ -566,7 +615,15 @@ impl Compositor {
             readback_pipeline,
             readback_bind_group,
             depth_storage,
+            shadowed_texture,
+            antialias,
+            antialias_off,
         })
+    }
+
+    /// Why live objects' edges are not antialiased, `None` when they are.
+    pub fn antialias_off(&self) -> Option<&str> {
+        self.antialias_off.as_deref()
     }
 
     pub fn gpu(&self) -> &Gpu {
@@ -659,82 +716,130 @@ impl Compositor {
             self.gpu.queue.write_buffer(&self.mesh_uniform, 0, &bytes);
         }
 
+        let sphere = uniform.counts[2] == 1;
+        let antialiased =
+            self.antialias.as_ref().and_then(|aa| Some((aa, self.live_bounds(&uniform, live, &draws)?)));
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        {
-            let far = self.settings.depth.convention.far_window_depth();
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("composite"),
-                color_attachments: &[
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: &self.linear_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    }),
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: &self.mask_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    }),
-                ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(far),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, &self.frame_bind_group, &[]);
-            match (self.settings.mode, &self.points) {
-                (CompositeMode::Points, Some(points)) => {
-                    pass.set_pipeline(&self.backdrop_points);
-                    pass.set_vertex_buffer(0, points.slice(..));
-                    pass.draw(0..self.width * self.height, 0..1);
-                }
-                _ => {
-                    pass.set_pipeline(&self.backdrop_fullscreen);
-                    pass.draw(0..3, 0..1);
-                }
-            }
-            if uniform.counts[1] == 1
-                && let Some([x, y, w, h]) = self.shadow_scissor_all(&uniform)
+        // Live objects' edges are resolved from a centre-sampled copy into the linear frame.
+        let (target, target_texture) = match antialiased {
+            Some((aa, _)) => (&aa.centre_view, &aa.centre_texture),
+            None => (&self.linear_view, &self.linear_texture),
+        };
+        if !draws.is_empty() || sphere {
+            // The backdrop after shadows is kept for the live objects' shading (the light their
+            // shadows took) and their edges.
             {
-                pass.set_scissor_rect(x, y, w, h);
-                pass.set_pipeline(&self.shadow_pipeline);
-                pass.draw(0..3, 0..1);
-                pass.set_scissor_rect(0, 0, self.width, self.height);
+                let mut pass = self.begin_frame_pass(&mut encoder, target, true);
+                self.record_backdrop(&mut pass, &uniform);
             }
-            if !draws.is_empty() {
-                pass.set_pipeline(&self.mesh_pipeline);
-                for (slot, &k) in draws.iter().enumerate() {
-                    let mesh = &self.meshes[k];
-                    let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
-                    pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
-                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-                }
+            encoder.copy_texture_to_texture(
+                target_texture.as_image_copy(),
+                self.shadowed_texture.as_image_copy(),
+                wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+            );
+            {
+                let mut pass = self.begin_frame_pass(&mut encoder, target, false);
+                self.record_live(&mut pass, &draws, sphere);
             }
-            if uniform.counts[2] == 1 {
-                pass.set_pipeline(&self.sphere_pipeline);
-                pass.draw(0..36, 0..1);
+            if let Some((_, bounds)) = antialiased {
+                self.record_antialiased(&mut encoder, bounds, &draws, sphere);
             }
+        } else {
+            let mut pass = self.begin_frame_pass(&mut encoder, target, true);
+            self.record_backdrop(&mut pass, &uniform);
         }
         self.encode.record(&mut encoder, &self.frame_view);
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.take_errors()
+    }
+
+    /// Begins a pass over the frame's colour, mask and depth targets (colour into `view`),
+    /// clearing them or keeping what an earlier pass drew.
+    fn begin_frame_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        clear: bool,
+    ) -> wgpu::RenderPass<'e> {
+        let far = self.settings.depth.convention.far_window_depth();
+        let (colour, mask, depth) = if clear {
+            (
+                wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                wgpu::LoadOp::Clear(far),
+            )
+        } else {
+            (wgpu::LoadOp::Load, wgpu::LoadOp::Load, wgpu::LoadOp::Load)
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("composite"),
+            color_attachments: &[
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: colour, store: wgpu::StoreOp::Store },
+                }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &self.mask_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: mask, store: wgpu::StoreOp::Store },
+                }),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.frame_bind_group, &[]);
+        pass
+    }
+
+    /// The pre-rendered image and depth, then the live objects' shadows on it.
+    fn record_backdrop(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform) {
+        match (self.settings.mode, &self.points) {
+            (CompositeMode::Points, Some(points)) => {
+                pass.set_pipeline(&self.backdrop_points);
+                pass.set_vertex_buffer(0, points.slice(..));
+                pass.draw(0..self.width * self.height, 0..1);
+            }
+            _ => {
+                pass.set_pipeline(&self.backdrop_fullscreen);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        if uniform.counts[1] == 1
+            && let Some([x, y, w, h]) = self.shadow_scissor_all(uniform)
+        {
+            pass.set_scissor_rect(x, y, w, h);
+            pass.set_pipeline(&self.shadow_pipeline);
+            pass.draw(0..3, 0..1);
+            pass.set_scissor_rect(0, 0, self.width, self.height);
+        }
+    }
+
+    /// The live meshes (`draws`: their slots) and the cursor sphere, sampled at pixel centres.
+    fn record_live(&self, pass: &mut wgpu::RenderPass<'_>, draws: &[usize], sphere: bool) {
+        if !draws.is_empty() {
+            pass.set_pipeline(&self.mesh_pipeline);
+            for (slot, &k) in draws.iter().enumerate() {
+                let mesh = &self.meshes[k];
+                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+            }
+        }
+        if sphere {
+            pass.set_pipeline(&self.sphere_pipeline);
+            pass.draw(0..36, 0..1);
+        }
     }
 }

@@ -86,6 +86,10 @@ pub struct CompositorSettings {
     pub depth_range: Option<NearFar>,
     /// `None` disables shadows.
     pub shadows: Option<ShadowSettings>,
+    /// Live objects' edges covered at four samples per pixel and filtered with the image's
+    /// pixel filter (`compositor/antialias.rs`), as the ray tracer filters its own objects'
+    /// edges; `false` shows each pixel's centre sample alone.
+    pub antialias: bool,
 }
 
 impl Default for CompositorSettings {
@@ -95,6 +99,7 @@ impl Default for CompositorSettings {
             depth: DepthSettings::default(),
             depth_range: None,
             shadows: Some(ShadowSettings::default()),
+            antialias: true,
         }
     }
 }

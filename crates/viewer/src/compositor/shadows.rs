@@ -69,7 +69,7 @@ impl Compositor {
 
     /// The screen bounds of a camera-space box of half-size `half` about `centre` (the whole
     /// image when it reaches behind the eye).
-    fn box_scissor(&self, centre: DVec3, half: f64) -> Option<[u32; 4]> {
+    pub(super) fn box_scissor(&self, centre: DVec3, half: f64) -> Option<[u32; 4]> {
         let corners: Vec<DVec3> = (0..8)
             .map(|k| {
                 centre
@@ -144,7 +144,7 @@ impl Compositor {
 
     /// The pixel rectangle covering camera-space `points` (the whole image when one is behind
     /// the eye), `None` when it is empty.
-    fn screen_bounds(&self, points: &[DVec3]) -> Option<[u32; 4]> {
+    pub(super) fn screen_bounds(&self, points: &[DVec3]) -> Option<[u32; 4]> {
         let full = Some([0, 0, self.width, self.height]);
         let clip_from_camera = self.projection.clip_from_camera();
         let (mut x0, mut y0, mut x1, mut y1) =
@@ -167,7 +167,7 @@ impl Compositor {
 }
 
 /// The smallest rectangle holding both.
-fn merge(a: Option<[u32; 4]>, b: Option<[u32; 4]>) -> Option<[u32; 4]> {
+pub(super) fn merge(a: Option<[u32; 4]>, b: Option<[u32; 4]>) -> Option<[u32; 4]> {
     match (a, b) {
         (Some([ax, ay, aw, ah]), Some([bx, by, bw, bh])) => {
             let (x0, y0) = (ax.min(bx), ay.min(by));

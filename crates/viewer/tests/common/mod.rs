@@ -180,3 +180,63 @@ pub fn grey_cornell(lights: Vec<LiveLight>, grey: u8) -> ViewerScene {
     )
     .unwrap()
 }
+
+/// Whether any pixel of the 3x3 block about pixel `k` of a `width`-wide mask satisfies `test`.
+fn any_in_block(mask: &[u8], width: usize, k: usize, test: impl Fn(u8) -> bool) -> bool {
+    let height = mask.len() / width;
+    let (i, j) = ((k % width) as i64, (k / width) as i64);
+    (-1..=1).any(|dy| {
+        (-1..=1).any(|dx| {
+            let (x, y) = (i + dx, j + dy);
+            x >= 0
+                && y >= 0
+                && (x as usize) < width
+                && (y as usize) < height
+                && test(mask[y as usize * width + x as usize])
+        })
+    })
+}
+
+/// Whether pixel `k` is on or next to a live object's mask: such pixels may hold part of its
+/// antialiased edge.
+pub fn next_to_mask(mask: &[u8], width: usize, k: usize) -> bool {
+    any_in_block(mask, width, k, |m| m == 255)
+}
+
+/// Whether pixel `k` and its eight neighbours are all inside a live object's mask: such a pixel
+/// shows the live object alone, away from its antialiased edge.
+pub fn inside_mask(mask: &[u8], width: usize, k: usize) -> bool {
+    !any_in_block(mask, width, k, |m| m != 255)
+}
+
+/// The Cornell camera and depth with a flat backdrop of `level`, one white point light at
+/// `light` and light layers: all of the backdrop in `light.0` (or in `indirect` when
+/// `indirect`), normals facing up.
+pub fn layered_cornell(light: DVec3, indirect: bool, level: f32) -> ViewerScene {
+    let (w, h) = (512u32, 512u32);
+    let n = (w * h) as usize;
+    let linear = [level, level, level, 1.0].repeat(n);
+    let backdrop = viewer::Backdrop::from_linear(w, h, linear, 1.0).unwrap();
+    let point = LiveLight::Point { position: light, colour: Vec3::splat(1.0) };
+    let mut s = ViewerScene::with_backdrop(
+        cornell_camera(),
+        backdrop,
+        cornell_depth(),
+        vec![point],
+        ToneMap::default(),
+    )
+    .unwrap();
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers =
+        sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "pointlight")]);
+    let target = if indirect { &mut layers.indirect } else { &mut layers.light[0] };
+    target.iter_mut().for_each(|v| *v = [level; 3]);
+    layers.normal.iter_mut().for_each(|v| *v = [0.0, 1.0, 0.0]);
+    s.set_light_layers(viewer::SceneLayers {
+        layers,
+        layer_of_light: vec![Some(0)],
+        area_samples: vec![vec![]],
+    })
+    .unwrap();
+    s
+}

@@ -1,0 +1,458 @@
+//! Antialiased edges of live objects, as the ray tracer's pixel filter makes its own objects'
+//! edges: the centre-sampled frame (colour, mask and depth, as without antialiasing) is drawn
+//! first; live objects are then drawn again at four samples per pixel, depth-tested against the
+//! pre-rendered depth, each sample holding the live colour or nothing; a resolve pass filters
+//! those samples with the image's pixel filter over the pixel's neighbourhood and blends them
+//! with the pixel's own backdrop after shadows (`shaders/resolve.wgsl`).
+//!
+//! Only pixels near live objects are touched (the live objects' screen bounds plus the filter's
+//! reach); elsewhere, and wherever no live sample reaches, the frame keeps the centre-sampled
+//! value bit for bit. The mask and depth read back stay those of the pixel centre.
+
+use super::Compositor;
+use super::lighting::FrameUniform;
+use super::live_objects::MeshVertex;
+use crate::live::LiveObjects;
+use crate::pixel_filter::{MAX_FILTER_MARGIN, PixelFilter, kind_code};
+use glam::DVec3;
+
+/// Samples per pixel of the live objects' coverage.
+pub(super) const SAMPLE_COUNT: u32 = 4;
+/// The samples' format: half floats, which every adapter can multisample.
+const SAMPLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// The resolve pass's uniform (`resolve.wgsl` `Resolve`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct ResolveUniform {
+    kind_reach: [u32; 4],
+    widths: [f32; 4],
+}
+
+/// The GPU resources of antialiasing.
+#[derive(Debug)]
+pub(super) struct Antialias {
+    /// The centre-sampled frame, drawn first.
+    pub(super) centre_texture: wgpu::Texture,
+    pub(super) centre_view: wgpu::TextureView,
+    samples_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    backdrop_pipeline: wgpu::RenderPipeline,
+    sphere_pipeline: wgpu::RenderPipeline,
+    mesh_pipeline: wgpu::RenderPipeline,
+    resolve_pipeline: wgpu::RenderPipeline,
+    resolve_bind_group: wgpu::BindGroup,
+    /// The centre-sampled mask, for the mesh coverage pass (group 2).
+    mask_bind_group: wgpu::BindGroup,
+    /// How many pixels the filter reaches along x and y.
+    pub(super) reach: (u32, u32),
+}
+
+/// What [`Antialias::new`] needs from the compositor.
+pub(super) struct AntialiasSetup<'a> {
+    pub(super) frame_layout: &'a wgpu::BindGroupLayout,
+    pub(super) mesh_layout: &'a wgpu::BindGroupLayout,
+    pub(super) depth_format: wgpu::TextureFormat,
+    pub(super) nearer: wgpu::CompareFunction,
+    pub(super) linear_format: wgpu::TextureFormat,
+    /// The centre-sampled live-object mask.
+    pub(super) mask_view: &'a wgpu::TextureView,
+    /// The frame after shadows, before live objects.
+    pub(super) shadowed_view: &'a wgpu::TextureView,
+    pub(super) size: (u32, u32),
+    pub(super) filter: PixelFilter,
+}
+
+impl Antialias {
+    /// Builds the targets and pipelines; an adapter that cannot run them (e.g. without the
+    /// sample mask in its shading language) gives the reason as an error.
+    pub(super) fn new(device: &wgpu::Device, setup: &AntialiasSetup<'_>) -> Result<Antialias, String> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let built = Self::build(device, setup);
+        match pollster::block_on(scope.pop()) {
+            Some(e) => Err(e.to_string()),
+            None => Ok(built),
+        }
+    }
+
+    fn build(device: &wgpu::Device, setup: &AntialiasSetup<'_>) -> Antialias {
+        let (width, height) = setup.size;
+        let texture = |label: &str, format: wgpu::TextureFormat, samples: u32, usage: wgpu::TextureUsages| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        use wgpu::TextureUsages as U;
+        let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        let centre_texture = texture(
+            "centre-sampled frame",
+            setup.linear_format,
+            1,
+            U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
+        );
+        let samples_texture =
+            texture("live samples", SAMPLE_FORMAT, SAMPLE_COUNT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
+        let depth_texture =
+            texture("live sample depth", setup.depth_format, SAMPLE_COUNT, U::RENDER_ATTACHMENT);
+
+        // The coverage entry points use the compositor's shading, so they share its source.
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("composite.wgsl + live_coverage.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(
+                    include_str!("../shaders/composite.wgsl"),
+                    include_str!("../shaders/live_coverage.wgsl")
+                )
+                .into(),
+            ),
+        });
+        let frame_only = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("coverage, frame only"),
+            bind_group_layouts: &[Some(setup.frame_layout)],
+            immediate_size: 0,
+        });
+        let mask_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("coverage mask"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            }],
+        });
+        let mask_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("coverage mask"),
+            layout: &mask_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(setup.mask_view),
+            }],
+        });
+        let with_mesh = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("coverage, frame, mesh and mask"),
+            bind_group_layouts: &[Some(setup.frame_layout), Some(setup.mesh_layout), Some(&mask_layout)],
+            immediate_size: 0,
+        });
+        let mesh_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+        let mesh_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<MeshVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &mesh_attributes,
+        })];
+        let pipeline = |label: &str,
+                        layout: &wgpu::PipelineLayout,
+                        (vs, fs): (&str, &str),
+                        buffers: &[Option<wgpu::VertexBufferLayout>],
+                        primitive: wgpu::PrimitiveState,
+                        compare: wgpu::CompareFunction| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
+                primitive,
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: setup.depth_format,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(compare),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                multisample: wgpu::MultisampleState { count: SAMPLE_COUNT, ..Default::default() },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: SAMPLE_FORMAT,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let triangles = wgpu::PrimitiveState::default();
+        let backdrop_pipeline = pipeline(
+            "coverage backdrop depth",
+            &frame_only,
+            ("vs_fullscreen", "fs_coverage_backdrop"),
+            &[],
+            triangles,
+            wgpu::CompareFunction::Always,
+        );
+        let sphere_pipeline = pipeline(
+            "sphere coverage",
+            &frame_only,
+            ("vs_sphere", "fs_sphere_coverage"),
+            &[],
+            wgpu::PrimitiveState {
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: Some(wgpu::Face::Front),
+                ..Default::default()
+            },
+            setup.nearer,
+        );
+        let mesh_pipeline = pipeline(
+            "mesh coverage",
+            &with_mesh,
+            ("vs_mesh", "fs_mesh_coverage"),
+            &mesh_buffers,
+            triangles,
+            setup.nearer,
+        );
+
+        let (reach_x, reach_y) = setup.filter.pixel_margin();
+        let reach = (reach_x.min(MAX_FILTER_MARGIN), reach_y.min(MAX_FILTER_MARGIN));
+        let uniform = ResolveUniform {
+            kind_reach: [kind_code(setup.filter.kind), reach.0, reach.1, 0],
+            widths: [setup.filter.x_width, setup.filter.y_width, 0.0, 0.0],
+        };
+        let resolve_uniform = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("resolve uniform"),
+                contents: bytemuck::bytes_of(&uniform),
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
+        let texture_entry = |binding: u32, multisampled: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled,
+            },
+            count: None,
+        };
+        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("resolve"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                texture_entry(1, false),
+                texture_entry(2, false),
+                texture_entry(3, true),
+                texture_entry(4, false),
+            ],
+        });
+        let centre_view = view(&centre_texture);
+        let samples_view = view(&samples_texture);
+        let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("resolve"),
+            layout: &resolve_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: resolve_uniform.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&centre_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(setup.shadowed_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(&samples_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(setup.mask_view),
+                },
+            ],
+        });
+        let resolve_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("resolve.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/resolve.wgsl").into()),
+        });
+        let resolve_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("resolve"),
+            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("resolve"),
+                bind_group_layouts: &[Some(&resolve_layout)],
+                immediate_size: 0,
+            })),
+            vertex: wgpu::VertexState {
+                module: &resolve_module,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: triangles,
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &resolve_module,
+                entry_point: Some("fs_resolve"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: setup.linear_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Antialias {
+            centre_texture,
+            centre_view,
+            samples_view,
+            depth_view: view(&depth_texture),
+            backdrop_pipeline,
+            sphere_pipeline,
+            mesh_pipeline,
+            resolve_pipeline,
+            resolve_bind_group,
+            mask_bind_group,
+            reach,
+        }
+    }
+}
+
+impl Compositor {
+    /// The pixels live objects can cover this frame (their screen bounds), `None` when none is
+    /// drawn. `draws` are the mesh slots of `live.meshes` with finite transforms.
+    pub(super) fn live_bounds(
+        &self,
+        uniform: &FrameUniform,
+        live: &LiveObjects,
+        draws: &[usize],
+    ) -> Option<[u32; 4]> {
+        let mut union = None;
+        if uniform.counts[2] == 1 {
+            let s = uniform.sphere;
+            let centre = DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2]));
+            union = super::shadows::merge(union, self.box_scissor(centre, f64::from(s[3]) * 1.001));
+        }
+        let camera_from_world = self.projection.camera().camera_from_world();
+        let instances = live.meshes.iter().filter(|m| m.world_from_object.is_finite());
+        for (instance, &k) in instances.zip(draws) {
+            let Some((lo, hi)) = self.meshes[k].bounds else { continue };
+            let camera_from_object = camera_from_world * instance.world_from_object;
+            let corners: Vec<DVec3> = (0..8)
+                .map(|c| {
+                    let p = DVec3::new(
+                        if c & 1 == 0 { lo.x } else { hi.x },
+                        if c & 2 == 0 { lo.y } else { hi.y },
+                        if c & 4 == 0 { lo.z } else { hi.z },
+                    );
+                    camera_from_object.transform_point3(p)
+                })
+                .collect();
+            union = super::shadows::merge(union, self.screen_bounds(&corners));
+        }
+        union
+    }
+
+    /// Draws live objects at four samples per pixel into the antialiasing targets and filters
+    /// them into the linear frame within `bounds` (the rest of the frame is the centre-sampled
+    /// one, copied first).
+    pub(super) fn record_antialiased(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bounds: [u32; 4],
+        draws: &[usize],
+        sphere: bool,
+    ) {
+        let Some(aa) = &self.antialias else { return };
+        let far = self.settings.depth.convention.far_window_depth();
+        let [x, y, w, h] = bounds;
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("live coverage"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &aa.samples_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &aa.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(far),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_scissor_rect(x, y, w, h);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_pipeline(&aa.backdrop_pipeline);
+            pass.draw(0..3, 0..1);
+            if !draws.is_empty() {
+                pass.set_pipeline(&aa.mesh_pipeline);
+                pass.set_bind_group(2, &aa.mask_bind_group, &[]);
+                for (slot, &k) in draws.iter().enumerate() {
+                    let mesh = &self.meshes[k];
+                    let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                    pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+                }
+            }
+            if sphere {
+                pass.set_pipeline(&aa.sphere_pipeline);
+                pass.draw(0..36, 0..1);
+            }
+        }
+        encoder.copy_texture_to_texture(
+            aa.centre_texture.as_image_copy(),
+            self.linear_texture.as_image_copy(),
+            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+        );
+        // The filter carries live samples up to `reach` pixels beyond the objects' bounds.
+        let (rx, ry) = aa.reach;
+        let (x0, y0) = (x.saturating_sub(rx), y.saturating_sub(ry));
+        let (x1, y1) = ((x + w + rx).min(self.width), (y + h + ry).min(self.height));
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("resolve"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &self.linear_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_scissor_rect(x0, y0, x1 - x0, y1 - y0);
+        pass.set_pipeline(&aa.resolve_pipeline);
+        pass.set_bind_group(0, &aa.resolve_bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}

@@ -1,0 +1,84 @@
+
+// ---------------------------------------------------------------------------------------------
+// Live objects at four samples per pixel (compositor/antialias.rs; this file is appended to
+// composite.wgsl). Each sample a live object covers holds its colour, shaded once per pixel,
+// with alpha 1; the others stay clear (alpha 0). resolve.wgsl filters them into the frame with
+// the image's pixel filter, as the ray tracer filters its own objects' edges.
+
+struct CoverageBackdropOut {
+    @location(0) colour: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+// The pre-rendered depth in every sample, so that the scene hides live samples behind it.
+@fragment
+fn fs_coverage_backdrop(@builtin(position) position: vec4<f32>) -> CoverageBackdropOut {
+    let depth = textureLoad(backdrop_window_depth, vec2<i32>(position.xy), 0).r;
+    return CoverageBackdropOut(vec4<f32>(0.0), depth);
+}
+
+// Half floats hold the samples: keep live radiance finite in them.
+fn coverage_colour(colour: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(min(colour.rgb, vec3<f32>(65504.0)), 1.0);
+}
+
+struct CoverageOut {
+    @location(0) colour: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+    @builtin(sample_mask) samples: u32,
+}
+
+// The sphere covers the samples whose rays hit it; it is shaded at the first covered sample's
+// hit where the centre ray misses it (elsewhere the resolve uses the centre frame's colour).
+@fragment
+fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
+    // The standard 4x sample positions from the pixel's top-left corner
+    // (pixel_filter::SAMPLE_POSITIONS, resolve.wgsl).
+    var positions = array<vec2<f32>, 4>(
+        vec2<f32>(0.375, 0.125), vec2<f32>(0.875, 0.375), vec2<f32>(0.125, 0.625), vec2<f32>(0.625, 0.875),
+    );
+    let corner = floor(position.xy);
+    var hit = sphere_hit(position.xy);
+    var raster = position.xy;
+    var samples = 0u;
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let at = corner + positions[i];
+        let sample_hit = sphere_hit(at);
+        if sample_hit.w >= 0.0 {
+            samples = samples | (1u << i);
+            if hit.w < 0.0 {
+                hit = sample_hit;
+                raster = at;
+            }
+        }
+    }
+    if samples == 0u {
+        discard;
+    }
+    // Where the pixel centre shows the sphere (clearly in front of the pre-rendered surface),
+    // the resolve takes the centre frame's colour: no need to shade it again.
+    if raster.x == position.x && raster.y == position.y {
+        let surface = textureLoad(backdrop_radial_depth, vec2<i32>(position.xy), 0).r;
+        let distance = select(hit.z, length(hit.xyz), frame.raster.w > 0.5);
+        if distance < surface * (1.0 - 1e-5) {
+            return CoverageOut(vec4<f32>(0.0, 0.0, 0.0, 1.0), hit.w, samples);
+        }
+    }
+    let p = hit.xyz;
+    let n = (p - frame.sphere.xyz) / frame.sphere.w;
+    let colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(raster).direction));
+    return CoverageOut(coverage_colour(colour), hit.w, samples);
+}
+
+// The centre-sampled frame's live-object mask (compositor/antialias.rs binds it for meshes).
+@group(2) @binding(0) var coverage_centre_mask: texture_2d<f32>;
+
+// Meshes: the rasteriser decides which samples a triangle covers. Where the pixel centre shows
+// a live object, the resolve takes the centre frame's colour: no need to shade it again.
+@fragment
+fn fs_mesh_coverage(in: MeshVertexOut) -> @location(0) vec4<f32> {
+    if textureLoad(coverage_centre_mask, vec2<i32>(in.position.xy), 0).r > 0.5 {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    return coverage_colour(mesh_colour(in));
+}

@@ -1,0 +1,185 @@
+//! Antialiased edges of live objects: each pixel near a live object holds the share of the
+//! image's pixel filter its live samples cover, blended with the backdrop, as the ray tracer
+//! filters its own objects' edges.
+
+mod common;
+
+use common::*;
+use glam::{DVec2, DVec3, Vec3};
+use viewer::pixel_filter::SAMPLE_POSITIONS;
+use viewer::{
+    CompositeMode, Compositor, CompositorSettings, LiveObjects, Material, PixelFilter, Sphere, ViewerScene,
+};
+
+const COLOUR: Vec3 = Vec3::new(1.0, 0.5, 0.25);
+
+/// A floating sphere, unlit, over the Cornell depth with a black image, composited with
+/// `filter`; returns the scene, the sphere's camera-space centre, its radius and the linear
+/// frame.
+fn render(filter: PixelFilter, antialias: bool) -> (ViewerScene, DVec3, f64, Vec<f32>, Vec<u8>) {
+    let mut scene = grey_cornell(vec![], 0);
+    scene.set_pixel_filter(filter);
+    let (centre, radius) = (DVec3::new(0.1, 0.05, 0.2), 0.31);
+    let live = LiveObjects {
+        sphere: Some(Sphere { centre, radius, material: Material::unlit(COLOUR) }),
+        meshes: Vec::new(),
+    };
+    let gpu = gpu();
+    let mut c = Compositor::new(
+        &gpu,
+        &scene,
+        CompositorSettings {
+            mode: CompositeMode::Fullscreen,
+            shadows: None,
+            antialias,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(c.antialias_off().is_none(), antialias, "{:?}", c.antialias_off());
+    c.render(&live).unwrap();
+    let linear = c.read_back_linear().unwrap().rgba;
+    let mask = c.read_back().unwrap().mask;
+    let centre_camera = scene.camera().camera_from_world().transform_point3(centre);
+    (scene, centre_camera, radius, linear, mask)
+}
+
+/// Whether the ray through `raster` hits the sphere in front of the pre-rendered surface of
+/// the pixel it lies in.
+fn live_at(scene: &ViewerScene, centre: DVec3, radius: f64, raster: DVec2) -> bool {
+    let ray = scene.camera().ray_through_raster(raster);
+    let (i, j) = (raster.x.floor() as u32, raster.y.floor() as u32);
+    let depth = f64::from(scene.depth().get(i, j).unwrap());
+    ray_sphere(ray.origin, ray.direction, centre, radius).is_some_and(|t| t < depth)
+}
+
+/// The filter's live share at pixel `(i, j)` over the four standard samples of each pixel in
+/// its reach (what the compositor computes), in f64.
+fn sampled_share(
+    scene: &ViewerScene,
+    filter: &PixelFilter,
+    centre: DVec3,
+    radius: f64,
+    i: u32,
+    j: u32,
+) -> f64 {
+    let (w, h) = scene.size();
+    let (mx, my) = filter.pixel_margin();
+    let (mut total, mut live) = (0.0, 0.0);
+    for dy in -(my as i64)..=my as i64 {
+        for dx in -(mx as i64)..=mx as i64 {
+            let (x, y) = (i64::from(i) + dx, i64::from(j) + dy);
+            if x < 0 || y < 0 || x >= i64::from(w) || y >= i64::from(h) {
+                continue;
+            }
+            for [sx, sy] in SAMPLE_POSITIONS {
+                let offset = (dx as f32 + sx - 0.5, dy as f32 + sy - 0.5);
+                let weight = f64::from(filter.weight(offset.0, offset.1));
+                total += weight;
+                let raster = DVec2::new(x as f64 + f64::from(sx), y as f64 + f64::from(sy));
+                if weight != 0.0 && live_at(scene, centre, radius, raster) {
+                    live += weight;
+                }
+            }
+        }
+    }
+    live / total
+}
+
+/// The exact share of a pixel the sphere covers, by 32x32 stratified rays.
+fn covered_area(scene: &ViewerScene, centre: DVec3, radius: f64, i: u32, j: u32) -> f64 {
+    let n = 32;
+    let hits = (0..n * n)
+        .filter(|k| {
+            let raster = DVec2::new(
+                f64::from(i) + (f64::from(k % n) + 0.5) / f64::from(n),
+                f64::from(j) + (f64::from(k / n) + 0.5) / f64::from(n),
+            );
+            live_at(scene, centre, radius, raster)
+        })
+        .count();
+    hits as f64 / f64::from(n * n)
+}
+
+/// With a box filter each pixel holds the sphere's colour times the share of its four samples
+/// the sphere covers; that share is closer to the pixel's true coverage than the centre sample
+/// alone, by at least 40% in mean absolute error over the silhouette's pixels.
+#[test]
+fn a_box_filter_gives_each_edge_pixel_its_sampled_coverage() {
+    let filter = PixelFilter::BOX;
+    let near = PixelFilter::from_rib("box", 3.0, 3.0).unwrap();
+    let (scene, centre, radius, linear, mask) = render(filter, true);
+    let (w, h) = scene.size();
+    let (mut edge, mut wrong, mut error_aa, mut error_centre) = (0, 0, 0.0, 0.0);
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            let share = sampled_share(&scene, &filter, centre, radius, i, j);
+            for ch in 0..3 {
+                let want = share as f32 * COLOUR[ch];
+                // Half-float samples, and a sample grazing the silhouette may fall either way.
+                if (linear[4 * k + ch] - want).abs() > 2e-3 {
+                    wrong += 1;
+                }
+            }
+            // Only pixels within a pixel of a sample on each side can be partly covered.
+            let wide = sampled_share(&scene, &near, centre, radius, i, j);
+            if wide == 0.0 || wide == 1.0 {
+                continue;
+            }
+            let area = covered_area(&scene, centre, radius, i, j);
+            if area > 0.0 && area < 1.0 {
+                edge += 1;
+                let got = f64::from(linear[4 * k]) / f64::from(COLOUR.x);
+                error_aa += (got - area).abs();
+                error_centre += (if mask[k] == 255 { 1.0 } else { 0.0 } - area).abs();
+            }
+        }
+    }
+    eprintln!("{edge} edge pixels; coverage error: antialiased {error_aa}, centre only {error_centre}");
+    assert!(edge > 300, "edge pixels {edge}");
+    assert!(wrong * 100 <= edge, "{wrong} channels of {edge} edge pixels off the sampled share");
+    assert!(
+        error_aa < 0.6 * error_centre,
+        "coverage error: antialiased {error_aa}, centre only {error_centre}"
+    );
+}
+
+/// RenderMan's default filter (gaussian 2 2) reaches a pixel's neighbours: the sphere's colour
+/// spreads a pixel beyond its samples, by the filter's weights, and pixels out of reach keep the
+/// image's value exactly.
+#[test]
+fn a_gaussian_filter_spreads_the_edge_by_its_weights() {
+    let filter = PixelFilter::RENDERMAN_DEFAULT;
+    let (scene, centre, radius, linear, _) = render(filter, true);
+    let (w, h) = scene.size();
+    let (mut spread, mut wrong, mut checked) = (0, 0, 0);
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            let share = sampled_share(&scene, &filter, centre, radius, i, j);
+            let own = sampled_share(&scene, &PixelFilter::BOX, centre, radius, i, j);
+            if share == 0.0 {
+                assert_eq!(&linear[4 * k..4 * k + 3], &[0.0; 3], "pixel ({i}, {j}) out of reach");
+                continue;
+            }
+            checked += 1;
+            spread += usize::from(own == 0.0);
+            let want = share as f32 * COLOUR.x;
+            wrong += usize::from((linear[4 * k] - want).abs() > 2e-3);
+        }
+    }
+    assert!(spread > 150, "pixels reached through the filter alone: {spread}");
+    assert!(wrong * 100 <= checked, "{wrong} of {checked} pixels off the filtered share");
+}
+
+/// Turned off, every pixel is its centre sample: the sphere's colour inside its mask, the image
+/// outside.
+#[test]
+fn without_antialiasing_pixels_are_centre_samples() {
+    let (_, _, _, linear, mask) = render(PixelFilter::RENDERMAN_DEFAULT, false);
+    for (k, &m) in mask.iter().enumerate() {
+        let want = if m == 255 { COLOUR.to_array() } else { [0.0; 3] };
+        assert_eq!(&linear[4 * k..4 * k + 3], &want, "pixel {k}");
+    }
+}
