@@ -411,22 +411,9 @@ impl Compositor {
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_pipeline(&aa.backdrop_pipeline);
             pass.draw(0..3, 0..1);
-            if !draws.is_empty() {
-                pass.set_pipeline(&aa.mesh_pipeline);
-                pass.set_bind_group(2, &aa.mask_bind_group, &[]);
-                for (slot, &k) in draws.iter().enumerate() {
-                    let mesh = &self.meshes[k];
-                    let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
-                    pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
-                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-                }
-            }
-            if sphere {
-                pass.set_pipeline(&aa.sphere_pipeline);
-                pass.draw(0..36, 0..1);
-            }
+            // The mesh coverage pipeline reads the centre mask (group 2).
+            pass.set_bind_group(2, &aa.mask_bind_group, &[]);
+            self.draw_live(&mut pass, (&aa.mesh_pipeline, &aa.sphere_pipeline), draws, sphere);
         }
         encoder.copy_texture_to_texture(
             aa.centre_texture.as_image_copy(),

@@ -826,8 +826,20 @@ impl Compositor {
 
     /// The live meshes (`draws`: their slots) and the cursor sphere, sampled at pixel centres.
     fn record_live(&self, pass: &mut wgpu::RenderPass<'_>, draws: &[usize], sphere: bool) {
+        self.draw_live(pass, (&self.mesh_pipeline, &self.sphere_pipeline), draws, sphere);
+    }
+
+    /// Draws the live meshes (`draws`: their slots) and the cursor sphere with these pipelines
+    /// (centre-sampled, or the antialiasing's coverage).
+    pub(super) fn draw_live(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        (mesh_pipeline, sphere_pipeline): (&wgpu::RenderPipeline, &wgpu::RenderPipeline),
+        draws: &[usize],
+        sphere: bool,
+    ) {
         if !draws.is_empty() {
-            pass.set_pipeline(&self.mesh_pipeline);
+            pass.set_pipeline(mesh_pipeline);
             for (slot, &k) in draws.iter().enumerate() {
                 let mesh = &self.meshes[k];
                 let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
@@ -838,7 +850,7 @@ impl Compositor {
             }
         }
         if sphere {
-            pass.set_pipeline(&self.sphere_pipeline);
+            pass.set_pipeline(sphere_pipeline);
             pass.draw(0..36, 0..1);
         }
     }
