@@ -104,13 +104,9 @@ impl Antialias {
 
         // The coverage entry points use the compositor's shading, so they share its source.
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("composite.wgsl + live_coverage.wgsl"),
+            label: Some("composite shaders + live_coverage.wgsl"),
             source: wgpu::ShaderSource::Wgsl(
-                concat!(
-                    include_str!("../shaders/composite.wgsl"),
-                    include_str!("../shaders/live_coverage.wgsl")
-                )
-                .into(),
+                format!("{}{}", super::COMPOSITE_WGSL, include_str!("../shaders/live_coverage.wgsl")).into(),
             ),
         });
         let frame_only = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

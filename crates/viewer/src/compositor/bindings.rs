@@ -35,7 +35,7 @@ fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// The frame bind group's layout (`composite.wgsl`, group 0).
+/// The frame bind group's layout (`composite.wgsl` and the files appended to it, group 0).
 pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let texture_entry = |binding: u32, visibility: wgpu::ShaderStages| {
         texture_layout_entry(binding, visibility, wgpu::TextureViewDimension::D2, false)

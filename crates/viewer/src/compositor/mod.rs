@@ -92,6 +92,13 @@ pub struct Compositor {
     antialias_off: Option<String>,
 }
 
+/// The compositing shaders: one module from the files of its parts (WGSL has no includes).
+pub(super) const COMPOSITE_WGSL: &str = concat!(
+    include_str!("../shaders/composite.wgsl"),
+    include_str!("../shaders/shadow_loss.wgsl"),
+    include_str!("../shaders/shadows.wgsl"),
+);
+
 const fn align_up(v: u64, a: u64) -> u64 {
     v.div_ceil(a) * a
 }
@@ -317,8 +324,8 @@ impl Compositor {
         let mesh_bind_group = Self::make_mesh_bind_group(device, &mesh_layout, &mesh_uniform);
 
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("composite.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/composite.wgsl").into()),
+            label: Some("composite shaders"),
+            source: wgpu::ShaderSource::Wgsl(COMPOSITE_WGSL.into()),
         });
         let frame_only = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("frame only"),
