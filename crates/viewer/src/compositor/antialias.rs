@@ -65,13 +65,17 @@ pub(super) struct AntialiasSetup<'a> {
 
 impl Antialias {
     /// Builds the targets and pipelines; an adapter that cannot run them (e.g. without the
-    /// sample mask in its shading language) gives the reason as an error.
+    /// sample mask in its shading language, or without memory for four samples per pixel of a
+    /// large image) gives the reason as an error, and the frame keeps pixel centres.
     pub(super) fn new(device: &wgpu::Device, setup: &AntialiasSetup<'_>) -> Result<Antialias, String> {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let built = Self::build(device, setup);
-        match pollster::block_on(scope.pop()) {
-            Some(e) => Err(e.to_string()),
-            None => Ok(built),
+        // Scopes pop in reverse order of their pushes.
+        let out_of_memory = pollster::block_on(memory.pop());
+        match (pollster::block_on(validation.pop()), out_of_memory) {
+            (Some(e), _) | (None, Some(e)) => Err(e.to_string()),
+            (None, None) => Ok(built),
         }
     }
 
