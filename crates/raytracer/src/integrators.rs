@@ -278,7 +278,7 @@ fn non_specular(mask: LobeFlags) -> LobeFlags {
 
 /// Next-event estimation with one light chosen from the surface's light set by power, weighted
 /// for MIS against the BSDF sample the caller follows next (which must weight the emitters it
-/// hits with the complementary weight, as [`li`]'s path tracer does).
+/// hits with the complementary weight, as [`PathTracer`]'s `li` does).
 pub fn sample_one_light(
     world: &World,
     si: &SurfaceInteraction,

@@ -5,7 +5,7 @@
 //! [`crate::integrators::direct_from_light`], [`end_primary`] once the primary vertex's direct
 //! light is estimated, and [`direct_via_bsdf`] where a path tracer's BSDF sample from the
 //! primary vertex hits an emitter. Everything is recorded in a thread-local tally that only a
-//! layered render ([`crate::layered_render`]) arms, so a render without layers pays one
+//! layered render (`layered_render`) arms, so a render without layers pays one
 //! thread-local flag test per call and nothing else.
 
 use crate::bsdf::{Bsdf, Lobe};

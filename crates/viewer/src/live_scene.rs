@@ -4,7 +4,7 @@
 //! compositor can shade them as the ray trace of `ReadArchive "LIVE.rib"` does.
 //!
 //! `hybrid-view` builds a [`LiveScene`] from the RIB (the viewer library does not depend on the
-//! parser); [`LiveScene::to_live_objects`] is the simplest drawing hook: every object as a mesh
+//! parser); [`LiveScene::add_to`] is the simplest drawing hook: every object as a mesh
 //! with the viewer's plastic-like [`Material`].
 
 use crate::live::{LiveObjects, Material, Mesh, MeshInstance};

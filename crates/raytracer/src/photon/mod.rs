@@ -3,7 +3,7 @@
 //!
 //! # Overview
 //! A preprocessing pass ([`PhotonMapper::prepare`]) shoots photons from every light in
-//! proportion to its power ([`shoot`]) and stores them in three balanced kd-trees
+//! proportion to its power (`shoot`) and stores them in three balanced kd-trees
 //! ([`kdtree`]): the *caustic* map (paths `L S+ D`), the *indirect* map (paths with a
 //! non-specular bounce) and, for final gathering, the *direct* map (`L D`). With final gathering
 //! it then precomputes irradiance at a fraction of the photon hits (Christensen's *radiance
@@ -18,7 +18,7 @@
 //!   the directions of nearby photons, with multiple importance sampling) read the radiance
 //!   photons where they land; without final gathering, the indirect map's estimate directly.
 //!
-//! The scene is analysed first, and `--stats` reports what was skipped and why ([`Skips`]): no
+//! The scene is analysed first, and `--stats` reports what was skipped and why ([`PhotonStats`]): no
 //! caustic map without a specular surface reached from a light, no global map and no final
 //! gathering without diffuse interreflection, no light sampling or shadow rays toward a light
 //! that cannot reach the point ([`cull`]).
