@@ -733,28 +733,28 @@ impl Compositor {
             Some((aa, _)) => (&aa.centre_view, &aa.centre_texture),
             None => (&self.linear_view, &self.linear_texture),
         };
-        if !draws.is_empty() || sphere {
-            // The backdrop after shadows is kept for the live objects' shading (the light their
-            // shadows took) and their edges.
-            {
-                let mut pass = self.begin_frame_pass(&mut encoder, target, true);
-                self.record_backdrop(&mut pass, &uniform);
+        let live_drawn = !draws.is_empty() || sphere;
+        // The backdrop after shadows is read by live objects' shading (the light their shadows
+        // took, with shadows on) and by their edges' resolve: kept only for them.
+        let keep_shadowed = live_drawn && (uniform.counts[1] == 1 || antialiased.is_some());
+        {
+            let mut pass = self.begin_frame_pass(&mut encoder, target, true);
+            self.record_backdrop(&mut pass, &uniform);
+            if live_drawn && !keep_shadowed {
+                self.record_live(&mut pass, &draws, sphere);
             }
+        }
+        if keep_shadowed {
             encoder.copy_texture_to_texture(
                 target_texture.as_image_copy(),
                 self.shadowed_texture.as_image_copy(),
                 wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
             );
-            {
-                let mut pass = self.begin_frame_pass(&mut encoder, target, false);
-                self.record_live(&mut pass, &draws, sphere);
-            }
-            if let Some((_, bounds)) = antialiased {
-                self.record_antialiased(&mut encoder, bounds, &draws, sphere);
-            }
-        } else {
-            let mut pass = self.begin_frame_pass(&mut encoder, target, true);
-            self.record_backdrop(&mut pass, &uniform);
+            let mut pass = self.begin_frame_pass(&mut encoder, target, false);
+            self.record_live(&mut pass, &draws, sphere);
+        }
+        if let Some((_, bounds)) = antialiased {
+            self.record_antialiased(&mut encoder, bounds, &draws, sphere);
         }
         self.encode.record(&mut encoder, &self.frame_view);
         self.gpu.queue.submit([encoder.finish()]);
