@@ -5,7 +5,6 @@ use crate::error::{SidecarError, SidecarErrorKind};
 use crate::layers::{LayerExpectation, LightLayers, LightSource, channel_suffixes, light_layer_count};
 use exr::prelude::*;
 use std::collections::HashMap;
-use std::io;
 use std::path::Path;
 use std::result::Result;
 
@@ -99,13 +98,8 @@ pub fn write_layers(layers: &LightLayers, path: &Path) -> Result<(), SidecarErro
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     let image = Image::from_layer(layer);
-    depth_remap::table::write_atomically(path, |writer| {
-        image.write().to_buffered(writer).map_err(|e| match e {
-            exr::error::Error::Io(io) => io,
-            other => io::Error::other(other.to_string()),
-        })
-    })
-    .map_err(|e| fail(SidecarErrorKind::Io(e)))
+    crate::exr_file::write_exr_atomically(path, |writer| image.write().to_buffered(writer))
+        .map_err(|e| fail(SidecarErrorKind::Io(e)))
 }
 
 /// Reads and validates the layers file at `path` for an image of `expect`'s size (and depth

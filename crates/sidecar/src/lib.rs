@@ -27,6 +27,7 @@
 //! ```
 
 mod error;
+mod exr_file;
 mod fingerprint;
 mod layers;
 mod layers_io;

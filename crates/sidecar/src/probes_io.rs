@@ -11,7 +11,6 @@ use crate::probes::{ProbeGrid, VISIBILITY_TEXELS};
 use crate::sh::SH_COEFFICIENTS;
 use exr::prelude::*;
 use std::collections::HashMap;
-use std::io;
 use std::path::Path;
 use std::result::Result;
 
@@ -93,13 +92,8 @@ pub fn write_probes(grid: &ProbeGrid, path: &Path) -> Result<(), SidecarError> {
         ImageAttributes::new(IntegerBounds::from_dimensions((n.max(texels), n))),
         SmallVec::from_vec(vec![irradiance, visibility]),
     );
-    depth_remap::table::write_atomically(path, |writer| {
-        image.write().to_buffered(writer).map_err(|e| match e {
-            exr::error::Error::Io(io) => io,
-            other => io::Error::other(other.to_string()),
-        })
-    })
-    .map_err(|e| fail(SidecarErrorKind::Io(e)))
+    crate::exr_file::write_exr_atomically(path, |writer| image.write().to_buffered(writer))
+        .map_err(|e| fail(SidecarErrorKind::Io(e)))
 }
 
 /// Reads and validates the probes file at `path`; with `depth_fingerprint`, refuses probes of

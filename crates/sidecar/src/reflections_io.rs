@@ -109,13 +109,8 @@ pub fn write_reflections(probes: &ReflectionProbes, path: &Path) -> Result<(), S
         ImageAttributes::new(IntegerBounds::from_dimensions((width, n))),
         SmallVec::from_vec(layers),
     );
-    depth_remap::table::write_atomically(path, |writer| {
-        image.write().to_buffered(writer).map_err(|e| match e {
-            exr::error::Error::Io(io) => io,
-            other => io::Error::other(other.to_string()),
-        })
-    })
-    .map_err(|e| fail(SidecarErrorKind::Io(e)))
+    crate::exr_file::write_exr_atomically(path, |writer| image.write().to_buffered(writer))
+        .map_err(|e| fail(SidecarErrorKind::Io(e)))
 }
 
 fn non_finite(channel: String, index: usize, width: usize, value: f32) -> SidecarErrorKind {

@@ -90,6 +90,22 @@ fn round_trip_is_exact_and_beauty_is_the_sum() {
 }
 
 #[test]
+fn the_same_layers_give_the_same_bytes_every_time() {
+    // exr keeps custom attributes in a randomly hashed map; each write must still put them in
+    // one order (by name, as OpenEXR does), so outputs are reproducible run after run.
+    let dir = tempfile::TempDir::new().unwrap();
+    let layers = sample_layers(3);
+    let first = dir.path().join("first.exr");
+    write_layers(&layers, &first).unwrap();
+    let expected = std::fs::read(&first).unwrap();
+    for attempt in 0..8 {
+        let path = dir.path().join(format!("again{attempt}.exr"));
+        write_layers(&layers, &path).unwrap();
+        assert!(std::fs::read(&path).unwrap() == expected, "write {attempt} differs from the first");
+    }
+}
+
+#[test]
 fn bad_files_get_errors_naming_the_file() {
     let dir = tempfile::TempDir::new().unwrap();
     let path = dir.path().join("bad.layers.exr");
