@@ -301,7 +301,11 @@ fn encode_exr(
     );
     let mut out = Cursor::new(Vec::new());
     exr_image.write().to_buffered(&mut out).map_err(|e| e.to_string())?;
-    Ok(out.into_inner())
+    let mut bytes = out.into_inner();
+    // The stamp's attributes are hashed in a random order by exr; name order makes the file
+    // the same bytes on every run.
+    sidecar::sort_exr_header_attributes(&mut bytes);
+    Ok(bytes)
 }
 
 fn float_image(image: &Image, alpha: bool, linear: impl Fn(&[f32; 4], usize) -> f32) -> DynamicImage {
@@ -380,6 +384,19 @@ mod tests {
             .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
             .collect();
         assert!(leftovers.is_empty());
+    }
+
+    #[test]
+    fn stamped_exr_is_the_same_bytes_every_time() {
+        let stamp: Vec<(String, String)> = ["render", "frame", "tile", "of", "seed"]
+            .iter()
+            .map(|k| (format!("lrt.{k}"), format!("{k} value")))
+            .collect();
+        let first = encode_exr(&image(), true, |p, c| p[c], &stamp).unwrap();
+        for attempt in 0..8 {
+            let again = encode_exr(&image(), true, |p, c| p[c], &stamp).unwrap();
+            assert!(again == first, "encoding {attempt} differs from the first");
+        }
     }
 
     #[test]

@@ -33,6 +33,15 @@ where
     })
 }
 
+/// Puts each header's attributes of the EXR file held in `file` in name order, in place; the
+/// ray tracer's stamped images use it so that they, too, are reproducible byte for byte. A
+/// buffer that does not start with a complete EXR header is left as it is.
+pub fn sort_exr_header_attributes(file: &mut [u8]) {
+    if let Some(sorted) = sorted_header(&file[..file.len().min(HEAD_LIMIT)]) {
+        file[HEADERS_START..HEADERS_START + sorted.len()].copy_from_slice(&sorted);
+    }
+}
+
 /// A writer that passes everything through and keeps a copy of the file's first
 /// [`HEAD_LIMIT`] bytes, so the header can be rewritten in place once the file is complete.
 pub(crate) struct HeadRecorder<W> {

@@ -39,6 +39,7 @@ mod reflections_io;
 pub mod sh;
 
 pub use error::{SidecarError, SidecarErrorKind};
+pub use exr_file::sort_exr_header_attributes;
 pub use fingerprint::depth_fingerprint;
 pub use layers::{
     LayerExpectation, LightLayers, LightSource, MAX_LIGHT_LAYERS, light_layer_count, light_layer_of,
