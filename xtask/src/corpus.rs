@@ -523,7 +523,7 @@ const EXPLANATIONS: &[(&str, &str)] = &[
     ("light shader", "A custom light shader (RSL): cannot be known, skipped."),
     (
         "later RenderMan versions",
-        "Gap: requests of later RenderMan versions (HierarchicalSubdivisionMesh, ShaderLayer, ConnectShaderLayers) are not built; shader layers hold RSL shaders anyway, which cannot be known.",
+        "Gap: a request of later RenderMan versions (RenderMan 19 and later's Bxdf, Pattern, Integrator, ...) that is not built.",
     ),
     ("DepthOfField", "Gap: a thin-lens camera is not built; the camera stays a pinhole."),
     (
@@ -546,7 +546,7 @@ const EXPLANATIONS: &[(&str, &str)] = &[
     ("System would run", "A shell command the scene asks to run: refused by design, stays."),
     (
         "Resource",
-        "The scene's `Resource` call has an operation this renderer's Resource does not take (a later-RenderMan form); a small gap.",
+        "The scene's `Resource` call names an operation or subset PRMan's `RiResource` does not have (save, restore, ricpp's load; all, shading, geometrymodification, geometrydefinition, hiding, transform): a scene error, reported and ignored.",
     ),
     (
         "shadow-map parameters",
@@ -561,12 +561,12 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "A malformed file (uteapot has a stray shell line): a clear scene error, as it should be.",
     ),
     (
-        "ConnectShaderLayers",
-        "Gap: shader networks of later RenderMan versions (ShaderLayer/ConnectShaderLayers) are not built; their shaders are RSL anyway.",
+        "shader networks connect shaders",
+        "A shader network of RenderMan 3.3 and later (`ShaderLayer`, `ConnectShaderLayers`): its layers are shaders written in the RenderMan Shading Language, connected output to input; a ray tracer without an RSL compiler cannot know what they compute. Stays.",
     ),
     (
-        "ShaderLayer",
-        "Gap: shader layers of later RenderMan versions are not built; their shaders are RSL anyway.",
+        "hierarchical edit",
+        "Gap: a `HierarchicalSubdivisionMesh` renders as the `SubdivisionMesh` it describes (crease, corner, hole, interpolateboundary); its hierarchical edits (values set on refined levels) are not applied.",
     ),
     (
         "ClippingPlane",

@@ -67,6 +67,7 @@
 
 pub mod bvh;
 pub mod clipping;
+mod csg;
 pub mod device;
 pub mod geometry;
 pub mod material;

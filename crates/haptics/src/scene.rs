@@ -7,11 +7,12 @@
 //! haptics disabled.
 
 use crate::clipping::{clip_mesh, world_clipping_planes};
+use crate::csg::{MAX_CSG_WORK, Solids};
 use crate::geometry::{CollisionMesh, MaterialId};
 use crate::material::MaterialSpec;
 use glam::DVec3;
 use rib_parser::scene::{AttributesId, HapticMaterial, Scene};
-use tessellate::{SceneMeshes, Tolerance, WorldMesh, tessellate_scene};
+use tessellate::{MeshOrigin, SceneMeshes, Tolerance, WorldMesh, tessellate_scene};
 
 /// The material a RIB attribute state asks for (`None` fields take the device's defaults).
 pub fn material_spec(haptic: &HapticMaterial) -> MaterialSpec {
@@ -109,6 +110,9 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
     let mut untouchable_shapes = 0;
     // What the ray tracer clips away is not touched either.
     let planes = world_clipping_planes(scene);
+    // What CSG removes is not touched either; the solids' work is bounded per scene.
+    let solids = Solids::new(scene, &meshes);
+    let mut csg_work = 0u64;
     for skipped in &meshes.skipped {
         let what =
             if skipped.error.is_not_a_surface() { "has no surface to touch" } else { "cannot be touched" };
@@ -124,11 +128,34 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
         let positions: Vec<DVec3> = m.mesh.positions.iter().map(|p| p.as_dvec3()).collect();
         let normals: Option<Vec<DVec3>> =
             m.mesh.normals.as_ref().map(|n| n.iter().map(|v| v.as_dvec3()).collect());
+        let mut csg_triangles = None;
+        let (positions, normals) = match (&solids, m.origin) {
+            (Some(solids), MeshOrigin::Shape { index }) => {
+                csg_work = csg_work.saturating_add(solids.work(index, positions.len()));
+                if csg_work > MAX_CSG_WORK {
+                    warnings.push(format!(
+                        "{}: warning: touched as part of a union: its solid's CSG would take more than {MAX_CSG_WORK} point-triangle tests",
+                        m.loc
+                    ));
+                    (positions, normals)
+                } else {
+                    match solids.clip(index, &positions, &m.mesh.indices, normals.as_deref()) {
+                        Some(clipped) => {
+                            csg_triangles = Some(clipped.triangles);
+                            (clipped.positions, clipped.normals)
+                        }
+                        None => (positions, normals),
+                    }
+                }
+            }
+            _ => (positions, normals),
+        };
+        let triangles = csg_triangles.as_deref().unwrap_or(m.mesh.indices.as_slice());
         let clipped;
         let (positions, triangles, normals) = if planes.is_empty() {
-            (positions, m.mesh.indices.as_slice(), normals)
+            (positions, triangles, normals)
         } else {
-            let (p, t, n) = clip_mesh(&planes, &positions, &m.mesh.indices, normals.as_deref());
+            let (p, t, n) = clip_mesh(&planes, &positions, triangles, normals.as_deref());
             clipped = t;
             (p, clipped.as_slice(), n)
         };

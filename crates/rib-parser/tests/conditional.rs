@@ -272,8 +272,14 @@ WorldEnd
     );
     assert!(err.contains("no resource of that name"), "{err}");
     assert!(load_err("WorldBegin\nResourceEnd\nWorldEnd\n").contains("ResourceEnd without ResourceBegin"));
-    let odd = load("WorldBegin\nResource \"x\" \"attributes\" \"string operation\" [\"load\"]\nWorldEnd\n");
-    assert!(odd.diagnostics.render(&odd.sources).contains("must be \"save\" or \"restore\""));
+    let odd = load("WorldBegin\nResource \"x\" \"attributes\" \"string operation\" [\"concat\"]\nWorldEnd\n");
+    assert!(
+        odd.diagnostics.render(&odd.sources).contains(
+            "test.rib:2:1: warning: Resource \"x\" \"attributes\": \"operation\" must be \"save\", \"restore\" or \"load\", got \"concat\"; ignored"
+        ),
+        "{}",
+        odd.render_warnings()
+    );
 }
 
 #[path = "support/corpus_fs.rs"]

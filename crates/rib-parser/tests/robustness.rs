@@ -47,6 +47,7 @@ const REQUESTS: &[&str] = &[
     "NuPatch",
     "TrimCurve",
     "SubdivisionMesh",
+    "HierarchicalSubdivisionMesh",
     "Points",
     "Curves",
     "Basis",

@@ -459,3 +459,69 @@ pub(crate) fn span_values(breaks: &[f64], counts: &[usize]) -> Vec<f64> {
 pub(crate) fn span_of(counts: &[usize]) -> Vec<usize> {
     counts.iter().enumerate().flat_map(|(s, &n)| std::iter::repeat_n(s, n)).collect()
 }
+
+/// The dicing rates of a parametric surface: segments per span of the interior grid and of
+/// each side (bottom, right, top, left; `None` for a trimmed NuPatch, which ends on its trim
+/// curves instead).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Rates {
+    pub nu: Vec<usize>,
+    pub nv: Vec<usize>,
+    pub sides: Option<[Vec<usize>; 4]>,
+}
+
+impl Rates {
+    /// The span by span largest of several keys' rates, so that each key is diced at least as
+    /// finely as it needs; `None` unless every key has rates of the same layout. Side counts
+    /// depend on their boundary curve alone, so surfaces sharing a curve at every key take the
+    /// same largest counts and still meet.
+    pub fn largest(rates: &[Option<Rates>]) -> Option<Rates> {
+        let mut out = rates.first()?.clone()?;
+        let max_into = |into: &mut Vec<usize>, from: &[usize]| {
+            (into.len() == from.len()).then(|| into.iter_mut().zip(from).for_each(|(a, &b)| *a = (*a).max(b)))
+        };
+        for r in &rates[1..] {
+            let r = r.as_ref()?;
+            max_into(&mut out.nu, &r.nu)?;
+            max_into(&mut out.nv, &r.nv)?;
+            match (&mut out.sides, &r.sides) {
+                (Some(a), Some(b)) => {
+                    for (a, b) in a.iter_mut().zip(b) {
+                        max_into(a, b)?;
+                    }
+                }
+                (None, None) => {}
+                _ => return None,
+            }
+        }
+        Some(out)
+    }
+}
+
+/// How a parametric surface's rates are chosen: from its own positions, recorded as well, or
+/// given (the largest of a deforming shape's keys, see keys.rs).
+pub(crate) enum RatePlanning {
+    Free,
+    Record(Option<Rates>),
+    Given(Rates),
+}
+
+impl RatePlanning {
+    /// The rates given for spans `u_spans` x `v_spans` (with sides or not), if they fit.
+    pub fn given(&self, u_spans: usize, v_spans: usize, with_sides: bool) -> Option<&Rates> {
+        match self {
+            RatePlanning::Given(r)
+                if r.nu.len() == u_spans && r.nv.len() == v_spans && r.sides.is_some() == with_sides =>
+            {
+                Some(r)
+            }
+            _ => None,
+        }
+    }
+
+    pub fn record(&mut self, rates: Rates) {
+        if let RatePlanning::Record(slot) = self {
+            *slot = Some(rates);
+        }
+    }
+}

@@ -5,8 +5,10 @@
 //! Adaptive tessellation chooses its rates from the positions, so keys tessellated on their
 //! own may come out with other triangles. Here the key that needs the most triangles decides
 //! for all of them:
-//! - `Patch`, `PatchMesh` and `NuPatch`: every key is evaluated at that key's vertex
-//!   parameters `(u, v)` (its grid, stitched sides and trim crossings alike);
+//! - `Patch`, `PatchMesh` and `NuPatch`: that key is diced at the largest of all the keys'
+//!   rates (span by span and side by side, so each key is as fine as it needs and shared
+//!   sides still agree), and every key is evaluated at its vertex parameters `(u, v)` (its
+//!   grid, stitched sides and trim crossings alike);
 //! - `SubdivisionMesh`: every key is subdivided to that key's level, with the same faces
 //!   refined adaptively and the same quad diagonals (subdivision is linear in the control
 //!   points, so each key's vertices are the same stencils applied to its own points).
@@ -21,8 +23,11 @@
 //! keys' texture coordinates are the deciding key's. Other shapes are tessellated key by key.
 
 use super::blobby::{BLOBBY_THRESHOLD, BlobbyField};
+use super::grid::{RatePlanning, Rates};
 use super::nurbs::Surface;
+use super::nurbs::tessellate_nupatch;
 use super::patch::PatchSurface;
+use super::patch::tessellate_patches;
 use super::placed::{spectral_norm, transform_mesh};
 use super::subdiv::{Planning, SubdivPlan, tessellate_subdivision_planned};
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, shape_kind, tessellate_scaled};
@@ -159,13 +164,27 @@ fn parametric_keys(
     scale: f64,
 ) -> Result<Vec<TriangleMesh>, TessellateError> {
     let kind = shape_kind(keys[0]);
-    let own: Vec<TriangleMesh> = keys
-        .iter()
-        .map(|k| tessellate_scaled(k, tol, scale, ShapeOptions::default()))
-        .collect::<Result<_, _>>()?;
+    let mut own = Vec::with_capacity(keys.len());
+    let mut rates = Vec::with_capacity(keys.len());
+    for key in keys {
+        let mut planning = RatePlanning::Record(None);
+        own.push(tessellate_parametric(key, tol, scale, &mut planning)?);
+        rates.push(if let RatePlanning::Record(r) = planning { r } else { None });
+    }
     let decider = finest(&own);
+    // Every key is diced at the largest of the keys' rates, span by span and side by side, so
+    // each is at least as fine as it needs (a key curved where the decider is flat included).
+    let largest = Rates::largest(&rates).filter(|r| Some(r) != rates[decider].as_ref());
+    if let Some(largest) = largest {
+        own[decider] =
+            tessellate_parametric(keys[decider], tol, scale, &mut RatePlanning::Given(largest.clone()))?;
+        rates[decider] = Some(largest);
+    }
     let params = match without_texture_coordinates(keys[decider]) {
-        Some(plain) => tessellate_scaled(&plain, tol, scale, ShapeOptions::default())?,
+        Some(plain) => {
+            let mut planning = rates[decider].clone().map_or(RatePlanning::Free, RatePlanning::Given);
+            tessellate_parametric(&plain, tol, scale, &mut planning)?
+        }
         None => own[decider].clone(),
     };
     let Some(params_st) = params.st.as_ref().filter(|_| params.indices == own[decider].indices) else {
@@ -199,6 +218,20 @@ fn parametric_keys(
     }
     same_triangles(&out)?;
     Ok(out)
+}
+
+/// One parametric key (`Patch`, `PatchMesh`, `NuPatch`) with its rates planned.
+fn tessellate_parametric(
+    shape: &Shape,
+    tol: &Tolerance,
+    scale: f64,
+    planning: &mut RatePlanning,
+) -> Result<TriangleMesh, TessellateError> {
+    match shape {
+        Shape::Patches(pm) => tessellate_patches(pm, tol, scale, planning),
+        Shape::NuPatch(np) => tessellate_nupatch(np, tol, scale, ShapeOptions::default(), planning),
+        other => tessellate_scaled(other, tol, scale, ShapeOptions::default()),
+    }
 }
 
 /// Unit normals from the surface's `S_u x S_v`, and where that vanishes (a pole, a collapsed

@@ -292,8 +292,12 @@ pub(crate) fn tessellate_scaled(
         Shape::Points(points) => curves::tessellate_points(points, tol, scale)?,
         Shape::Curves(c) => curves::tessellate_curves(c, tol, scale)?,
         Shape::Polygons(polygons) => polygon::tessellate_polygons(polygons, tol)?,
-        Shape::Patches(patches) => patch::tessellate_patches(patches, tol, scale)?,
-        Shape::NuPatch(nupatch) => nurbs::tessellate_nupatch(nupatch, tol, scale, options)?,
+        Shape::Patches(patches) => {
+            patch::tessellate_patches(patches, tol, scale, &mut grid::RatePlanning::Free)?
+        }
+        Shape::NuPatch(nupatch) => {
+            nurbs::tessellate_nupatch(nupatch, tol, scale, options, &mut grid::RatePlanning::Free)?
+        }
         Shape::SubdivisionMesh(subdiv) => subdiv::tessellate_subdivision(subdiv, tol, scale)?,
         Shape::Blobby(blobby) => blobby::tessellate_blobby(blobby, tol, scale)?,
         quadric => quadric::tessellate_quadric(quadric, tol, scale)?,

@@ -9,7 +9,7 @@
 //! boundary curves alone and stitched to the grid (the `stitch` module), so separate surfaces
 //! that share a side (with the same knots along it) meet without cracks.
 
-use super::grid::{Grid, GridSpec, choose_span_counts, span_of, span_values};
+use super::grid::{Grid, GridSpec, RatePlanning, Rates, choose_span_counts, span_of, span_values};
 use super::patch::{check_weights, rational, weld_distance};
 use super::stitch::{Sides, check_stitched_budget};
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
@@ -223,6 +223,7 @@ pub(crate) fn tessellate_nupatch(
     tol: &Tolerance,
     scale: f64,
     options: ShapeOptions,
+    planning: &mut RatePlanning,
 ) -> Result<TriangleMesh, TessellateError> {
     let surface = Surface::new(np)?;
     let limits = [np.u_min, np.u_max, np.v_min, np.v_max];
@@ -246,13 +247,28 @@ pub(crate) fn tessellate_nupatch(
     let v_breaks = surface.v.breaks(v0, v1);
     check_budget(KIND, 2.0 * (u_breaks.len() - 1) as f64 * (v_breaks.len() - 1) as f64, tol)?;
     let position = |s: f64, t: f64| surface.eval(s, t).0;
-    let (mut nu, mut nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &position, eps, (1, 1), tol)?;
     // Untrimmed, each side is diced per knot span from its own boundary curve, so separate
     // surfaces sharing it agree; trimmed surfaces end on their trim curves instead.
-    let sides = match np.trim {
-        Some(_) => None,
-        None => Some(Sides::new(KIND, &u_breaks, &v_breaks, &position, eps)?),
+    let (u_spans, v_spans) = (u_breaks.len() - 1, v_breaks.len() - 1);
+    let (mut nu, mut nv, sides) = match planning.given(u_spans, v_spans, np.trim.is_none()) {
+        Some(r) => {
+            let sides = r.sides.as_ref().map(|counts| Sides::with_counts(&u_breaks, &v_breaks, counts));
+            (r.nu.clone(), r.nv.clone(), sides)
+        }
+        None => {
+            let (nu, nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &position, eps, (1, 1), tol)?;
+            let sides = match np.trim {
+                Some(_) => None,
+                None => Some(Sides::new(KIND, &u_breaks, &v_breaks, &position, eps)?),
+            };
+            (nu, nv, sides)
+        }
     };
+    planning.record(Rates {
+        nu: nu.clone(),
+        nv: nv.clone(),
+        sides: sides.as_ref().map(|s| s.counts().clone()),
+    });
     let sides = sides.filter(|s| !s.match_grid(&nu, &nv));
     let spec = match &sides {
         Some(sides) => {

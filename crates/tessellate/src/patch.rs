@@ -10,7 +10,7 @@
 //! curves alone and stitched to the grid (the `stitch` module), so separate primitives that
 //! share a side meet without cracks.
 
-use super::grid::{Grid, GridSpec, choose_span_counts, span_of, span_values};
+use super::grid::{Grid, GridSpec, RatePlanning, Rates, choose_span_counts, span_of, span_values};
 use super::primvar::st_var;
 use super::stitch::{Sides, check_stitched_budget};
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
@@ -216,6 +216,7 @@ pub(crate) fn tessellate_patches(
     pm: &PatchMesh,
     tol: &Tolerance,
     scale: f64,
+    planning: &mut RatePlanning,
 ) -> Result<TriangleMesh, TessellateError> {
     let surface = PatchSurface::new(pm)?;
     let (du, dv, size, bad_weight) = (&surface.du, &surface.dv, surface.size, &surface.bad_weight);
@@ -227,9 +228,17 @@ pub(crate) fn tessellate_patches(
 
     let u_breaks: Vec<f64> = (0..=du.patches).map(|k| k as f64).collect();
     let v_breaks: Vec<f64> = (0..=dv.patches).map(|k| k as f64).collect();
-    let (mut nu, mut nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &eval_position, eps, (1, 1), tol)?;
     // Each side is diced from its own boundary curve, so separate primitives sharing it agree.
-    let sides = Sides::new(KIND, &u_breaks, &v_breaks, &eval_position, eps)?;
+    let (mut nu, mut nv, sides) = match planning.given(du.patches, dv.patches, true) {
+        Some(Rates { nu, nv, sides: Some(sides) }) => {
+            (nu.clone(), nv.clone(), Sides::with_counts(&u_breaks, &v_breaks, sides))
+        }
+        _ => {
+            let (nu, nv) = choose_span_counts(KIND, &u_breaks, &v_breaks, &eval_position, eps, (1, 1), tol)?;
+            (nu, nv, Sides::new(KIND, &u_breaks, &v_breaks, &eval_position, eps)?)
+        }
+    };
+    planning.record(Rates { nu: nu.clone(), nv: nv.clone(), sides: Some(sides.counts().clone()) });
     let stitch = !sides.match_grid(&nu, &nv);
     let spec = if stitch {
         sides.grid_spec(&u_breaks, &v_breaks, &mut nu, &mut nv)

@@ -131,6 +131,23 @@ impl Sides {
         Ok(Sides { bottom, right, top, left, counts: [cb, cr, ct, cl] })
     }
 
+    /// The sides diced at given segments per span (bottom, right, top, left).
+    pub fn with_counts(u_breaks: &[f64], v_breaks: &[f64], counts: &[Vec<usize>; 4]) -> Sides {
+        let [cb, cr, ct, cl] = counts.clone();
+        Sides {
+            bottom: span_values(u_breaks, &cb),
+            right: span_values(v_breaks, &cr),
+            top: span_values(u_breaks, &ct),
+            left: span_values(v_breaks, &cl),
+            counts: [cb, cr, ct, cl],
+        }
+    }
+
+    /// Segments per span of each side (bottom, right, top, left).
+    pub fn counts(&self) -> &[Vec<usize>; 4] {
+        &self.counts
+    }
+
     /// True when every side is diced exactly like the grid's span counts `nu` / `nv`: the grid
     /// then needs no stitching (its border points are the boundary vertices).
     pub fn match_grid(&self, nu: &[usize], nv: &[usize]) -> bool {

@@ -18,6 +18,32 @@ pub(super) struct SavedState {
     world: Option<usize>,
 }
 
+/// Which parts of a saved graphics state a `Resource` restore brings back.
+#[derive(Clone, Copy, Debug, Default)]
+struct RestoredParts {
+    shading: bool,
+    geometry_modification: bool,
+    geometry_definition: bool,
+    hiding: bool,
+    transform: bool,
+    /// Every attribute, also those in no named subset (`Attribute` calls, names, haptic
+    /// materials): only "all".
+    all_attributes: bool,
+}
+
+impl RestoredParts {
+    fn all() -> Self {
+        RestoredParts {
+            shading: true,
+            geometry_modification: true,
+            geometry_definition: true,
+            hiding: true,
+            transform: true,
+            all_attributes: true,
+        }
+    }
+}
+
 /// A parameter's values as one expression value: a single number or string as itself, several
 /// values as their text joined by blanks.
 fn value_of(values: &ParamValues) -> Value {
@@ -84,22 +110,31 @@ impl SceneBuilder {
                     scope.insert(handle.to_string(), saved);
                 }
             }
-            "restore" => self.restore_resource(handle, params.string("subset").unwrap_or("all"), cx),
+            // "load" is what ricpp's samples write for a restore (ricpp itself does nothing
+            // with it); a RenderMan user means the same state back.
+            "restore" | "load" => {
+                self.restore_resource(handle, operation, params.string("subset").unwrap_or("all"), cx)
+            }
             other => cx.warn(
                 DiagnosticKind::BadValue,
-                format!("Resource \"{handle}\" \"attributes\": \"operation\" must be \"save\" or \"restore\", got \"{other}\"; ignored"),
+                format!("Resource \"{handle}\" \"attributes\": \"operation\" must be \"save\", \"restore\" or \"load\", got \"{other}\"; ignored"),
             ),
         }
     }
 
-    /// Restores the saved state `handle`: `subset` "all" restores the attributes and the
-    /// transformation, "transform" only the transformation, "shading" and "geometry" (and
-    /// comma-separated lists of them) the attributes.
-    fn restore_resource(&mut self, handle: &str, subset: &str, cx: &mut Cx<'_>) {
+    /// Restores parts of the saved state `handle`, as PRMan's `RiResource` names them:
+    /// `subset` "all" (the default) restores every attribute and the transformation,
+    /// "shading" the shaders, lights, colour, opacity and shading rate, "geometrymodification"
+    /// the orientation and sides, "geometrydefinition" the bases and trim curves, "hiding" the
+    /// matte flag, "transform" the transformation ("geometry", an older name, both geometry
+    /// subsets). A comma-separated list restores each part named.
+    fn restore_resource(&mut self, handle: &str, operation: &str, subset: &str, cx: &mut Cx<'_>) {
         let Some(saved) = self.resources.iter().rev().find_map(|scope| scope.get(handle)).cloned() else {
             cx.error(
                 DiagnosticKind::UnknownHandle,
-                format!("Resource \"{handle}\" \"attributes\" restore: no resource of that name was saved"),
+                format!(
+                    "Resource \"{handle}\" \"attributes\" {operation}: no resource of that name was saved"
+                ),
             );
             return;
         };
@@ -110,27 +145,55 @@ impl SceneBuilder {
             );
             return;
         }
-        let (mut attributes, mut transform) = (false, false);
+        let mut parts = RestoredParts::default();
         for part in subset.split(',').map(str::trim) {
             match part {
-                "all" => (attributes, transform) = (true, true),
-                "transform" => transform = true,
-                "shading" | "geometry" => attributes = true,
+                "all" => parts = RestoredParts::all(),
+                "transform" => parts.transform = true,
+                "shading" => parts.shading = true,
+                "geometrymodification" => parts.geometry_modification = true,
+                "geometrydefinition" => parts.geometry_definition = true,
+                "geometry" => (parts.geometry_modification, parts.geometry_definition) = (true, true),
+                "hiding" => parts.hiding = true,
                 other => {
                     cx.warn(
                         DiagnosticKind::BadValue,
-                        format!("Resource \"{handle}\": unknown subset \"{other}\" (all, shading, geometry or transform); ignored"),
+                        format!("Resource \"{handle}\": unknown subset \"{other}\" (all, shading, geometrymodification, geometrydefinition, hiding or transform); ignored"),
                     );
                     return;
                 }
             }
         }
-        if attributes {
-            self.gs.attrs = saved.gs.attrs;
-            // The saved id may index another world's attribute table: intern again.
-            self.gs.attrs.id = None;
+        let (now, then) = (&mut self.gs.attrs, &saved.gs.attrs);
+        if parts.all_attributes {
+            *now = then.clone();
+        } else {
+            if parts.shading {
+                let (a, b) = (&mut now.attrs, &then.attrs);
+                (a.color, a.opacity, a.shading_rate) = (b.color, b.opacity, b.shading_rate);
+                a.surface.clone_from(&b.surface);
+                a.displacement.clone_from(&b.displacement);
+                a.atmosphere.clone_from(&b.atmosphere);
+                a.interior.clone_from(&b.interior);
+                a.exterior.clone_from(&b.exterior);
+                a.area_light = b.area_light;
+                a.illuminated_by.clone_from(&b.illuminated_by);
+            }
+            if parts.geometry_modification {
+                (now.attrs.reverse_orientation, now.attrs.sides) =
+                    (then.attrs.reverse_orientation, then.attrs.sides);
+            }
+            if parts.geometry_definition {
+                (now.u_basis, now.v_basis) = (then.u_basis, then.v_basis);
+                now.trim.clone_from(&then.trim);
+            }
+            if parts.hiding {
+                now.attrs.matte = then.attrs.matte;
+            }
         }
-        if transform {
+        // The saved id may index another world's attribute table: intern again.
+        now.id = None;
+        if parts.transform {
             if saved.world == self.current_world() {
                 self.gs.ctm = saved.gs.ctm;
                 self.gs.motion = saved.gs.motion;

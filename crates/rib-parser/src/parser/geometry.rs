@@ -227,7 +227,8 @@ impl Reader {
                 t.patch_mesh(kind, nu, u_wrap, nv, v_wrap, params, &mut self.cx(loc));
             }
             "NuPatch" => self.nu_patch(&loc, t)?,
-            "SubdivisionMesh" => self.subdivision_mesh(&loc, t)?,
+            "SubdivisionMesh" => self.subdivision_mesh(&loc, t, false)?,
+            "HierarchicalSubdivisionMesh" => self.subdivision_mesh(&loc, t, true)?,
             "Sphere" | "Cylinder" | "Paraboloid" => {
                 let [a, b, c, d] = self.arg_f32s::<4>(r, "the quadric's 4 arguments")?;
                 let q = match name {
@@ -540,8 +541,16 @@ impl Reader {
         Ok(())
     }
 
-    fn subdivision_mesh<T: RibTarget + ?Sized>(&mut self, loc: &FileLoc, t: &mut T) -> PResult<()> {
-        let r = "SubdivisionMesh";
+    /// `SubdivisionMesh`, or PRMan's `HierarchicalSubdivisionMesh` (`hierarchical`), which
+    /// always gives three argument counts per tag and the tags' string arguments, and may
+    /// carry hierarchical edits; it becomes a `SubdivisionMesh` without those edits.
+    fn subdivision_mesh<T: RibTarget + ?Sized>(
+        &mut self,
+        loc: &FileLoc,
+        t: &mut T,
+        hierarchical: bool,
+    ) -> PResult<()> {
+        let r = if hierarchical { "HierarchicalSubdivisionMesh" } else { "SubdivisionMesh" };
         let scheme = self.arg_string(r, "the scheme")?;
         let nverts = self.arg_count_array(r, "the vertices per face")?;
         let verts = self.arg_count_array(r, "the vertex indices")?;
@@ -552,14 +561,15 @@ impl Reader {
             let nargs = self.arg_int_array(r, "the tag argument counts")?;
             let ints = self.arg_int_array(r, "the tag integer arguments")?;
             let floats = self.arg_float_array(r, "the tag float arguments")?;
-            let with_strings = !names.is_empty() && nargs.len() == 3 * names.len();
-            if nargs.len() != 2 * names.len() && !with_strings {
+            let with_strings = hierarchical || (!names.is_empty() && nargs.len() == 3 * names.len());
+            let per_tag = if with_strings { 3 } else { 2 };
+            if nargs.len() != per_tag * names.len() {
                 return Err(self.bad(
                     loc,
                     format!(
-                        "SubdivisionMesh: {} tags need {} argument counts, got {}",
+                        "{r}: {} tags need {} argument counts, got {}",
                         names.len(),
-                        2 * names.len(),
+                        per_tag * names.len(),
                         nargs.len()
                     ),
                 ));
@@ -576,13 +586,12 @@ impl Reader {
                 let (Some(ie), Some(fe), Some(se)) =
                     (ii.checked_add(ni), fi.checked_add(nf), si.checked_add(ns))
                 else {
-                    return Err(self.bad(loc, "SubdivisionMesh: tag argument counts overflow".into()));
+                    return Err(self.bad(loc, format!("{r}: tag argument counts overflow")));
                 };
                 if ie > ints.len() || fe > floats.len() || se > strings.len() {
-                    return Err(self.bad(
-                        loc,
-                        format!("SubdivisionMesh: tag \"{name}\" asks for more arguments than are given"),
-                    ));
+                    return Err(
+                        self.bad(loc, format!("{r}: tag \"{name}\" asks for more arguments than are given"))
+                    );
                 }
                 tags.push(SubdivisionTag {
                     name,
@@ -592,11 +601,12 @@ impl Reader {
                 });
                 (ii, fi, si) = (ie, fe, se);
             }
-            if ii != ints.len() || fi != floats.len() {
-                return Err(
-                    self.bad(loc, "SubdivisionMesh: more tag arguments are given than the tags use".into())
-                );
+            if ii != ints.len() || fi != floats.len() || (hierarchical && si != strings.len()) {
+                return Err(self.bad(loc, format!("{r}: more tag arguments are given than the tags use")));
             }
+        }
+        if hierarchical {
+            tags = self.without_hierarchical_edits(tags, loc);
         }
         let params = self.geometry_params(r)?;
         let total = usize_of(sum(&nverts));
@@ -604,7 +614,7 @@ impl Reader {
             return Err(self.bad(
                 loc,
                 format!(
-                    "SubdivisionMesh: the {} faces have {total} vertices in all, but {} indices are given",
+                    "{r}: the {} faces have {total} vertices in all, but {} indices are given",
                     nverts.len(),
                     verts.len()
                 ),
@@ -616,22 +626,46 @@ impl Reader {
             if matches!(tag.name.as_str(), "crease" | "corner")
                 && let Some(bad) = tag.int_args.iter().find(|&&i| i < 0 || i as usize >= n)
             {
-                return Err(self.bad(
-                    loc,
-                    format!("SubdivisionMesh: \"{}\" tag refers to vertex {bad}, out of range", tag.name),
-                ));
+                return Err(
+                    self.bad(loc, format!("{r}: \"{}\" tag refers to vertex {bad}, out of range", tag.name))
+                );
             }
             if tag.name == "hole"
                 && let Some(bad) = tag.int_args.iter().find(|&&i| i < 0 || i as usize >= nverts.len())
             {
-                return Err(self
-                    .bad(loc, format!("SubdivisionMesh: \"hole\" tag refers to face {bad}, out of range")));
+                return Err(self.bad(loc, format!("{r}: \"hole\" tag refers to face {bad}, out of range")));
             }
         }
         let counts = mesh_counts(nverts.len(), n, verts.len());
         self.check_counts(r, &params, &counts)?;
         t.subdivision_mesh(&scheme, nverts, verts, tags, params, &mut self.cx(loc.clone()));
         Ok(())
+    }
+
+    /// Drops the hierarchical edits of a `HierarchicalSubdivisionMesh` with one warning each.
+    /// They change vertices, edges or faces of a refined level (a path from a control face
+    /// through its children), which the tessellator's levels do not address; the rest of the
+    /// mesh is the same surface without them.
+    fn without_hierarchical_edits(
+        &mut self,
+        tags: Vec<SubdivisionTag>,
+        loc: &FileLoc,
+    ) -> Vec<SubdivisionTag> {
+        let (edits, kept): (Vec<_>, Vec<_>) = tags
+            .into_iter()
+            .partition(|tag| matches!(tag.name.as_str(), "vertexedit" | "edgeedit" | "faceedit"));
+        for edit in edits {
+            let what = edit.string_args.first().map(|s| format!(" of \"{s}\"")).unwrap_or_default();
+            self.diagnostics.warn(
+                DiagnosticKind::Unsupported,
+                loc,
+                format!(
+                    "HierarchicalSubdivisionMesh: hierarchical edit \"{}\"{what} (values set on a refined level's vertices, edges or faces) is not supported; the surface is rendered without it",
+                    edit.name
+                ),
+            );
+        }
+        kept
     }
 
     fn procedural<T: RibTarget + ?Sized>(&mut self, loc: &FileLoc, t: &mut T) -> PResult<()> {

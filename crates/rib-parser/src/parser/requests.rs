@@ -11,10 +11,7 @@ use glam::{DMat4, DVec3};
 /// Requests of RISpec 3.3 and later renderers that are recognised but have no meaning here;
 /// they are skipped with their arguments and one warning each.
 const LATER_REQUESTS: &[&str] = &[
-    "ShaderLayer",
-    "ConnectShaderLayers",
     "DisplayChannel",
-    "HierarchicalSubdivisionMesh",
     "Camera",
     "Shader",
     "PixelSampleImager",
@@ -453,6 +450,7 @@ impl Reader {
             | "PatchMesh"
             | "NuPatch"
             | "SubdivisionMesh"
+            | "HierarchicalSubdivisionMesh"
             | "Sphere"
             | "Cone"
             | "Cylinder"
@@ -527,6 +525,22 @@ impl Reader {
                     &loc,
                     "System would run a shell command; refused (scenes never execute programs)",
                 );
+            }
+            // RenderMan 3.3's shader networks: every layer is a shader program.
+            "ShaderLayer" | "ConnectShaderLayers" => {
+                let kind = self.arg_string(r, "the shader type")?;
+                let what = if name == "ShaderLayer" {
+                    let shader = self.arg_string(r, "the shader name")?;
+                    format!("ShaderLayer \"{kind}\" \"{shader}\"")
+                } else {
+                    format!("ConnectShaderLayers \"{kind}\"")
+                };
+                self.diagnostics.warn(
+                    DiagnosticKind::Unsupported,
+                    &loc,
+                    format!("{what}: shader networks connect shaders written in the RenderMan Shading Language, which a renderer without an RSL compiler cannot evaluate; skipped with its arguments"),
+                );
+                self.skip_arguments();
             }
             _ if LATER_REQUESTS.contains(&name) => {
                 self.diagnostics.warn(

@@ -170,3 +170,78 @@ fn blobs_that_come_apart_or_together_are_refused_with_the_reason() {
     let why = tessellate_placed_keys(&[&split, &merged], &DMat4::IDENTITY, false, &tol).unwrap_err();
     assert!(why.to_string().contains("cannot be mapped onto one another"), "{why}");
 }
+
+/// A bicubic Bezier patch over `[x0, x0 + 1] x [0, 1]` whose control heights are `z(i, j)`.
+fn heights(x0: f32, z: impl Fn(usize, usize) -> f32) -> Shape {
+    let mut p = Vec::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            p.push(Vec4::new(x0 + i as f32 / 3.0, j as f32 / 3.0, z(i, j), 1.0));
+        }
+    }
+    mesh(PatchKind::Bicubic, 4, 4, (Wrap::NonPeriodic, Wrap::NonPeriodic), BEZIER, p)
+}
+
+/// `[0, h, h, 0]`: the Bezier arch `3 h t (1 - t)`.
+fn arch(k: usize, h: f32) -> f32 {
+    if (1..3).contains(&k) { h } else { 0.0 }
+}
+
+#[test]
+fn keys_curved_in_other_directions_are_each_diced_finely_enough() {
+    // One key arches along u, the other along v: alone, each is diced finely only along its
+    // own arch, so neither key's rates would do for the other.
+    let h = 1.0;
+    let (along_u, along_v) = (heights(0.0, |i, _| arch(i, h)), heights(0.0, |_, j| arch(j, h)));
+    let eps = 1e-3;
+    let meshes = keyed(&[&along_u, &along_v], eps);
+    let own = |s: &Shape| tessellate(s, &Tolerance::absolute(eps)).unwrap().triangle_count();
+    assert!(meshes[0].triangle_count() > own(&along_u).max(own(&along_v)));
+    let surfaces: [&dyn Fn(f64, f64) -> f64; 2] =
+        [&|u, _| 3.0 * h as f64 * u * (1.0 - u), &|_, v| 3.0 * h as f64 * v * (1.0 - v)];
+    for (key, z) in meshes.iter().zip(surfaces) {
+        assert_well_formed(key);
+        let mut worst: f64 = 0.0;
+        for t in &key.indices {
+            let [a, b, c] = t.map(|i| key.positions[i as usize].as_dvec3());
+            // x and y are the parameters: the flat triangle against the surface at its
+            // centroid and edge midpoints.
+            for p in [(a + b + c) / 3.0, (a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0] {
+                worst = worst.max((p.z - z(p.x, p.y)).abs());
+            }
+        }
+        assert!(worst <= eps, "a key is {worst} from its surface (eps {eps})");
+    }
+}
+
+#[test]
+fn neighbours_diced_at_their_keys_largest_rates_still_meet() {
+    // Two patches share the side x = 1. At the first key that side arches (both patches arch
+    // along v), at the second it is straight (one patch is flat, the other arches along u
+    // with its ends flat and more curved, so that it alone would decide that patch's rates),
+    // so each side's largest rate is the first key's, for both patches.
+    let left = [heights(0.0, |_, j| arch(j, 1.0)), heights(0.0, |_, _| 0.0)];
+    let right = [heights(1.0, |_, j| arch(j, 1.0)), heights(1.0, |i, _| arch(i, 2.0))];
+    let eps = 1e-3;
+    let l = keyed(&[&left[0], &left[1]], eps);
+    let r = keyed(&[&right[0], &right[1]], eps);
+    for key in 0..2 {
+        // The vertices on x = 1 by parameter (y is the same sum on both sides), with their z.
+        let on_side = |m: &TriangleMesh| {
+            let mut side: Vec<(u32, f32)> =
+                m.positions.iter().filter(|p| p.x == 1.0).map(|p| (p.y.to_bits(), p.z)).collect();
+            side.sort_unstable_by_key(|s| s.0);
+            side.dedup_by_key(|s| s.0);
+            side
+        };
+        let (a, b) = (on_side(&l[key]), on_side(&r[key]));
+        assert!(a.len() > 4, "the arched side is diced: {}", a.len());
+        let ys = |s: &[(u32, f32)]| s.iter().map(|p| p.0).collect::<Vec<_>>();
+        assert_eq!(ys(&a), ys(&b), "key {key}: the two patches' vertices on x = 1 are at other places");
+        // The two surfaces are evaluated from their own sides: z agrees to rounding, which the
+        // scene's SeamWelder snaps.
+        for (p, q) in a.iter().zip(&b) {
+            assert!((p.1 - q.1).abs() <= 1e-6, "key {key}: z {} against {}", p.1, q.1);
+        }
+    }
+}

@@ -1,0 +1,149 @@
+//! The proxy touches what the ray tracer renders: trimmed NuPatches only where the trim keeps
+//! them, and `SolidBegin` CSG results only on their boundary.
+
+use glam::DVec3;
+use haptics::scene::{SceneGeometry, scene_geometry, tessellation_tolerance};
+use haptics::*;
+use rib_parser::{LoadOptions, load_bytes};
+use std::f64::consts::PI;
+
+const RADIUS: f64 = 0.01;
+
+fn geometry(rib: &str) -> SceneGeometry {
+    let loaded = load_bytes("test.rib", rib.as_bytes().to_vec(), &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.render()));
+    let geometry = scene_geometry(&loaded.scene, &tessellation_tolerance(Some(RADIUS)));
+    assert!(geometry.warnings.is_empty(), "{:?}", geometry.warnings);
+    geometry
+}
+
+fn triangles(g: &SceneGeometry) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+    (0..g.mesh.triangle_count()).map(|t| g.mesh.triangle_local(t).map(|p| g.mesh.world_from_local(p)))
+}
+
+fn area(g: &SceneGeometry) -> f64 {
+    triangles(g).map(|[a, b, c]| 0.5 * (b - a).cross(c - a).length()).sum()
+}
+
+fn signed_volume(g: &SceneGeometry) -> f64 {
+    triangles(g).map(|[a, b, c]| a.dot(b.cross(c)) / 6.0).sum()
+}
+
+/// Moves the device from `from` to `to` (world) in small steps; returns whether the proxy
+/// was ever held back (a force) and where it ended.
+fn probe(g: &SceneGeometry, from: DVec3, to: DVec3) -> (bool, DVec3) {
+    let world = CollisionWorld::new(g.mesh.clone());
+    let materials =
+        MaterialTable::uniform(Material { stiffness: 1000.0, static_friction: 0.0, dynamic_friction: 0.0 });
+    let mut proxy = GodObject::new(ProxySettings { radius: RADIUS, friction: false });
+    let local = |p: DVec3| g.mesh.local_from_world(p);
+    assert!(proxy.reset(&world, local(from)), "the probe starts free");
+    let mut touched = false;
+    let steps = 400;
+    for k in 1..=steps {
+        let goal = local(from.lerp(to, k as f64 / steps as f64));
+        let update = proxy.update(&world, &materials, goal);
+        touched |= update.in_contact() || (update.position - goal).length() > 1e-12;
+    }
+    (touched, g.mesh.world_from_local(proxy.position()))
+}
+
+/// A unit square in z = 0 (a bilinear NuPatch) trimmed to the disc of radius 0.3 around its
+/// centre (a rational quadratic circle, homogeneous `u w, v w, w`).
+fn trimmed_square() -> String {
+    let w = std::f64::consts::FRAC_1_SQRT_2;
+    let pts = [
+        (0.8, 0.5),
+        (0.8, 0.8),
+        (0.5, 0.8),
+        (0.2, 0.8),
+        (0.2, 0.5),
+        (0.2, 0.2),
+        (0.5, 0.2),
+        (0.8, 0.2),
+        (0.8, 0.5),
+    ];
+    let weight = |i: usize| if i % 2 == 1 { w } else { 1.0 };
+    let u: Vec<String> = pts.iter().enumerate().map(|(i, p)| format!("{}", p.0 * weight(i))).collect();
+    let v: Vec<String> = pts.iter().enumerate().map(|(i, p)| format!("{}", p.1 * weight(i))).collect();
+    let ws: Vec<String> = (0..9).map(|i| format!("{}", weight(i))).collect();
+    format!(
+        "WorldBegin\nTrimCurve [1] [3] [0 0 0 0.25 0.25 0.5 0.5 0.75 0.75 1 1 1] [0] [1] [9] [{}] [{}] [{}]\n\
+         NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]\nWorldEnd\n",
+        u.join(" "),
+        v.join(" "),
+        ws.join(" ")
+    )
+}
+
+#[test]
+fn a_trimmed_patch_is_touchable_only_where_the_trim_keeps_it() {
+    let g = geometry(&trimmed_square());
+    let disc = PI * 0.3 * 0.3;
+    // Inscribed polygons lose at most the perimeter times the chord bound (RADIUS / 20).
+    assert!((area(&g) - disc).abs() < 2.0 * PI * 0.3 * RADIUS / 20.0 + 1e-9, "area {} vs {disc}", area(&g));
+    for [a, b, c] in triangles(&g) {
+        for p in [a, b, c, (a + b + c) / 3.0] {
+            assert!((p.truncate() - glam::DVec2::splat(0.5)).length() <= 0.3 + 1e-6, "{p} outside the disc");
+        }
+    }
+    // Pressing at the disc's centre is held back at the surface; at a trimmed-away corner the
+    // probe passes through the plane of the patch.
+    let (touched, end) = probe(&g, DVec3::new(0.5, 0.5, 0.05), DVec3::new(0.5, 0.5, -0.005));
+    assert!(touched && (end.z - RADIUS).abs() < 1e-9, "{end}");
+    let (touched, end) = probe(&g, DVec3::new(0.1, 0.1, 0.05), DVec3::new(0.1, 0.1, -0.05));
+    assert!(!touched, "nothing to touch at a trimmed corner, ended at {end}");
+    let (touched, _) = probe(&g, DVec3::new(0.5, 0.9, 0.05), DVec3::new(0.5, 0.9, -0.05));
+    assert!(!touched, "nothing to touch between the disc and the side");
+}
+
+const TWO_SPHERES: &str = "Sphere 1 -1 1 360\nTranslate 1 0 0\nSphere 0.8 -0.8 0.8 360\n";
+
+fn solid(op: &str) -> String {
+    format!("WorldBegin\nSolidBegin \"{op}\"\n{TWO_SPHERES}SolidEnd\nWorldEnd\n")
+}
+
+/// The volume two spheres (radii `r1`, `r2`, centres `d` apart) share.
+fn lens_volume(r1: f64, r2: f64, d: f64) -> f64 {
+    PI * (r1 + r2 - d).powi(2)
+        * (d * d + 2.0 * d * r2 - 3.0 * r2 * r2 + 2.0 * d * r1 + 6.0 * r2 * r1 - 3.0 * r1 * r1)
+        / (12.0 * d)
+}
+
+#[test]
+fn a_sphere_minus_a_sphere_has_the_difference_volume_and_no_surface_in_the_bite() {
+    let g = geometry(&solid("difference"));
+    let sphere = 4.0 / 3.0 * PI;
+    let expected = sphere - lens_volume(1.0, 0.8, 1.0);
+    let volume = signed_volume(&g);
+    assert!((volume - expected).abs() < 2e-3 * expected, "volume {volume} vs {expected}");
+    // Along +x the first sphere's surface (x = 1) is inside the second: removed, so a probe
+    // pushing into the bite feels nothing until the bite's wall, the second sphere's surface
+    // at x = 1 - 0.8.
+    let (touched, end) = probe(&g, DVec3::new(1.5, 0.0, 0.0), DVec3::new(0.35, 0.0, 0.0));
+    assert!(!touched, "no force inside the removed region, ended at {end}");
+    let (touched, end) = probe(&g, DVec3::new(0.5, 0.0, 0.0), DVec3::new(0.1, 0.0, 0.0));
+    assert!(touched && (end.x - (0.2 + RADIUS)).abs() < 2e-3, "held at the bite's wall: {end}");
+    // The rest of the first sphere is still there.
+    let (touched, end) = probe(&g, DVec3::new(-1.5, 0.0, 0.0), DVec3::new(-0.9, 0.0, 0.0));
+    assert!(touched && (end.x + 1.0 + RADIUS).abs() < 2e-3, "{end}");
+    // Given as a union, the same spheres are felt at x = 1.
+    let union = geometry(&format!("WorldBegin\n{TWO_SPHERES}WorldEnd\n"));
+    let (touched, _) = probe(&union, DVec3::new(2.0, 0.0, 0.0), DVec3::new(1.5, 0.0, 0.0));
+    assert!(touched);
+}
+
+#[test]
+fn an_intersection_of_spheres_is_the_lens() {
+    let g = geometry(&solid("intersection"));
+    let expected = lens_volume(1.0, 0.8, 1.0);
+    let volume = signed_volume(&g);
+    assert!((volume - expected).abs() < 5e-3 * expected, "volume {volume} vs {expected}");
+    // Nothing of either sphere outside the other is left.
+    for [a, b, c] in triangles(&g) {
+        let centroid = (a + b + c) / 3.0;
+        assert!(centroid.length() < 1.0 + 1e-3 && (centroid - DVec3::X).length() < 0.8 + 1e-3, "{centroid}");
+    }
+    let (touched, _) = probe(&g, DVec3::new(-1.5, 0.0, 0.0), DVec3::new(-0.5, 0.0, 0.0));
+    assert!(!touched, "the first sphere's far side is not part of the lens");
+}
