@@ -515,7 +515,10 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "Geometry",
         "Gap: `Geometry` with an implementation-specific name other than \"teapot\" (e.g. \"bunny\") is not built; the teapot is.",
     ),
-    ("SolidBegin", "Gap: CSG (difference, intersection) is not built; the solids are rendered as a union."),
+    (
+        "SolidBegin",
+        "CSG is exact in the ray tracer and the haptics; this warning is for an unknown operation or a solid inside `ObjectBegin` (instanced), read as a union as it says.",
+    ),
     (
         "not a standard light",
         "A custom light shader (RSL): cannot be known; it is kept but may be skipped by consumers.",
