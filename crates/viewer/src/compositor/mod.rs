@@ -11,6 +11,7 @@ mod lighting;
 mod live_objects;
 mod readback;
 mod reflections;
+mod scene_shadows;
 mod settings;
 mod shadows;
 
@@ -50,6 +51,8 @@ pub struct Compositor {
     irradiance: irradiance::GpuIrradiance,
     /// The renderer's reflection probes on the GPU (placeholders without them).
     reflections: reflections::GpuReflections,
+    /// Shadow-ray hierarchies of the scene (its shadows on live objects) and the live meshes.
+    occluders: scene_shadows::GpuOccluders,
     /// Window depth of every pixel, kept to build the point cloud on demand.
     window_depths: Vec<f32>,
     /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
@@ -97,6 +100,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/composite.wgsl"),
     include_str!("../shaders/shadow_loss.wgsl"),
     include_str!("../shaders/shadows.wgsl"),
+    include_str!("../shaders/scene_visibility.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -259,6 +263,12 @@ impl Compositor {
         let gpu_reflections = reflections::upload(gpu, scene.reflections());
         let gpu_irradiance =
             irradiance::upload(gpu, scene.probes_arc().as_deref(), &lights, &gpu_layers.world_samples);
+        let occluders = scene_shadows::upload(
+            device,
+            &gpu.queue,
+            scene.occluders(),
+            projection.camera().camera_from_world(),
+        );
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
@@ -300,6 +310,8 @@ impl Compositor {
                     binding: 11,
                     resource: wgpu::BindingResource::TextureView(&view(&shadowed_texture)),
                 },
+                wgpu::BindGroupEntry { binding: 12, resource: occluders.nodes.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 13, resource: occluders.triangles.as_entire_binding() },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -533,6 +545,7 @@ impl Compositor {
             layers: gpu_layers,
             irradiance: gpu_irradiance,
             reflections: gpu_reflections,
+            occluders,
             window_depths,
             surface_bounds,
             linear_image,
@@ -624,6 +637,7 @@ impl Compositor {
         if self.settings.mode == CompositeMode::Points {
             self.ensure_points()?;
         }
+        self.occluders.update_live(&self.gpu.queue, live, self.projection.camera().camera_from_world());
         let uniform = self.frame_uniform(live);
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 
