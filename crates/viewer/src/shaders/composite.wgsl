@@ -480,6 +480,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             let sample_count = min(slot.z, MAX_AREA_SAMPLES);
             // The radiance each sample carries (compositor/lighting.rs).
             let radiance = light.params.rgb;
+            let clear = scene_clear_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
             for (var i = 0u; i < sample_count; i++) {
                 let sample = area_samples.samples[2u * (slot.y + i)];
                 let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
@@ -489,7 +490,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
                 let c = dot(sample_normal.xyz, -l);
                 let cos_e = select(max(c, 0.0), abs(c), sample_normal.w > 0.5);
                 let n_dot_l = dot(n, l);
-                if n_dot_l <= 0.0 || cos_e <= 0.0 || !scene_lets_light(p, n, l, sqrt(dist2)) {
+                if n_dot_l <= 0.0 || cos_e <= 0.0 || !scene_lets_light(p, n, l, sqrt(dist2), clear) {
                     continue;
                 }
                 let e = radiance * (sample.w * cos_e / dist2);
@@ -525,7 +526,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             e = intensity / dist2;
         }
         let n_dot_l = dot(n, l);
-        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || !scene_lets_light(p, n, l, distance) {
+        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || !scene_lets_light(p, n, l, distance, 0.0) {
             continue;
         }
         diffuse += e * n_dot_l;
