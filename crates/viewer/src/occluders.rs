@@ -22,6 +22,82 @@ pub const MAX_LIVE_OCCLUDER_TRIANGLES: usize = 1 << 16;
 /// Triangles per leaf of the hierarchy.
 const LEAF_TRIANGLES: usize = 4;
 
+/// Depth below which the hierarchy splits by median: from there at most log2(2^20 / 4) = 18
+/// more levels, within the shaders' stack of 40 (`scene_visibility.wgsl` OCCLUDER_STACK).
+const SAH_DEPTH: u32 = 20;
+
+/// Bins per axis of the surface area heuristic.
+const SAH_BINS: usize = 12;
+
+/// Half the surface area of a box (the heuristic's measure).
+fn half_area(lo: Vec3, hi: Vec3) -> f32 {
+    let d = (hi - lo).max(Vec3::ZERO);
+    d.x * d.y + d.y * d.z + d.z * d.x
+}
+
+/// Splits `range` (triangle indices) at the binned surface-area-heuristic's cheapest plane and
+/// returns the count on the left, or `None` when no plane separates the centroids.
+fn sah_split(
+    range: &mut [u32],
+    tris: &[[Vec3; 3]],
+    centroids: &[Vec3],
+    clo: Vec3,
+    extent: Vec3,
+) -> Option<usize> {
+    let bin_of = |k: u32, axis: usize| {
+        let f = (centroids[k as usize][axis] - clo[axis]) / extent[axis];
+        ((f * SAH_BINS as f32) as usize).min(SAH_BINS - 1)
+    };
+    let mut best: Option<(f32, usize, usize)> = None;
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 {
+            continue;
+        }
+        let mut counts = [0usize; SAH_BINS];
+        let mut boxes = [(Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)); SAH_BINS];
+        for &k in range.iter() {
+            let b = bin_of(k, axis);
+            counts[b] += 1;
+            for p in tris[k as usize] {
+                boxes[b].0 = boxes[b].0.min(p);
+                boxes[b].1 = boxes[b].1.max(p);
+            }
+        }
+        // Costs of the planes after bins 0..SAH_BINS-1: areas and counts swept from the right.
+        let mut right_cost = [0.0f32; SAH_BINS];
+        let (mut rlo, mut rhi, mut rn) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY), 0usize);
+        for b in (1..SAH_BINS).rev() {
+            rlo = rlo.min(boxes[b].0);
+            rhi = rhi.max(boxes[b].1);
+            rn += counts[b];
+            right_cost[b] = if rn > 0 { half_area(rlo, rhi) * rn as f32 } else { 0.0 };
+        }
+        let (mut llo, mut lhi, mut ln) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY), 0usize);
+        for b in 0..SAH_BINS - 1 {
+            llo = llo.min(boxes[b].0);
+            lhi = lhi.max(boxes[b].1);
+            ln += counts[b];
+            if ln == 0 || ln == range.len() {
+                continue;
+            }
+            let cost = half_area(llo, lhi) * ln as f32 + right_cost[b + 1];
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, b));
+            }
+        }
+    }
+    let (_, axis, split) = best?;
+    // Partition: bins up to `split` first.
+    let mut left = 0;
+    for i in 0..range.len() {
+        if bin_of(range[i], axis) <= split {
+            range.swap(i, left);
+            left += 1;
+        }
+    }
+    (left > 0 && left < range.len()).then_some(left)
+}
+
 impl SceneOccluders {
     /// The triangles kept within `budget`: all of them, or the `budget` largest by area (small
     /// triangles hide the least light), and how many were left out.
@@ -53,24 +129,24 @@ pub struct FlatBvh {
 }
 
 impl FlatBvh {
-    /// Builds the hierarchy by median splits along the longest axis of the centroids' bounds.
-    /// Triangles with a non-finite corner are dropped.
+    /// Builds the hierarchy by the surface area heuristic over 12 bins of the centroids per
+    /// axis (big triangles, such as a floor's two, end in leaves of their own instead of
+    /// widening every box around small ones); below depth `SAH_DEPTH`, median splits keep the
+    /// hierarchy within the shaders' traversal stack. Triangles with a non-finite corner are
+    /// dropped.
     pub fn build(triangles: &[[Vec3; 3]]) -> FlatBvh {
         let tris: Vec<[Vec3; 3]> =
             triangles.iter().filter(|t| t.iter().all(|p| p.is_finite())).copied().collect();
         let mut order: Vec<u32> = (0..tris.len() as u32).collect();
-        let centroid = |k: u32| {
-            let t = &tris[k as usize];
-            (t[0] + t[1] + t[2]) / 3.0
-        };
+        let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
         let mut bvh = FlatBvh::default();
         if tris.is_empty() {
             return bvh;
         }
         bvh.nodes.push([0.0; 8]);
-        // (node index, first, end) of ranges still to place.
-        let mut todo = vec![(0usize, 0usize, order.len())];
-        while let Some((node, first, end)) = todo.pop() {
+        // (node index, first, end, depth) of ranges still to place.
+        let mut todo = vec![(0usize, 0usize, order.len(), 0u32)];
+        while let Some((node, first, end, depth)) = todo.pop() {
             let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
             let (mut clo, mut chi) = (lo, hi);
             for &k in &order[first..end] {
@@ -78,9 +154,8 @@ impl FlatBvh {
                     lo = lo.min(p);
                     hi = hi.max(p);
                 }
-                let c = centroid(k);
-                clo = clo.min(c);
-                chi = chi.max(c);
+                clo = clo.min(centroids[k as usize]);
+                chi = chi.max(centroids[k as usize]);
             }
             let extent = chi - clo;
             let count = end - first;
@@ -94,22 +169,24 @@ impl FlatBvh {
                 bvh.nodes[node] = node_of(lo, hi, at, count as u32);
                 continue;
             }
-            let axis = if extent.x >= extent.y && extent.x >= extent.z {
-                0
-            } else if extent.y >= extent.z {
-                1
-            } else {
-                2
+            let range = &mut order[first..end];
+            let sah = if depth < SAH_DEPTH { sah_split(range, &tris, &centroids, clo, extent) } else { None };
+            let mid = match sah {
+                Some(m) => first + m,
+                None => {
+                    let axis = extent.max_position();
+                    range.select_nth_unstable_by(count / 2, |&a, &b| {
+                        centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+                    });
+                    first + count / 2
+                }
             };
-            let mid = first + count / 2;
-            order[first..end]
-                .select_nth_unstable_by(count / 2, |&a, &b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
             let left = bvh.nodes.len();
             bvh.nodes.push([0.0; 8]);
             bvh.nodes.push([0.0; 8]);
             bvh.nodes[node] = node_of(lo, hi, left as u32, 0);
-            todo.push((left + 1, mid, end));
-            todo.push((left, first, mid));
+            todo.push((left + 1, mid, end, depth + 1));
+            todo.push((left, first, mid, depth + 1));
         }
         bvh
     }
