@@ -167,5 +167,9 @@ fn scene_clear_toward(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, bound: f32)
 // Whether a live mesh blocks the segment from pre-rendered surface point p along unit dir up
 // to max_t. Meshes that are exact spheres cast their shadow as spheres instead.
 fn live_mesh_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
+    // Checked here as well: the traversal's stack is set up on every call that reaches it.
+    if frame.live_occluders.z == 0u {
+        return false;
+    }
     return bvh_blocks(frame.live_occluders, p, dir, ray_offset(p), max_t);
 }
