@@ -13,6 +13,7 @@ mod convert;
 mod haptic;
 mod live_rib;
 mod run;
+mod scene_occluders;
 
 use clap::Parser;
 use std::process::ExitCode;

@@ -80,6 +80,8 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let pixel_filter = convert::pixel_filter(&rib, &mut skipped);
     let mut scene = ViewerScene::with_backdrop(camera, image, depth, lights, tone)?;
     scene.set_pixel_filter(pixel_filter);
+    // The scene's own shadows on live objects: its surfaces as triangles for shadow rays.
+    scene.set_occluders(crate::scene_occluders::scene_occluders(&rib));
     if settings.shadows.is_some() {
         attach_light_layers(settings, &mut scene, &sourced, rib.lights.len())?;
     }
@@ -333,14 +335,21 @@ fn print_stats(
     let casters =
         usize::from(live.sphere.is_some()) + live.meshes.iter().filter(|m| m.exact_sphere.is_some()).count();
     match (compositor.shadow_light(), s.shadows, &live.sphere) {
-        (_, Some(_), _) if scene.light_layers().is_some() && casters > 0 => eprintln!(
-            "shadows: exact, from the light layers ({} layers), cast by {casters} sphere(s)",
-            scene.light_layers().map_or(0, |l| l.layers.light.len())
-        ),
+        (_, Some(_), _) if scene.light_layers().is_some() && (casters > 0 || !live.meshes.is_empty()) => {
+            eprintln!(
+                "shadows: exact, from the light layers ({} layers), cast by {casters} sphere(s) and {} other live mesh(es)",
+                scene.light_layers().map_or(0, |l| l.layers.light.len()),
+                live.meshes.iter().filter(|m| m.exact_sphere.is_none()).count()
+            )
+        }
         (Some(k), Some(sh), Some(_)) => eprintln!("shadows: from light {k}, strength {}", sh.strength),
         (_, None, _) => eprintln!("shadows: off (--no-shadows)"),
         (_, _, None) => eprintln!("shadows: skipped (no sphere)"),
         (None, _, _) => eprintln!("shadows: skipped (no light that casts shadows)"),
+    }
+    eprintln!("scene shadows on live objects: {}", compositor.scene_shadows_summary());
+    if let Some(note) = compositor.live_shadows_note() {
+        eprintln!("live meshes' shadows: {note}");
     }
     for w in &skipped.warnings {
         eprintln!("skipped: {w}");

@@ -57,6 +57,7 @@ pub mod gpu;
 pub mod light_layers;
 pub mod live;
 pub mod live_scene;
+pub mod occluders;
 pub mod pixel_filter;
 pub mod projection;
 pub mod scene;

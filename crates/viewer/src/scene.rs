@@ -20,6 +20,7 @@ pub struct ViewerScene {
     probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
     reflections: Option<std::sync::Arc<sidecar::ReflectionProbes>>,
     pixel_filter: PixelFilter,
+    occluders: Option<std::sync::Arc<crate::occluders::SceneOccluders>>,
 }
 
 /// Most reflection probes the viewer binds: the texture-array layers every wgpu adapter has
@@ -86,6 +87,7 @@ impl ViewerScene {
             probes: None,
             reflections: None,
             pixel_filter: PixelFilter::BOX,
+            occluders: None,
         })
     }
 
@@ -107,6 +109,17 @@ impl ViewerScene {
         layers.check(self.backdrop.width, self.backdrop.height, self.lights.len())?;
         self.layers = Some(std::sync::Arc::new(layers));
         Ok(())
+    }
+
+    /// Binds the scene's own geometry as triangles: the RIB lights' light on live objects is
+    /// then shadowed by the scene (without it, live objects get every light unshadowed).
+    pub fn set_occluders(&mut self, occluders: crate::occluders::SceneOccluders) {
+        self.occluders = Some(std::sync::Arc::new(occluders));
+    }
+
+    /// The scene's triangles shadowing live objects, if bound.
+    pub fn occluders(&self) -> Option<&crate::occluders::SceneOccluders> {
+        self.occluders.as_deref()
     }
 
     /// Binds the renderer's irradiance probes: live objects' diffuse light then comes from the

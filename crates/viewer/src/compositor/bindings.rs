@@ -1,6 +1,7 @@
 //! The layout of the frame bind group every compositing pass reads: the frame uniform, the
 //! backdrop's colour and depths, the light layers and their area samples, the reflection
-//! probes with their sampler, the irradiance probes, and the backdrop after shadows.
+//! probes with their sampler, the irradiance probes, the backdrop after shadows, and the
+//! shadow-ray hierarchies' nodes and triangles.
 
 /// A layout entry for a float texture the shaders read.
 pub(super) fn texture_layout_entry(
@@ -79,6 +80,8 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage_entry(9),
             storage_entry(10),
             texture_entry(11, wgpu::ShaderStages::FRAGMENT),
+            storage_entry(12),
+            storage_entry(13),
         ],
     })
 }

@@ -86,6 +86,11 @@ pub(super) struct FrameUniform {
     pub(super) irradiance_spacing: [f32; 4],
     pub(super) irradiance_counts: [u32; 4],
     pub(super) lights: [GpuLight; MAX_LIGHTS],
+    /// Shadow-ray hierarchies (`scene_shadows.rs`): the scene's, the live meshes', and the live
+    /// meshes' camera-space bounding sphere.
+    pub(super) scene_occluders: [u32; 4],
+    pub(super) live_occluders: [u32; 4],
+    pub(super) live_occluder_bound: [f32; 4],
 }
 
 #[repr(C)]
@@ -199,9 +204,11 @@ impl Compositor {
         for (slot, light_slot) in shadow_slots.iter_mut().zip(&self.layers.light_slots) {
             *slot = *light_slot;
         }
+        // Live meshes other than spheres cast shadows through their hierarchy.
+        let mesh_casters = self.occluders.live[2] > 0;
         let (shadow_on, shadow_light, shadow_params) =
             match (self.shadow_light, self.settings.shadows, sphere) {
-                (_, Some(settings), _) if layered && sphere_count > 0 => {
+                (_, Some(settings), _) if layered && (sphere_count > 0 || mesh_casters) => {
                     (1, [0.0; 4], [0.0, settings.strength, if self.layers.shared { 1.0 } else { 0.0 }, 0.0])
                 }
                 (Some(k), Some(settings), Some(_)) => match self.lights[k].shadow_source() {
@@ -245,6 +252,9 @@ impl Compositor {
             irradiance_spacing: self.irradiance.spacing,
             irradiance_counts: self.irradiance.counts,
             lights,
+            scene_occluders: self.occluders.scene,
+            live_occluders: if layered { self.occluders.live } else { [0; 4] },
+            live_occluder_bound: self.occluders.live_bound,
         }
     }
 }

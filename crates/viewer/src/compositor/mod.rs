@@ -11,6 +11,7 @@ mod lighting;
 mod live_objects;
 mod readback;
 mod reflections;
+mod scene_shadows;
 mod settings;
 mod shadows;
 
@@ -50,6 +51,8 @@ pub struct Compositor {
     irradiance: irradiance::GpuIrradiance,
     /// The renderer's reflection probes on the GPU (placeholders without them).
     reflections: reflections::GpuReflections,
+    /// Shadow-ray hierarchies of the scene (its shadows on live objects) and the live meshes.
+    occluders: scene_shadows::GpuOccluders,
     /// Window depth of every pixel, kept to build the point cloud on demand.
     window_depths: Vec<f32>,
     /// Camera-space bounds of every visible pre-rendered surface point (bounds the shadow pass).
@@ -97,6 +100,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/composite.wgsl"),
     include_str!("../shaders/shadow_loss.wgsl"),
     include_str!("../shaders/shadows.wgsl"),
+    include_str!("../shaders/scene_visibility.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -259,6 +263,12 @@ impl Compositor {
         let gpu_reflections = reflections::upload(gpu, scene.reflections());
         let gpu_irradiance =
             irradiance::upload(gpu, scene.probes_arc().as_deref(), &lights, &gpu_layers.world_samples);
+        let occluders = scene_shadows::upload(
+            device,
+            &gpu.queue,
+            scene.occluders(),
+            projection.camera().camera_from_world(),
+        );
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
@@ -300,6 +310,8 @@ impl Compositor {
                     binding: 11,
                     resource: wgpu::BindingResource::TextureView(&view(&shadowed_texture)),
                 },
+                wgpu::BindGroupEntry { binding: 12, resource: occluders.nodes.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 13, resource: occluders.triangles.as_entire_binding() },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -496,69 +508,9 @@ impl Compositor {
             }
         };
 
-        // Depth readback through a compute pass (GL cannot copy depth textures to buffers).
-        let readback_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("readback.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/readback.wgsl").into()),
-        });
-        let depth_bytes = u64::from(width) * u64::from(height) * 4;
-        if depth_bytes > limits.max_storage_buffer_binding_size {
-            return Err(ViewerError::Unsupported(format!(
-                "depth readback of {width}x{height} exceeds the storage buffer limit {}",
-                limits.max_storage_buffer_binding_size
-            )));
-        }
-        let depth_storage = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("depth readback storage"),
-            size: depth_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("depth readback"),
-            entries: &[
-                bindings::texture_layout_entry(
-                    0,
-                    wgpu::ShaderStages::COMPUTE,
-                    wgpu::TextureViewDimension::D2,
-                    false,
-                ),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: false },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        });
         let depth_view = view(&depth_texture);
-        let readback_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("depth readback"),
-            layout: &readback_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&depth_view),
-                },
-                wgpu::BindGroupEntry { binding: 1, resource: depth_storage.as_entire_binding() },
-            ],
-        });
-        let readback_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("depth readback"),
-            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("depth readback"),
-                bind_group_layouts: &[Some(&readback_layout)],
-                immediate_size: 0,
-            })),
-            module: &readback_module,
-            entry_point: Some("cs_copy_depth"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let (readback_pipeline, readback_bind_group, depth_storage) =
+            readback::depth_readback(device, &depth_view, (width, height))?;
 
         let encode = encode::EncodePass::new(
             gpu,
@@ -593,6 +545,7 @@ impl Compositor {
             layers: gpu_layers,
             irradiance: gpu_irradiance,
             reflections: gpu_reflections,
+            occluders,
             window_depths,
             surface_bounds,
             linear_image,
@@ -684,6 +637,7 @@ impl Compositor {
         if self.settings.mode == CompositeMode::Points {
             self.ensure_points()?;
         }
+        self.occluders.update_live(&self.gpu.queue, live, self.projection.camera().camera_from_world());
         let uniform = self.frame_uniform(live);
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 

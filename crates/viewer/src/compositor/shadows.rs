@@ -1,4 +1,4 @@
-//! The live sphere's shadow on the pre-rendered scene: which pixels it can fall on.
+//! The live objects' shadows on the pre-rendered scene: which pixels they can fall on.
 
 use super::Compositor;
 use super::lighting::{FrameUniform, vec4};
@@ -28,9 +28,10 @@ pub(super) fn camera_space_bounds(projection: &Projection, radial: &[f32]) -> Op
 pub(super) const AO_REACH: f64 = 8.0;
 
 impl Compositor {
-    /// The pixels the sphere's shadows can fall on: with light layers, the union over the lights
-    /// that have one of each light's shadow volume and the box where the sphere's occlusion of
-    /// indirect light is counted; without, the shadow light's volume.
+    /// The pixels live objects' shadows can fall on: with light layers, the union over the
+    /// lights that have one of each sphere's shadow volume and the box where its occlusion of
+    /// indirect light is counted, and the live meshes' bounding sphere's shadow volumes;
+    /// without, the shadow light's volume.
     pub(super) fn shadow_scissor_all(&self, uniform: &FrameUniform) -> Option<[u32; 4]> {
         let d = |a: [f32; 4]| DVec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
         if uniform.layer_info[0] == 0 {
@@ -40,17 +41,24 @@ impl Compositor {
         let spheres = &uniform.shadow_spheres[..uniform.layer_info[3] as usize];
         let mut union = None;
         for s in spheres {
-            union = merge(union, self.layered_scissor(d(*s), f64::from(s[3])));
+            let (centre, r) = (d(*s), f64::from(s[3]));
+            union = merge(union, self.box_scissor(centre, r * AO_REACH));
+            union = merge(union, self.layered_scissor(centre, r));
+        }
+        let bound = uniform.live_occluder_bound;
+        if uniform.live_occluders[2] > 0 && bound[3] > 0.0 {
+            union = merge(union, self.layered_scissor(d(bound), f64::from(bound[3])));
         }
         union
     }
 
-    /// The pixels one sphere's layered shadows and indirect occlusion can reach.
+    /// The pixels a sphere's layered shadows can reach (the union of its shadow volumes from
+    /// the lights that have a layer).
     fn layered_scissor(&self, centre: DVec3, r: f64) -> Option<[u32; 4]> {
         let camera_from_world = self.projection.camera().camera_from_world();
         let linear = glam::DMat3::from_mat4(camera_from_world);
         let scale = linear.determinant().abs().cbrt();
-        let mut union: Option<[u32; 4]> = self.box_scissor(centre, r * AO_REACH);
+        let mut union: Option<[u32; 4]> = None;
         for (light, slot) in self.lights.iter().zip(&self.layers.light_slots) {
             if slot[0] == super::layers::NO_LAYER {
                 continue;

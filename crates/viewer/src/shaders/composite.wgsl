@@ -75,6 +75,11 @@ struct Frame {
     irradiance_spacing: vec4<f32>,
     irradiance_counts: vec4<u32>,
     lights: array<Light, MAX_LIGHTS>,
+    // Shadow-ray hierarchies (scene_visibility.wgsl): the tessellated scene's and the live
+    // meshes' (first node, first triangle, node count), the live meshes' bounding sphere.
+    scene_occluders: vec4<u32>,
+    live_occluders: vec4<u32>,
+    live_occluder_bound: vec4<f32>,
 }
 
 const NO_LAYER: u32 = 0xffffffffu;
@@ -475,6 +480,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             let sample_count = min(slot.z, MAX_AREA_SAMPLES);
             // The radiance each sample carries (compositor/lighting.rs).
             let radiance = light.params.rgb;
+            let clear = scene_clear_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
             for (var i = 0u; i < sample_count; i++) {
                 let sample = area_samples.samples[2u * (slot.y + i)];
                 let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
@@ -484,7 +490,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
                 let c = dot(sample_normal.xyz, -l);
                 let cos_e = select(max(c, 0.0), abs(c), sample_normal.w > 0.5);
                 let n_dot_l = dot(n, l);
-                if n_dot_l <= 0.0 || cos_e <= 0.0 {
+                if n_dot_l <= 0.0 || cos_e <= 0.0 || !scene_lets_light(p, n, l, sqrt(dist2), clear) {
                     continue;
                 }
                 let e = radiance * (sample.w * cos_e / dist2);
@@ -495,6 +501,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
         }
         var l: vec3<f32>;
         var e: vec3<f32>;
+        var distance = 3.0e38;
         if kind == LIGHT_DISTANT {
             l = -light.direction.xyz;
             e = light.colour.rgb;
@@ -502,6 +509,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             let to_light = light.position.xyz - p;
             let dist2 = max(dot(to_light, to_light), 1e-30);
             l = to_light * inverseSqrt(dist2);
+            distance = sqrt(dist2);
             var intensity = light.colour.rgb;
             if kind == LIGHT_SPOT {
                 let cos_angle = dot(-l, light.direction.xyz);
@@ -518,7 +526,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             e = intensity / dist2;
         }
         let n_dot_l = dot(n, l);
-        if n_dot_l <= 0.0 {
+        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || !scene_lets_light(p, n, l, distance, 0.0) {
             continue;
         }
         diffuse += e * n_dot_l;

@@ -1,5 +1,6 @@
-// The live spheres' shadows on the pre-rendered scene (appended to composite.wgsl:
-// compositor/mod.rs COMPOSITE_WGSL; the bindings and helpers are composite.wgsl's).
+// The live objects' shadows on the pre-rendered scene (appended to composite.wgsl:
+// compositor/mod.rs COMPOSITE_WGSL; the bindings and helpers are composite.wgsl's): spheres
+// analytically, live meshes through their triangle hierarchy (scene_visibility.wgsl).
 
 // ---------------------------------------------------------------------------------------------
 // Shadows of the sphere on the pre-rendered scene: each pixel's surface point is rebuilt from
@@ -75,6 +76,35 @@ fn emitter_cone_class(p: vec3<f32>, axis: vec3<f32>, cos_e: f32, sin_e: f32, nea
     return cone_class;
 }
 
+// Whether a live mesh's bounding sphere (radius 0: no meshes) can overlap an emitter's bounding
+// cone from p (unit `axis`, half-angle cosine `cos_e` and sine `sin_e`, emitter points at most
+// `far` from p), by the cone test of emitter_cone_class: if not, no mesh hides any of it.
+fn live_meshes_near_cone(p: vec3<f32>, axis: vec3<f32>, cos_e: f32, sin_e: f32, far: f32) -> bool {
+    let bound = frame.live_occluder_bound;
+    if frame.live_occluders.z == 0u || bound.w <= 0.0 {
+        return false;
+    }
+    let to_bound = bound.xyz - p;
+    let ds = length(to_bound);
+    if ds <= bound.w {
+        return true;
+    }
+    if ds - bound.w >= far {
+        return false;
+    }
+    let sin_s = bound.w / ds;
+    let cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
+    let cos_sum = cos_s * cos_e - sin_s * sin_e;
+    let sin_sum = sin_s * cos_e + cos_s * sin_e;
+    return cos_sum <= -0.9999 || dot(to_bound / ds, axis) > cos_sum * 0.9999995 - sin_sum * 1e-3;
+}
+
+// Whether a live object (a shadow-casting sphere or a live mesh) blocks the segment from p
+// along unit dir up to max_t.
+fn live_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
+    return sphere_blocks(p, dir, max_t) || live_mesh_blocks(p, dir, max_t);
+}
+
 // Whether any shadow-casting sphere blocks the segment from p along unit dir up to max_t.
 fn sphere_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
     for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
@@ -107,7 +137,7 @@ fn luminance(c: vec3<f32>) -> f32 {
     return (c.r + c.g + c.b) / 3.0;
 }
 
-// The share of light i's direct light at p (normal n, zero if unknown) that the sphere hides,
+// The share of light i's direct light at p (normal n, zero if unknown) that live objects hide,
 // and the light's unshadowed irradiance there (to weigh lights that share a layer).
 fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     let light = frame.lights[i];
@@ -117,29 +147,30 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     if kind == LIGHT_DISTANT {
         let dir = -light.direction.xyz;
         let cos_s = select(1.0, max(dot(n, dir), 0.0), has_n);
-        return vec2<f32>(select(0.0, 1.0, sphere_blocks(p, dir, 3.0e38)), power * cos_s);
+        return vec2<f32>(select(0.0, 1.0, live_blocks(p, dir, 3.0e38)), power * cos_s);
     }
     if kind == LIGHT_POINT || kind == LIGHT_SPOT {
         let v = light.position.xyz - p;
         let d = length(v);
         let dir = v / d;
         let cos_s = select(1.0, max(dot(n, dir), 0.0), has_n);
-        return vec2<f32>(select(0.0, 1.0, sphere_blocks(p, dir, d)), power * cos_s / (d * d));
+        return vec2<f32>(select(0.0, 1.0, live_blocks(p, dir, d)), power * cos_s / (d * d));
     }
     if kind == LIGHT_AREA {
         // The ray tracer's integral over the emitter, on its fixed samples: the occluded share
         // of sum(area cos_l cos_s / d^2). First a cone test: when no sphere's cone from p
-        // overlaps the emitter's bounding cone, nothing is hidden (most pixels).
+        // or live mesh bound overlaps the emitter's bounding cone, nothing is hidden (most
+        // pixels).
         let slot = frame.shadow_slots[i];
         let to_light = light.position.xyz - p;
         let dl = length(to_light);
         let bound = bitcast<f32>(slot.w);
         if dl > bound {
             let sin_e = bound / dl;
-            let cone_class = emitter_cone_class(
-                p, to_light / dl, sqrt(max(1.0 - sin_e * sin_e, 0.0)), sin_e, dl - bound, dl + bound,
-            );
-            if cone_class == CONE_CLEAR {
+            let axis = to_light / dl;
+            let cos_e = sqrt(max(1.0 - sin_e * sin_e, 0.0));
+            let cone_class = emitter_cone_class(p, axis, cos_e, sin_e, dl - bound, dl + bound);
+            if cone_class == CONE_CLEAR && !live_meshes_near_cone(p, axis, cos_e, sin_e, dl + bound) {
                 return vec2<f32>(0.0, power / (dl * dl));
             }
             if cone_class == CONE_UMBRA {
@@ -171,7 +202,7 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
             }
             let g = s.w * cos_l * cos_s / d2;
             total += g;
-            if sphere_blocks(p, dir, d) {
+            if live_blocks(p, dir, d) {
                 hidden += g;
             }
         }

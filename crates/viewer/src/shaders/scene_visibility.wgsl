@@ -1,0 +1,175 @@
+// Shadow rays through triangle hierarchies (appended to composite.wgsl: compositor/mod.rs
+// COMPOSITE_WGSL): the tessellated scene blocking the RIB lights' light on live objects, and
+// the live meshes blocking it on the pre-rendered scene. The layout is viewer::occluders::
+// FlatBvh's; both hierarchies share the two buffers (compositor/scene_shadows.rs).
+
+// Per node two vec4s: bounds minimum with the first child (interior) or first triangle (leaf)
+// as bits in w, bounds maximum with the triangle count (0: interior) in w.
+@group(0) @binding(12) var<storage, read> occluder_nodes: array<vec4<f32>>;
+// Per triangle three vec4s: a corner and the two edges from it.
+@group(0) @binding(13) var<storage, read> occluder_triangles: array<vec4<f32>>;
+
+// Deeper than any hierarchy of the budgets' triangles (median splits halve each level).
+const OCCLUDER_STACK: u32 = 40u;
+// How far barycentric coordinates may stray outside a triangle (occluders::ray_triangle), so
+// that edges shared by two triangles leak no light.
+const EDGE_SLACK: f32 = 1e-5;
+
+// Whether a triangle of hierarchy `bvh` (first node, first triangle, node count) blocks the
+// segment from `origin` along unit `dir` between t_min and t_max.
+fn bvh_blocks(bvh: vec4<u32>, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> bool {
+    if bvh.z == 0u {
+        return false;
+    }
+    // Near-zero components get a huge finite inverse: the slab test stays free of NaN.
+    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
+    var stack: array<u32, OCCLUDER_STACK>;
+    stack[0] = 0u;
+    var top = 1u;
+    while top > 0u {
+        top -= 1u;
+        let k = bvh.x + stack[top];
+        let lo = occluder_nodes[2u * k];
+        let hi = occluder_nodes[2u * k + 1u];
+        let t0 = (lo.xyz - origin) * inv;
+        let t1 = (hi.xyz - origin) * inv;
+        let tn = min(t0, t1);
+        let tf = max(t0, t1);
+        let near = max(max(tn.x, tn.y), max(tn.z, t_min));
+        let far = min(min(tf.x, tf.y), min(tf.z, t_max));
+        if near > far {
+            continue;
+        }
+        let a = bitcast<u32>(lo.w);
+        let count = bitcast<u32>(hi.w);
+        if count == 0u {
+            if top + 2u <= OCCLUDER_STACK {
+                stack[top] = a;
+                stack[top + 1u] = a + 1u;
+                top += 2u;
+            }
+            continue;
+        }
+        for (var i = bvh.y + a; i < bvh.y + a + count; i++) {
+            let v0 = occluder_triangles[3u * i].xyz;
+            let e1 = occluder_triangles[3u * i + 1u].xyz;
+            let e2 = occluder_triangles[3u * i + 2u].xyz;
+            let pv = cross(dir, e2);
+            let det = dot(e1, pv);
+            if det == 0.0 {
+                continue;
+            }
+            let inv_det = 1.0 / det;
+            let tv = origin - v0;
+            let u = dot(tv, pv) * inv_det;
+            let qv = cross(tv, e1);
+            let v = dot(dir, qv) * inv_det;
+            if u < -EDGE_SLACK || v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
+                continue;
+            }
+            let t = dot(e2, qv) * inv_det;
+            if t > t_min && t < t_max {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// How far a shadow ray starts off a surface at camera-space p: relative to p's distance from
+// the eye, where f32 positions are that coarse.
+fn ray_offset(p: vec3<f32>) -> f32 {
+    return 2e-5 * max(length(p), 1.0);
+}
+
+// Whether the scene lets a light's light reach live-object point p (two-sided normal n facing
+// the viewer) along unit `dir` from `distance` away: the tessellated scene (the live objects
+// are not in it, so they never shadow themselves this way), the segment shortened at the light
+// so that an emitter's own triangles do not hide it. The first `clear` of the segment is known
+// to be free (scene_clear_toward).
+fn scene_lets_light(p: vec3<f32>, n: vec3<f32>, dir: vec3<f32>, distance: f32, clear: f32) -> bool {
+    if frame.scene_occluders.z == 0u {
+        return true;
+    }
+    let eps = ray_offset(p);
+    let origin = p + n * eps;
+    return !bvh_blocks(frame.scene_occluders, origin, dir, clear * distance, distance * (1.0 - 1e-4) - eps);
+}
+
+// The segment [origin + t dir, t_min <= t <= t_max] against the box [lo - r, hi + r]: the
+// overlapping range of t (empty when x > y).
+fn slab(origin: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, r: f32, t_min: f32, t_max: f32) -> vec2<f32> {
+    let t0 = (lo - vec3<f32>(r) - origin) * inv;
+    let t1 = (hi + vec3<f32>(r) - origin) * inv;
+    let tn = min(t0, t1);
+    let tf = max(t0, t1);
+    return vec2<f32>(max(max(tn.x, tn.y), max(tn.z, t_min)), min(min(tf.x, tf.y), min(tf.z, t_max)));
+}
+
+// How much of every segment from live-object point p (normal n) to an emitter within `bound`
+// of `centre` is free of scene triangles, as a fraction of the segment: one traversal of the
+// cone from p around the emitter (radius `bound / d` per unit distance along its axis) instead
+// of a ray per emitter sample over the whole segment. A segment's point at fraction s lies
+// within s * bound of the axis point at s * d, so a cone free up to axial distance c frees the
+// first c / d of each segment; boxes are widened by the cone's radius (a superset of it), and
+// the first leaf the cone may touch ends the free part there. The samples' rays then only test
+// the rest, near the emitter, where they meet few boxes.
+fn scene_clear_toward(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, bound: f32) -> f32 {
+    let bvh = frame.scene_occluders;
+    let eps = ray_offset(p);
+    let origin = p + n * eps;
+    let to_centre = centre - origin;
+    let d = length(to_centre);
+    var cut = d - bound - eps;
+    // No ray is traced when the whole emitter lies below p's horizon.
+    if bvh.z == 0u || !(cut > 0.0) || dot(n, to_centre) < -bound {
+        return 0.0;
+    }
+    let dir = to_centre / d;
+    let slope = bound / d;
+    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
+    var stack: array<u32, OCCLUDER_STACK>;
+    stack[0] = 0u;
+    var top = 1u;
+    while top > 0u {
+        top -= 1u;
+        let k = bvh.x + stack[top];
+        let lo = occluder_nodes[2u * k].xyz;
+        let hi = occluder_nodes[2u * k + 1u];
+        // The cone's radius is at most slope * (the range's far end): three narrowing steps.
+        var range = slab(origin, inv, lo, hi.xyz, slope * cut, 0.0, cut);
+        for (var step = 0; step < 3 && range.x <= range.y; step++) {
+            range = slab(origin, inv, lo, hi.xyz, slope * range.y, 0.0, range.y);
+        }
+        if range.x > range.y {
+            continue;
+        }
+        let a = bitcast<u32>(occluder_nodes[2u * k].w);
+        if bitcast<u32>(hi.w) != 0u {
+            cut = min(cut, range.x);
+            if cut <= 0.0 {
+                return 0.0;
+            }
+            continue;
+        }
+        if top + 2u <= OCCLUDER_STACK {
+            stack[top] = a;
+            stack[top + 1u] = a + 1u;
+            top += 2u;
+        } else {
+            // Too deep to follow: nothing is known to be free.
+            return 0.0;
+        }
+    }
+    return max(cut, 0.0) / d;
+}
+
+// Whether a live mesh blocks the segment from pre-rendered surface point p along unit dir up
+// to max_t. Meshes that are exact spheres cast their shadow as spheres instead.
+fn live_mesh_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
+    // Checked here as well: the traversal's stack is set up on every call that reaches it.
+    if frame.live_occluders.z == 0u {
+        return false;
+    }
+    return bvh_blocks(frame.live_occluders, p, dir, ray_offset(p), max_t);
+}

@@ -1,0 +1,174 @@
+//! GPU tests of live meshes' shadows with the renderer's light layers: a live triangle mesh
+//! removes exactly the occluded share of each light's layer, as spheres do
+//! (layered_shadows.rs). Checked against the mesh's triangles in f64 on the CPU over the
+//! Cornell box's exact depth table.
+
+mod common;
+
+use common::*;
+use glam::{DMat4, DQuat, DVec3, Vec3};
+use std::sync::Arc;
+use viewer::{Compositor, CompositorSettings, LiveObjects, Material, Mesh, MeshInstance};
+
+const LEVEL: f32 = 0.5;
+
+/// A flat box tilted about two axes, floating over the floor.
+fn tilted_box() -> MeshInstance {
+    let world_from_object = DMat4::from_rotation_translation(
+        DQuat::from_rotation_z(0.5) * DQuat::from_rotation_x(0.3),
+        DVec3::new(-0.15, -0.45, 0.1),
+    );
+    MeshInstance {
+        mesh: Arc::new(Mesh::cuboid(Vec3::new(0.25, 0.04, 0.15))),
+        world_from_object,
+        material: Material::unlit(Vec3::new(0.0, 0.0, 1.0)),
+        exact_sphere: None,
+    }
+}
+
+/// The mesh's world-space triangles.
+fn world_triangles(m: &MeshInstance) -> Vec<[DVec3; 3]> {
+    m.mesh
+        .indices
+        .chunks_exact(3)
+        .map(|t| {
+            [t[0], t[1], t[2]]
+                .map(|i| m.world_from_object.transform_point3(m.mesh.positions[i as usize].as_dvec3()))
+        })
+        .collect()
+}
+
+/// Möller-Trumbore in f64: the hit's ray parameter.
+fn hit(origin: DVec3, dir: DVec3, t: &[DVec3; 3]) -> Option<f64> {
+    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+    let pv = dir.cross(e2);
+    let det = e1.dot(pv);
+    if det.abs() < 1e-300 {
+        return None;
+    }
+    let tv = origin - t[0];
+    let u = tv.dot(pv) / det;
+    let qv = tv.cross(e1);
+    let v = dir.dot(qv) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then(|| e2.dot(qv) / det)
+}
+
+fn blocked(p: DVec3, to: DVec3, tris: &[[DVec3; 3]]) -> bool {
+    let d = to - p;
+    let len = d.length();
+    tris.iter().any(|t| hit(p, d / len, t).is_some_and(|h| h > 1e-9 && h < len))
+}
+
+#[test]
+fn a_point_light_layer_is_removed_exactly_where_a_live_mesh_hides_the_light() {
+    let gpu = gpu();
+    let light = DVec3::new(0.0, 0.9, 0.0);
+    let s = layered_cornell(light, false, LEVEL);
+    let mut c = Compositor::new(&gpu, &s, CompositorSettings::default()).unwrap();
+    let instance = tilted_box();
+    let tris = world_triangles(&instance);
+    c.render(&LiveObjects { sphere: None, meshes: vec![instance] }).unwrap();
+    let linear = c.read_back_linear().unwrap();
+    let frame = c.read_back().unwrap();
+    let camera = s.camera();
+    let (mut shadowed, mut wrong) = (0, 0);
+    for j in 0..512u32 {
+        for i in 0..512u32 {
+            let k = (j * 512 + i) as usize;
+            let r = s.depth().get(i, j).unwrap();
+            if next_to_mask(&frame.mask, 512, k) || !r.is_finite() {
+                continue;
+            }
+            let ray = camera.pixel_centre_ray(i, j);
+            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
+            let expected = if blocked(p, light, &tris) { 0.0 } else { LEVEL };
+            shadowed += usize::from(expected == 0.0);
+            if (linear.rgba[4 * k] - expected).abs() > 1e-6 {
+                wrong += 1;
+            }
+        }
+    }
+    assert!(shadowed > 2000, "shadowed {shadowed}");
+    // Only pixels whose ray grazes an edge may fall on the other side in f32.
+    assert!(wrong * 200 <= shadowed, "{wrong} of {shadowed} shadow pixels wrong");
+}
+
+/// Over an area light's samples, the layer loses the share of `area cos_l cos_s / d^2` whose
+/// rays the mesh blocks: penumbrae as wide as the emitter makes them.
+#[test]
+fn an_area_light_layer_loses_the_share_of_the_emitter_a_live_mesh_hides() {
+    let gpu = gpu();
+    let samples = cornell_emitter_samples();
+    let s = area_layered_cornell(&samples, LEVEL);
+    let mut c = Compositor::new(&gpu, &s, CompositorSettings::default()).unwrap();
+    let instance = tilted_box();
+    let tris = world_triangles(&instance);
+    c.render(&LiveObjects { sphere: None, meshes: vec![instance] }).unwrap();
+    let linear = c.read_back_linear().unwrap();
+    let frame = c.read_back().unwrap();
+    let camera = s.camera();
+    let (mut penumbra, mut checked) = (0, 0);
+    for j in (0..512u32).step_by(2) {
+        for i in (0..512u32).step_by(2) {
+            let k = (j * 512 + i) as usize;
+            let r = s.depth().get(i, j).unwrap();
+            if next_to_mask(&frame.mask, 512, k) || !r.is_finite() {
+                continue;
+            }
+            let ray = camera.pixel_centre_ray(i, j);
+            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
+            if (p.y + 1.0).abs() > 1e-3 {
+                continue; // Floor pixels: their normal is the layer's.
+            }
+            let (mut total, mut hidden) = (0.0, 0.0);
+            for sample in &samples {
+                let v = sample.position - p;
+                let d2 = v.length_squared();
+                let dir = v / d2.sqrt();
+                let g = sample.area * sample.normal.dot(-dir).max(0.0) * dir.y.max(0.0) / d2;
+                total += g;
+                if blocked(p, sample.position, &tris) {
+                    hidden += g;
+                }
+            }
+            let share = if total > 0.0 { hidden / total } else { 0.0 };
+            penumbra += usize::from(share > 0.05 && share < 0.95);
+            let expected = f64::from(LEVEL) * (1.0 - share);
+            let got = f64::from(linear.rgba[4 * k]);
+            // One sample's share flipping on a grazing ray is the most a pixel may be off.
+            assert!(
+                (got - expected).abs() < 0.04 * f64::from(LEVEL),
+                "pixel ({i}, {j}): {got} vs {expected}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 5000 && penumbra > 150, "checked {checked}, penumbra {penumbra}");
+}
+
+/// The Cornell box at `level` everywhere, all of it the area light's layer (normals up).
+fn area_layered_cornell(samples: &[viewer::AreaSample], level: f32) -> viewer::ViewerScene {
+    let (w, h) = (512u32, 512u32);
+    let n = (w * h) as usize;
+    let backdrop = viewer::Backdrop::from_linear(w, h, [level, level, level, 1.0].repeat(n), 1.0).unwrap();
+    let mut s = viewer::ViewerScene::with_backdrop(
+        cornell_camera(),
+        backdrop,
+        cornell_depth(),
+        vec![cornell_light()],
+        viewer::ToneMap::default(),
+    )
+    .unwrap();
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers =
+        sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
+    layers.light[0].iter_mut().for_each(|v| *v = [level; 3]);
+    layers.normal.iter_mut().for_each(|v| *v = [0.0, 1.0, 0.0]);
+    s.set_light_layers(viewer::SceneLayers {
+        layers,
+        layer_of_light: vec![Some(0)],
+        area_samples: vec![samples.to_vec()],
+    })
+    .unwrap();
+    s
+}
