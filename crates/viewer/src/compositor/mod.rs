@@ -496,69 +496,12 @@ impl Compositor {
             }
         };
 
-        // Depth readback through a compute pass (GL cannot copy depth textures to buffers).
-        let readback_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("readback.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/readback.wgsl").into()),
-        });
-        let depth_bytes = u64::from(width) * u64::from(height) * 4;
-        if depth_bytes > limits.max_storage_buffer_binding_size {
-            return Err(ViewerError::Unsupported(format!(
-                "depth readback of {width}x{height} exceeds the storage buffer limit {}",
-                limits.max_storage_buffer_binding_size
-            )));
-        }
-        let depth_storage = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("depth readback storage"),
-            size: depth_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("depth readback"),
-            entries: &[
-                bindings::texture_layout_entry(
-                    0,
-                    wgpu::ShaderStages::COMPUTE,
-                    wgpu::TextureViewDimension::D2,
-                    false,
-                ),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: false },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        });
         let depth_view = view(&depth_texture);
-        let readback_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("depth readback"),
-            layout: &readback_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&depth_view),
-                },
-                wgpu::BindGroupEntry { binding: 1, resource: depth_storage.as_entire_binding() },
-            ],
-        });
-        let readback_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("depth readback"),
-            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("depth readback"),
-                bind_group_layouts: &[Some(&readback_layout)],
-                immediate_size: 0,
-            })),
-            module: &readback_module,
-            entry_point: Some("cs_copy_depth"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let readback::DepthReadback {
+            pipeline: readback_pipeline,
+            bind_group: readback_bind_group,
+            storage: depth_storage,
+        } = readback::DepthReadback::new(device, &depth_view, (width, height))?;
 
         let encode = encode::EncodePass::new(
             gpu,
