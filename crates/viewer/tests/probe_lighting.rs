@@ -4,28 +4,11 @@
 mod common;
 
 use common::*;
-use glam::{DVec3, Vec3};
+use glam::{DMat4, DVec3, Vec3};
 use viewer::{
-    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, Sphere, ViewerScene,
+    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, Mesh, MeshInstance,
+    Sphere, ViewerScene,
 };
-
-/// One probe in a uniform environment of radiance `l`: its only SH coefficient is
-/// `l * 4 pi * Y00`.
-fn uniform_probe(l: [f32; 3]) -> sidecar::ProbeGrid {
-    let mut sh = [[0.0f32; 3]; 9];
-    let y00 = 0.282_094_8 * 4.0 * std::f32::consts::PI;
-    sh[0] = l.map(|v| v * y00);
-    let texels = sidecar::VISIBILITY_TEXELS * sidecar::VISIBILITY_TEXELS;
-    sidecar::ProbeGrid {
-        depth_fingerprint: 0,
-        origin: [0.0, 0.0, 0.0],
-        spacing: [1.0, 1.0, 1.0],
-        counts: [1, 1, 1],
-        radiance_sh: vec![sh],
-        visibility: vec![[10.0, 100.0]; texels],
-        emitters_seen: false,
-    }
-}
 
 /// A white Lambertian sphere (Kd 1, no Ka, no Ks) in a uniform environment of radiance `l`
 /// (and no lights) has radiance `l` at every visible point.
@@ -64,13 +47,16 @@ fn a_white_matte_sphere_in_a_uniform_probe_field_has_the_field_s_radiance() {
 }
 
 fn render_linear(scene: &ViewerScene, live: &LiveObjects) -> (Vec<f32>, Vec<u8>) {
+    render_linear_with(scene, live, true)
+}
+
+/// The linear frame and mask, the live spheres' own-shadow loss from their maps or gathered
+/// per fragment (`own_shadow_maps`).
+fn render_linear_with(scene: &ViewerScene, live: &LiveObjects, own_shadow_maps: bool) -> (Vec<f32>, Vec<u8>) {
     let gpu = gpu();
-    let mut c = Compositor::new(
-        &gpu,
-        scene,
-        CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() },
-    )
-    .unwrap();
+    let settings =
+        CompositorSettings { mode: CompositeMode::Fullscreen, own_shadow_maps, ..Default::default() };
+    let mut c = Compositor::new(&gpu, scene, settings).unwrap();
     c.render(live).unwrap();
     (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
 }
@@ -244,7 +230,7 @@ fn a_sphere_s_underside_sees_its_own_shadow() {
     scene.set_probes(uniform_probe([1.0; 3]));
     let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
     let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
-    let (linear, mask) = render_linear(&scene, &live);
+    let (linear, mask) = render_linear_with(&scene, &live, false);
     let camera = scene.camera();
     let (w, _) = scene.size();
     let reach = 8.0 * radius;
@@ -315,4 +301,67 @@ fn a_sphere_s_underside_sees_its_own_shadow() {
         far_off * 200 <= checked,
         "{far_off} of {checked} fragments off the CPU's count by more than a direction"
     );
+}
+
+/// Statistics of `a - b` in the red channel over the pixels inside `mask` (the antialiased edge
+/// ring left out): pixels compared, mean absolute difference, the share of pixels differing by
+/// more than `step`, and the largest difference.
+fn red_differences(a: &[f32], b: &[f32], mask: &[u8], width: usize, step: f32) -> (usize, f32, f32, f32) {
+    let (mut n, mut sum, mut over, mut max) = (0usize, 0.0f32, 0usize, 0.0f32);
+    for k in 0..mask.len() {
+        if !inside_mask(mask, width, k) {
+            continue;
+        }
+        let d = (a[4 * k] - b[4 * k]).abs();
+        n += 1;
+        sum += d;
+        over += usize::from(d > step);
+        max = max.max(d);
+    }
+    (n, sum / n.max(1) as f32, over as f32 / n.max(1) as f32, max)
+}
+
+/// The own-shadow loss read from a sphere's map (compositor/loss_map.rs) against the same loss
+/// gathered per fragment, on the scene of `a_sphere_s_underside_sees_its_own_shadow` (each of
+/// the 16 directions reaching the shadow takes 0.5 / 16 from the radiance 1): for the cursor
+/// sphere, and for the same sphere drawn as a live mesh (`--live`'s spheres), whose map is its
+/// row among the shadow-casting spheres. The map is the gather at 32x32 normals, interpolated:
+/// it differs from each fragment's own gather where a direction's march crosses the shadow's
+/// edge between neighbouring texels. Measured on lavapipe: 5909 fragments, mean difference 0.06
+/// of a direction, 0.4% of fragments over one direction, the largest 1.5 directions.
+#[test]
+fn a_sphere_s_loss_map_matches_its_per_fragment_gather() {
+    let light = DVec3::new(-0.2, 0.9, 0.1);
+    let (centre, radius) = (DVec3::new(-0.2, -0.55, 0.1), 0.25);
+    let mut scene = layered_cornell(light, false, 0.5);
+    scene.set_probes(uniform_probe([1.0; 3]));
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let cursor = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let mesh = LiveObjects {
+        sphere: None,
+        meshes: vec![MeshInstance {
+            mesh: std::sync::Arc::new(Mesh::unit_sphere(48, 96)),
+            world_from_object: DMat4::from_translation(centre) * DMat4::from_scale(DVec3::splat(radius)),
+            material,
+            exact_sphere: Some((centre, radius)),
+        }],
+    };
+    let direction = 0.5 / 16.0;
+    for (what, live) in [("cursor sphere", &cursor), ("mesh sphere", &mesh)] {
+        let (mapped, mask) = render_linear_with(&scene, live, true);
+        let (gathered, gathered_mask) = render_linear_with(&scene, live, false);
+        assert_eq!(mask, gathered_mask, "{what}: the maps change no pixel's coverage");
+        let (n, mean, over, max) = red_differences(&mapped, &gathered, &mask, 512, 1.01 * direction);
+        let darkened =
+            (0..mask.len()).filter(|&k| inside_mask(&mask, 512, k) && gathered[4 * k] < 0.97).count();
+        eprintln!(
+            "{what}: {n} fragments, {darkened} darkened; map - gather: mean |d| {mean:.4}, \
+             {:.1}% over one direction, max {max:.4}",
+            100.0 * over
+        );
+        assert!(n > 1000 && darkened > 300, "{what}: {n} fragments, {darkened} darkened");
+        assert!(mean < 0.1 * direction, "{what}: mean difference {mean}");
+        assert!(over < 0.02, "{what}: {over} of the fragments differ by more than a direction");
+        assert!(max < 2.0 * direction, "{what}: largest difference {max}");
+    }
 }

@@ -79,6 +79,17 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage_entry(9),
             storage_entry(10),
             texture_entry(11, wgpu::ShaderStages::FRAGMENT),
+            // The live spheres' own-shadow loss maps (compositor/loss_map.rs), packed halves.
+            wgpu::BindGroupLayoutEntry {
+                binding: 12,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Uint,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
         ],
     })
 }

@@ -9,6 +9,7 @@ mod irradiance;
 mod layers;
 mod lighting;
 mod live_objects;
+mod loss_map;
 mod readback;
 mod reflections;
 mod settings;
@@ -86,6 +87,8 @@ pub struct Compositor {
     depth_storage: wgpu::Buffer,
     /// The frame after shadows, before live objects (copied each frame with live objects).
     shadowed_texture: wgpu::Texture,
+    /// The live spheres' own-shadow loss maps (binding 12).
+    loss_maps: loss_map::LossMaps,
     /// Live objects' edges at four samples per pixel, filtered (`None`: off, for the reason
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
@@ -260,6 +263,7 @@ impl Compositor {
         let gpu_irradiance =
             irradiance::upload(gpu, scene.probes_arc().as_deref(), &lights, &gpu_layers.world_samples);
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        let loss_map_textures = loss_map::LossMapTextures::new(device);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -300,6 +304,10 @@ impl Compositor {
                     binding: 11,
                     resource: wgpu::BindingResource::TextureView(&view(&shadowed_texture)),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 12,
+                    resource: wgpu::BindingResource::TextureView(&loss_map_textures.read_view),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -337,6 +345,7 @@ impl Compositor {
             bind_group_layouts: &[Some(&frame_layout), Some(&mesh_layout)],
             immediate_size: 0,
         });
+        let loss_maps = loss_map::LossMaps::new(device, loss_map_textures, &module, &with_mesh);
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
@@ -566,6 +575,7 @@ impl Compositor {
             readback_bind_group,
             depth_storage,
             shadowed_texture,
+            loss_maps,
             antialias,
             antialias_off,
         })
@@ -630,7 +640,9 @@ impl Compositor {
         let uniform = self.frame_uniform(live);
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 
+        let loss_map_rows = loss_map::mesh_rows(&uniform, live);
         // Meshes: register new ones, then one uniform slot per instance.
+        let mut mesh_bytes = Vec::new();
         let mut draws = Vec::with_capacity(live.meshes.len());
         for instance in &live.meshes {
             if !instance.world_from_object.is_finite() {
@@ -650,7 +662,7 @@ impl Compositor {
                     Self::make_mesh_bind_group(&self.gpu.device, &self.mesh_layout, &self.mesh_uniform);
             }
             let camera_from_world = self.projection.camera().camera_from_world();
-            let mut bytes = vec![0u8; (needed * self.mesh_uniform_stride) as usize];
+            mesh_bytes = vec![0u8; (needed * self.mesh_uniform_stride) as usize];
             for (slot, instance) in live.meshes.iter().filter(|m| m.world_from_object.is_finite()).enumerate()
             {
                 let camera_from_object = camera_from_world * instance.world_from_object;
@@ -659,11 +671,13 @@ impl Compositor {
                     camera_from_object: mat4_f32(camera_from_object),
                     normal_from_object: Mat4::from_mat3(normal.as_mat3()).to_cols_array_2d(),
                     material: GpuMaterial::from(&instance.material),
+                    loss_map: [loss_map_rows[slot], 0, 0, 0],
                 };
                 let at = slot * self.mesh_uniform_stride as usize;
-                bytes[at..at + std::mem::size_of::<MeshUniform>()].copy_from_slice(bytemuck::bytes_of(&u));
+                mesh_bytes[at..at + std::mem::size_of::<MeshUniform>()]
+                    .copy_from_slice(bytemuck::bytes_of(&u));
             }
-            self.gpu.queue.write_buffer(&self.mesh_uniform, 0, &bytes);
+            self.gpu.queue.write_buffer(&self.mesh_uniform, 0, &mesh_bytes);
         }
 
         let sphere = uniform.counts[2] == 1;
@@ -693,6 +707,7 @@ impl Compositor {
                 self.shadowed_texture.as_image_copy(),
                 wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
             );
+            self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
             self.record_live(&mut pass, &draws, sphere);
         }

@@ -111,6 +111,8 @@ struct MeshUniform {
     camera_from_object: mat4x4<f32>,
     normal_from_object: mat4x4<f32>,
     material: Material,
+    // x: the mesh's row in the own-shadow loss maps when it is a sphere, else -1.
+    loss_map: vec4<i32>,
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniform;
@@ -527,7 +529,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
     // The probes saw the scene before the live objects' shadows took light from it.
     var loss = ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
     if frame.counts.y == 1u && (frame.counts.w == 1u || reflections) {
-        loss = shadow_loss(p, n, v, exponent);
+        loss = own_shadow_loss(p, n, v, exponent);
         let to_radiance = 1.0 / max(frame.tone.x, 1e-30);
         loss = ShadowLoss(loss.irradiance * to_radiance, loss.glossy * to_radiance);
     }
@@ -638,6 +640,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     }
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
+    loss_map_row = 0;
     var out: LiveOut;
     out.colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(position.xy).direction));
     out.mask = vec4<f32>(1.0);
@@ -672,6 +675,7 @@ struct MeshFragmentOut {
 fn mesh_colour(in: MeshVertexOut) -> vec4<f32> {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
+    loss_map_row = mesh.loss_map.x;
     return to_image_units(shade(mesh.material, in.p_camera, n, ray.direction));
 }
 
