@@ -183,3 +183,39 @@ fn without_antialiasing_pixels_are_centre_samples() {
         assert_eq!(&linear[4 * k..4 * k + 3], &want, "pixel {k}");
     }
 }
+
+/// Antialiasing touches only the pixels near live objects, and keeps nothing of an earlier
+/// frame: a sphere that moved gives, bit for bit, the frame a fresh compositor draws with it
+/// there (lit, shadowing and seeing its own shadow), and with it gone the frame is the image.
+#[test]
+fn a_frame_after_a_move_equals_a_fresh_one() {
+    let light = DVec3::new(-0.2, 0.9, 0.1);
+    let mut scene = layered_cornell(light, false, 0.5);
+    scene.set_probes(uniform_probe([1.0; 3]));
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let sphere_at = |centre: DVec3| LiveObjects {
+        sphere: Some(Sphere { centre, radius: 0.25, material }),
+        meshes: Vec::new(),
+    };
+    let gpu = gpu();
+    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+    let mut moving = Compositor::new(&gpu, &scene, settings).unwrap();
+    assert!(moving.antialias_off().is_none(), "{:?}", moving.antialias_off());
+    moving.render(&sphere_at(DVec3::new(-0.2, -0.55, 0.1))).unwrap();
+    let image = {
+        let mut empty = Compositor::new(&gpu, &scene, settings).unwrap();
+        empty.render(&LiveObjects::default()).unwrap();
+        empty.read_back_linear().unwrap().rgba
+    };
+    let there = sphere_at(DVec3::new(0.3, -0.3, -0.2));
+    moving.render(&there).unwrap();
+    let mut fresh = Compositor::new(&gpu, &scene, settings).unwrap();
+    fresh.render(&there).unwrap();
+    let (got, want) = (moving.read_back_linear().unwrap().rgba, fresh.read_back_linear().unwrap().rgba);
+    assert_ne!(want, image, "the sphere is in view");
+    let differing = got.iter().zip(&want).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+    assert_eq!(differing, 0, "{differing} channels differ from a fresh compositor's frame");
+    moving.render(&LiveObjects::default()).unwrap();
+    let gone = moving.read_back_linear().unwrap().rgba;
+    assert!(gone.iter().zip(&image).all(|(a, b)| a.to_bits() == b.to_bits()), "the sphere left a trace");
+}

@@ -1,13 +1,15 @@
 //! Antialiased edges of live objects, as the ray tracer's pixel filter makes its own objects'
 //! edges: the centre-sampled frame (colour, mask and depth, as without antialiasing) is drawn
-//! first; live objects are then drawn again at four samples per pixel, depth-tested against the
-//! pre-rendered depth, each sample holding the live colour or nothing; a resolve pass filters
-//! those samples with the image's pixel filter over the pixel's neighbourhood and blends them
-//! with the pixel's own backdrop after shadows (`shaders/resolve.wgsl`).
+//! first, into the linear frame; live objects are then drawn again at four samples per pixel,
+//! depth-tested against the pre-rendered depth, each sample holding the live colour or nothing;
+//! the centre-sampled colours near them are copied aside, and a resolve pass filters the samples
+//! with the image's pixel filter over the pixel's neighbourhood and blends them with the pixel's
+//! own backdrop after shadows (`shaders/resolve.wgsl`).
 //!
-//! Only pixels near live objects are touched (the live objects' screen bounds plus the filter's
-//! reach); elsewhere, and wherever no live sample reaches, the frame keeps the centre-sampled
-//! value bit for bit. The mask and depth read back stay those of the pixel centre.
+//! Only pixels near live objects are touched, by every pass and copy (the live objects' screen
+//! bounds plus the filter's reach, twice for what the resolve reads); elsewhere, and wherever no
+//! live sample reaches, the frame keeps the centre-sampled value bit for bit. The mask and depth
+//! read back stay those of the pixel centre.
 
 use super::Compositor;
 use super::lighting::FrameUniform;
@@ -32,9 +34,8 @@ struct ResolveUniform {
 /// The GPU resources of antialiasing.
 #[derive(Debug)]
 pub(super) struct Antialias {
-    /// The centre-sampled frame, drawn first.
-    pub(super) centre_texture: wgpu::Texture,
-    pub(super) centre_view: wgpu::TextureView,
+    /// The centre-sampled frame near the live objects, copied before the resolve overwrites it.
+    centre_texture: wgpu::Texture,
     samples_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
     backdrop_pipeline: wgpu::RenderPipeline,
@@ -95,12 +96,8 @@ impl Antialias {
         };
         use wgpu::TextureUsages as U;
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-        let centre_texture = texture(
-            "centre-sampled frame",
-            setup.linear_format,
-            1,
-            U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
-        );
+        let centre_texture =
+            texture("centre-sampled frame", setup.linear_format, 1, U::COPY_DST | U::TEXTURE_BINDING);
         let samples_texture =
             texture("live samples", SAMPLE_FORMAT, SAMPLE_COUNT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
         let depth_texture =
@@ -321,7 +318,6 @@ impl Antialias {
         });
         Antialias {
             centre_texture,
-            centre_view,
             samples_view,
             depth_view: view(&depth_texture),
             backdrop_pipeline,
@@ -371,8 +367,9 @@ impl Compositor {
     }
 
     /// Draws live objects at four samples per pixel into the antialiasing targets and filters
-    /// them into the linear frame within `bounds` (the rest of the frame is the centre-sampled
-    /// one, copied first).
+    /// them into the linear frame (drawn at pixel centres) within `bounds` plus the filter's
+    /// reach. Every pass and copy is cut to the live objects' bounds: the frame elsewhere is
+    /// never touched.
     pub(super) fn record_antialiased(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -381,24 +378,27 @@ impl Compositor {
         sphere: bool,
     ) {
         let Some(aa) = &self.antialias else { return };
-        let far = self.settings.depth.convention.far_window_depth();
-        let [x, y, w, h] = bounds;
+        // The resolve writes the pixels the filter carries live samples to (`reach` beyond the
+        // bounds) and reads the samples and centre values `reach` beyond those.
+        let (rx, ry) = aa.reach;
+        let [x0, y0, x1, y1] = self.grown(bounds, rx, ry);
+        let [sx0, sy0, sx1, sy1] = self.grown(bounds, 2 * rx, 2 * ry);
         {
+            // Loaded, not cleared: the backdrop's depth pass below writes every sample the
+            // resolve reads (colour zero, the pre-rendered depth), so clearing all of a large
+            // frame's samples would be wasted.
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("live coverage"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                     view: &aa.samples_view,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &aa.depth_view,
                     depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(far),
+                        load: wgpu::LoadOp::Load,
                         store: wgpu::StoreOp::Discard,
                     }),
                     stencil_ops: None,
@@ -407,7 +407,7 @@ impl Compositor {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_scissor_rect(x, y, w, h);
+            pass.set_scissor_rect(sx0, sy0, sx1 - sx0, sy1 - sy0);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_pipeline(&aa.backdrop_pipeline);
             pass.draw(0..3, 0..1);
@@ -415,15 +415,12 @@ impl Compositor {
             pass.set_bind_group(2, &aa.mask_bind_group, &[]);
             self.draw_live(&mut pass, (&aa.mesh_pipeline, &aa.sphere_pipeline), draws, sphere);
         }
+        let origin = wgpu::Origin3d { x: sx0, y: sy0, z: 0 };
         encoder.copy_texture_to_texture(
-            aa.centre_texture.as_image_copy(),
-            self.linear_texture.as_image_copy(),
-            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+            wgpu::TexelCopyTextureInfo { origin, ..self.linear_texture.as_image_copy() },
+            wgpu::TexelCopyTextureInfo { origin, ..aa.centre_texture.as_image_copy() },
+            wgpu::Extent3d { width: sx1 - sx0, height: sy1 - sy0, depth_or_array_layers: 1 },
         );
-        // The filter carries live samples up to `reach` pixels beyond the objects' bounds.
-        let (rx, ry) = aa.reach;
-        let (x0, y0) = (x.saturating_sub(rx), y.saturating_sub(ry));
-        let (x1, y1) = ((x + w + rx).min(self.width), (y + h + ry).min(self.height));
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("resolve"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -441,5 +438,16 @@ impl Compositor {
         pass.set_pipeline(&aa.resolve_pipeline);
         pass.set_bind_group(0, &aa.resolve_bind_group, &[]);
         pass.draw(0..3, 0..1);
+    }
+
+    /// `bounds` (x, y, width, height) grown by `mx` and `my` pixels on each side, within the
+    /// frame, as corners (x0, y0, x1, y1).
+    fn grown(&self, [x, y, w, h]: [u32; 4], mx: u32, my: u32) -> [u32; 4] {
+        [
+            x.saturating_sub(mx),
+            y.saturating_sub(my),
+            x.saturating_add(w).saturating_add(mx).min(self.width),
+            y.saturating_add(h).saturating_add(my).min(self.height),
+        ]
     }
 }

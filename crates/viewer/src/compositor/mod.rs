@@ -685,11 +685,8 @@ impl Compositor {
             self.antialias.as_ref().and_then(|aa| Some((aa, self.live_bounds(&uniform, live, &draws)?)));
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        // Live objects' edges are resolved from a centre-sampled copy into the linear frame.
-        let (target, target_texture) = match antialiased {
-            Some((aa, _)) => (&aa.centre_view, &aa.centre_texture),
-            None => (&self.linear_view, &self.linear_texture),
-        };
+        // Live objects' edges are resolved into the linear frame from a copy of it near them.
+        let (target, target_texture) = (&self.linear_view, &self.linear_texture);
         let live_drawn = !draws.is_empty() || sphere;
         // The backdrop after shadows is read by live objects' shading (the light their shadows
         // took, with shadows on) and by their edges' resolve: kept only for them.
