@@ -41,6 +41,8 @@ pub(super) struct Antialias {
     backdrop_pipeline: wgpu::RenderPipeline,
     sphere_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
+    /// Live spheres drawn as meshes, covered as exact spheres (`fs_mesh_sphere_coverage`).
+    mesh_sphere_pipeline: wgpu::RenderPipeline,
     resolve_pipeline: wgpu::RenderPipeline,
     resolve_bind_group: wgpu::BindGroup,
     /// The centre-sampled mask, for the mesh coverage pass (group 2).
@@ -194,16 +196,27 @@ impl Antialias {
             triangles,
             wgpu::CompareFunction::Always,
         );
+        // The spheres' bounding cubes: back faces, so the cube covers the sphere with the eye
+        // inside it (composite.wgsl vs_sphere).
+        let cube = wgpu::PrimitiveState {
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: Some(wgpu::Face::Front),
+            ..Default::default()
+        };
         let sphere_pipeline = pipeline(
             "sphere coverage",
             &frame_only,
             ("vs_sphere", "fs_sphere_coverage"),
             &[],
-            wgpu::PrimitiveState {
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: Some(wgpu::Face::Front),
-                ..Default::default()
-            },
+            cube,
+            setup.nearer,
+        );
+        let mesh_sphere_pipeline = pipeline(
+            "mesh sphere coverage",
+            &with_mesh,
+            ("vs_mesh_sphere_coverage", "fs_mesh_sphere_coverage"),
+            &[],
+            cube,
             setup.nearer,
         );
         let mesh_pipeline = pipeline(
@@ -323,12 +336,31 @@ impl Antialias {
             backdrop_pipeline,
             sphere_pipeline,
             mesh_pipeline,
+            mesh_sphere_pipeline,
             resolve_pipeline,
             resolve_bind_group,
             mask_bind_group,
             reach,
         }
     }
+}
+
+/// Where live objects can be this frame, for their coverage.
+#[derive(Debug)]
+pub(super) struct LiveBounds {
+    /// The pixels they can cover (x, y, width, height).
+    rect: [u32; 4],
+    /// Per mesh slot: whether it draws an exact sphere (its transform a translation and a
+    /// uniform scale of the unit sphere), covered by ray casting rather than by its triangles.
+    exact_spheres: Vec<bool>,
+}
+
+/// Whether `instance` draws its exact sphere with a transform that moves the unit sphere onto it.
+fn covered_as_sphere(instance: &crate::live::MeshInstance) -> bool {
+    instance.exact_sphere.is_some_and(|(c, r)| {
+        let placed = glam::DMat4::from_translation(c) * glam::DMat4::from_scale(DVec3::splat(r));
+        r > 0.0 && instance.world_from_object.abs_diff_eq(placed, 1e-9 * (1.0 + c.abs().max_element() + r))
+    })
 }
 
 impl Compositor {
@@ -339,7 +371,7 @@ impl Compositor {
         uniform: &FrameUniform,
         live: &LiveObjects,
         draws: &[usize],
-    ) -> Option<[u32; 4]> {
+    ) -> Option<LiveBounds> {
         let mut union = None;
         if uniform.counts[2] == 1 {
             let s = uniform.sphere;
@@ -363,7 +395,9 @@ impl Compositor {
                 .collect();
             union = super::shadows::merge(union, self.screen_bounds(&corners));
         }
-        union
+        let exact_spheres =
+            live.meshes.iter().filter(|m| m.world_from_object.is_finite()).map(covered_as_sphere).collect();
+        Some(LiveBounds { rect: union?, exact_spheres })
     }
 
     /// Draws live objects at four samples per pixel into the antialiasing targets and filters
@@ -373,11 +407,12 @@ impl Compositor {
     pub(super) fn record_antialiased(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        bounds: [u32; 4],
+        bounds: LiveBounds,
         draws: &[usize],
         sphere: bool,
     ) {
         let Some(aa) = &self.antialias else { return };
+        let LiveBounds { rect: bounds, exact_spheres } = bounds;
         // The resolve writes the pixels the filter carries live samples to (`reach` beyond the
         // bounds) and reads the samples and centre values `reach` beyond those.
         let (rx, ry) = aa.reach;
@@ -411,9 +446,26 @@ impl Compositor {
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_pipeline(&aa.backdrop_pipeline);
             pass.draw(0..3, 0..1);
-            // The mesh coverage pipeline reads the centre mask (group 2).
+            // The mesh coverage pipelines read the centre mask (group 2).
             pass.set_bind_group(2, &aa.mask_bind_group, &[]);
-            self.draw_live(&mut pass, (&aa.mesh_pipeline, &aa.sphere_pipeline), draws, sphere);
+            for (slot, &k) in draws.iter().enumerate() {
+                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+                if exact_spheres.get(slot).copied().unwrap_or(false) {
+                    pass.set_pipeline(&aa.mesh_sphere_pipeline);
+                    pass.draw(0..36, 0..1);
+                } else {
+                    let mesh = &self.meshes[k];
+                    pass.set_pipeline(&aa.mesh_pipeline);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+                }
+            }
+            if sphere {
+                pass.set_pipeline(&aa.sphere_pipeline);
+                pass.draw(0..36, 0..1);
+            }
         }
         let origin = wgpu::Origin3d { x: sx0, y: sy0, z: 0 };
         encoder.copy_texture_to_texture(

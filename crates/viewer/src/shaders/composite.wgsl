@@ -570,6 +570,13 @@ struct SphereVertexOut {
 
 @vertex
 fn vs_sphere(@builtin(vertex_index) index: u32) -> SphereVertexOut {
+    var out: SphereVertexOut;
+    out.position = sphere_cube_clip(index, frame.sphere);
+    return out;
+}
+
+// Corner `index` (0 to 35) of the bounding cube of `sphere` (camera-space centre, radius).
+fn sphere_cube_clip(index: u32, sphere: vec4<f32>) -> vec4<f32> {
     // 12 triangles of a unit cube, wound so that the outside is the front in raster space.
     var corners = array<vec3<f32>, 8>(
         vec3<f32>(-1.0, -1.0, -1.0), vec3<f32>(1.0, -1.0, -1.0), vec3<f32>(1.0, 1.0, -1.0), vec3<f32>(-1.0, 1.0, -1.0),
@@ -585,20 +592,22 @@ fn vs_sphere(@builtin(vertex_index) index: u32) -> SphereVertexOut {
     );
     let corner = corners[indices[index]];
     // A slightly larger cube so that rounding never trims the silhouette.
-    let p = frame.sphere.xyz + corner * frame.sphere.w * 1.001;
+    let p = sphere.xyz + corner * sphere.w * 1.001;
     var clip = frame.clip_from_camera * vec4<f32>(p, 1.0);
     clip.z = 0.5 * clip.w;
-    var out: SphereVertexOut;
-    out.position = clip;
-    return out;
+    return clip;
 }
 
 // The sphere's nearest visible hit along the ray through `raster`: camera-space point and
 // window depth, w < 0 when the ray misses it or its hits lie outside the depth range.
 fn sphere_hit(raster: vec2<f32>) -> vec4<f32> {
+    return sphere_hit_of(raster, frame.sphere);
+}
+
+fn sphere_hit_of(raster: vec2<f32>, sphere: vec4<f32>) -> vec4<f32> {
     let ray = ray_through_raster(raster);
-    let c = frame.sphere.xyz;
-    let r = frame.sphere.w;
+    let c = sphere.xyz;
+    let r = sphere.w;
     // Numerically robust ray-sphere intersection (Haines et al., Ray Tracing Gems, ch. 7).
     let f = ray.origin - c;
     let b = dot(f, ray.direction);
