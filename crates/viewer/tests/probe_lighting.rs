@@ -233,7 +233,6 @@ fn a_sphere_s_underside_sees_its_own_shadow() {
     let (linear, mask) = render_linear_with(&scene, &live, false);
     let camera = scene.camera();
     let (w, _) = scene.size();
-    let reach = 8.0 * radius;
     let (mut checked, mut wrong, mut far_off, mut darkened) = (0, 0, 0, 0);
     for k in 0..mask.len() {
         if !inside_mask(&mask, w as usize, k) {
@@ -247,40 +246,7 @@ fn a_sphere_s_underside_sees_its_own_shadow() {
         if n.dot(light - p) > 0.0 {
             continue;
         }
-        // The shader's directions (composite.wgsl shadow_loss_irradiance), built as it builds
-        // them in camera space, then taken to world space.
-        let n_camera = camera.camera_from_world().transform_vector3(n).normalize();
-        let helper = if n_camera.x.abs() > 0.9 { DVec3::Y } else { DVec3::X };
-        let tangent = helper.cross(n_camera).normalize();
-        let bitangent = n_camera.cross(tangent);
-        let world = |v: DVec3| camera.world_from_camera().transform_vector3(v).normalize();
-        let mut in_shadow = 0;
-        for d in 0..16 {
-            let u = (f64::from(d) + 0.5) / 16.0;
-            let phi = f64::from(d) * 2.399_963_23;
-            let dir = world(
-                tangent * (u.sqrt() * phi.cos())
-                    + bitangent * (u.sqrt() * phi.sin())
-                    + n_camera * (1.0 - u).sqrt(),
-            );
-            if dir.y >= 0.0 {
-                continue;
-            }
-            let s = (-1.0 - p.y) / dir.y;
-            let floor = p + dir * s;
-            let to_light = light - floor;
-            let shadowed = ray_sphere(floor, to_light.normalize(), centre, radius).is_some();
-            // The march finds surfaces the eye sees in the render without the sphere only.
-            let seen = raster_of(camera, floor);
-            let (fi, fj) = (seen.x.floor() as u32, seen.y.floor() as u32);
-            let visible = fi < w
-                && fj < w
-                && scene.depth().get(fi, fj).is_some_and(|r| {
-                    let eye_ray = camera.pixel_centre_world_ray(fi, fj);
-                    (f64::from(r) - (floor - eye_ray.origin).length()).abs() < 0.02
-                });
-            in_shadow += usize::from(s <= reach && shadowed && visible);
-        }
+        let in_shadow = directions_in_shadow(&scene, (light, centre, radius), p, n, 16);
         let got = linear[4 * k];
         // The GPU's count of directions reaching the shadow, from the fragment's radiance.
         let gpu_count = (1.0 - got) / 0.5 * 16.0;
@@ -303,34 +269,67 @@ fn a_sphere_s_underside_sees_its_own_shadow() {
     );
 }
 
-/// Statistics of `a - b` in the red channel over the pixels inside `mask` (the antialiased edge
-/// ring left out): pixels compared, mean absolute difference, the share of pixels differing by
-/// more than `step`, and the largest difference.
-fn red_differences(a: &[f32], b: &[f32], mask: &[u8], width: usize, step: f32) -> (usize, f32, f32, f32) {
-    let (mut n, mut sum, mut over, mut max) = (0usize, 0.0f32, 0usize, 0.0f32);
-    for k in 0..mask.len() {
-        if !inside_mask(mask, width, k) {
+/// How many of `count` cosine-distributed directions from `p` (world space, unit normal `n` of
+/// the sphere `(centre, radius)`) reach, within the gather's reach, floor of the Cornell box
+/// (`y = -1`) that the sphere shadows from the point light `light` and that the eye sees in the
+/// render: the shader's directions (shadow_loss.wgsl shadow_loss_over), built as it builds them
+/// in camera space, then taken to world space.
+fn directions_in_shadow(
+    scene: &ViewerScene,
+    (light, centre, radius): (DVec3, DVec3, f64),
+    p: DVec3,
+    n: DVec3,
+    count: u32,
+) -> usize {
+    let camera = scene.camera();
+    let (w, _) = scene.size();
+    let reach = 8.0 * radius;
+    let n_camera = camera.camera_from_world().transform_vector3(n).normalize();
+    let helper = if n_camera.x.abs() > 0.9 { DVec3::Y } else { DVec3::X };
+    let tangent = helper.cross(n_camera).normalize();
+    let bitangent = n_camera.cross(tangent);
+    let world = |v: DVec3| camera.world_from_camera().transform_vector3(v).normalize();
+    let mut in_shadow = 0;
+    for d in 0..count {
+        let u = (f64::from(d) + 0.5) / f64::from(count);
+        let phi = f64::from(d) * 2.399_963_23;
+        let dir = world(
+            tangent * (u.sqrt() * phi.cos())
+                + bitangent * (u.sqrt() * phi.sin())
+                + n_camera * (1.0 - u).sqrt(),
+        );
+        if dir.y >= 0.0 {
             continue;
         }
-        let d = (a[4 * k] - b[4 * k]).abs();
-        n += 1;
-        sum += d;
-        over += usize::from(d > step);
-        max = max.max(d);
+        let s = (-1.0 - p.y) / dir.y;
+        let floor = p + dir * s;
+        let to_light = light - floor;
+        let shadowed = ray_sphere(floor, to_light.normalize(), centre, radius).is_some();
+        // The march finds surfaces the eye sees in the render without the sphere only.
+        let seen = raster_of(camera, floor);
+        let (fi, fj) = (seen.x.floor() as u32, seen.y.floor() as u32);
+        let visible = fi < w
+            && fj < w
+            && scene.depth().get(fi, fj).is_some_and(|r| {
+                let eye_ray = camera.pixel_centre_world_ray(fi, fj);
+                (f64::from(r) - (floor - eye_ray.origin).length()).abs() < 0.02
+            });
+        in_shadow += usize::from(s <= reach && shadowed && visible);
     }
-    (n, sum / n.max(1) as f32, over as f32 / n.max(1) as f32, max)
+    in_shadow
 }
 
-/// The own-shadow loss read from a sphere's map (compositor/loss_map.rs) against the same loss
-/// gathered per fragment, on the scene of `a_sphere_s_underside_sees_its_own_shadow` (each of
-/// the 16 directions reaching the shadow takes 0.5 / 16 from the radiance 1): for the cursor
-/// sphere, and for the same sphere drawn as a live mesh (`--live`'s spheres), whose map is its
-/// row among the shadow-casting spheres. The map is the gather at 32x32 normals, interpolated:
-/// it differs from each fragment's own gather where a direction's march crosses the shadow's
-/// edge between neighbouring texels. Measured on lavapipe: 5909 fragments, mean difference 0.06
-/// of a direction, 0.4% of fragments over one direction, the largest 1.5 directions.
+/// The own-shadow loss read from a sphere's map (compositor/loss_map.rs) and gathered per
+/// fragment, against the loss over 1024 directions traced on the CPU, on the scene of
+/// `a_sphere_s_underside_sees_its_own_shadow` (the share of directions reaching the shadow takes
+/// up to 0.5 from the radiance 1): for the cursor sphere, and for the same sphere drawn as a live
+/// mesh (`--live`'s spheres), whose map is its row among the shadow-casting spheres. The map
+/// gathers 64 directions per texel and is read bilinearly; it is closer to the reference than
+/// each fragment's own 16 directions. Measured on lavapipe (3112 fragments facing away from
+/// the light, 1046 darkened): mean error 0.0028 from the map (the largest 0.024), 0.0093 from
+/// the gather, for either sphere.
 #[test]
-fn a_sphere_s_loss_map_matches_its_per_fragment_gather() {
+fn a_sphere_s_loss_map_is_closer_to_the_loss_than_the_per_fragment_gather() {
     let light = DVec3::new(-0.2, 0.9, 0.1);
     let (centre, radius) = (DVec3::new(-0.2, -0.55, 0.1), 0.25);
     let mut scene = layered_cornell(light, false, 0.5);
@@ -346,22 +345,41 @@ fn a_sphere_s_loss_map_matches_its_per_fragment_gather() {
             exact_sphere: Some((centre, radius)),
         }],
     };
-    let direction = 0.5 / 16.0;
+    let camera = scene.camera();
+    let (w, _) = scene.size();
     for (what, live) in [("cursor sphere", &cursor), ("mesh sphere", &mesh)] {
         let (mapped, mask) = render_linear_with(&scene, live, true);
         let (gathered, gathered_mask) = render_linear_with(&scene, live, false);
         assert_eq!(mask, gathered_mask, "{what}: the maps change no pixel's coverage");
-        let (n, mean, over, max) = red_differences(&mapped, &gathered, &mask, 512, 1.01 * direction);
-        let darkened =
-            (0..mask.len()).filter(|&k| inside_mask(&mask, 512, k) && gathered[4 * k] < 0.97).count();
+        let (mut n, mut darkened, mut map_error, mut gather_error, mut map_max) = (0, 0, 0.0, 0.0, 0.0f64);
+        for k in 0..mask.len() {
+            if !inside_mask(&mask, w as usize, k) {
+                continue;
+            }
+            let ray = camera.pixel_centre_world_ray((k as u32) % w, (k as u32) / w);
+            let Some(t) = ray_sphere(ray.origin, ray.direction, centre, radius) else { continue };
+            let p = ray.origin + t * ray.direction;
+            let normal = (p - centre) / radius;
+            if normal.dot(light - p) > 0.0 {
+                continue;
+            }
+            let share =
+                directions_in_shadow(&scene, (light, centre, radius), p, normal, 1024) as f64 / 1024.0;
+            let reference = 1.0 - 0.5 * share;
+            n += 1;
+            darkened += usize::from(reference < 0.97);
+            let e = (f64::from(mapped[4 * k]) - reference).abs();
+            map_error += e;
+            map_max = map_max.max(e);
+            gather_error += (f64::from(gathered[4 * k]) - reference).abs();
+        }
+        let (map_error, gather_error) = (map_error / f64::from(n), gather_error / f64::from(n));
         eprintln!(
-            "{what}: {n} fragments, {darkened} darkened; map - gather: mean |d| {mean:.4}, \
-             {:.1}% over one direction, max {max:.4}",
-            100.0 * over
+            "{what}: {n} fragments facing away from the light, {darkened} darkened; mean error against 1024 \
+             directions: map {map_error:.4} (largest {map_max:.4}), per-fragment gather {gather_error:.4}"
         );
         assert!(n > 1000 && darkened > 300, "{what}: {n} fragments, {darkened} darkened");
-        assert!(mean < 0.1 * direction, "{what}: mean difference {mean}");
-        assert!(over < 0.02, "{what}: {over} of the fragments differ by more than a direction");
-        assert!(max < 2.0 * direction, "{what}: largest difference {max}");
+        assert!(map_error <= gather_error, "{what}: map {map_error} against gather {gather_error}");
+        assert!(map_max < 0.1, "{what}: largest error {map_max}");
     }
 }
