@@ -792,7 +792,8 @@ impl Compositor {
     }
 
     /// Draws the live meshes (`draws`: their slots) and the cursor sphere with these pipelines
-    /// (centre-sampled, or the antialiasing's coverage).
+    /// (the centre-sampled ones; the antialiasing's coverage has its own loop, which covers
+    /// live spheres drawn as meshes as exact spheres).
     pub(super) fn draw_live(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
