@@ -111,11 +111,6 @@ struct ShadowLoss {
 }
 
 fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> ShadowLoss {
-    return shadow_loss_over(p, n, v, exponent, SHADOW_GATHER_DIRECTIONS);
-}
-
-// shadow_loss over `count` directions.
-fn shadow_loss_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, count: u32) -> ShadowLoss {
     let reach = shadow_gather_reach();
     if reach <= 0.0 {
         return ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
@@ -127,9 +122,9 @@ fn shadow_loss_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, cou
     let origin = p + n * (reach * 1e-3);
     var irradiance = vec3<f32>(0.0);
     var glossy = vec3<f32>(0.0);
-    for (var i = 0u; i < count; i = i + 1u) {
+    for (var i = 0u; i < SHADOW_GATHER_DIRECTIONS; i = i + 1u) {
         // Cosine-distributed directions on a spiral (uniform in the disc, lifted).
-        let u = (f32(i) + 0.5) / f32(count);
+        let u = (f32(i) + 0.5) / f32(SHADOW_GATHER_DIRECTIONS);
         let radius = sqrt(u);
         let phi = f32(i) * GOLDEN_ANGLE;
         let cos_w = sqrt(1.0 - u);
@@ -140,7 +135,7 @@ fn shadow_loss_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, cou
         glossy += loss * (blinn_lobe_cos(n, v, w, exponent) / cos_w);
     }
     // Over cosine-distributed directions: E = pi / N * sum of L, L_o = pi / N * sum of f L.
-    let scale = PI / f32(count);
+    let scale = PI / f32(SHADOW_GATHER_DIRECTIONS);
     return ShadowLoss(irradiance * scale, glossy * scale);
 }
 
@@ -154,9 +149,6 @@ fn shadow_loss_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, cou
 // loss_map_sphere.
 
 const LOSS_MAP_TEXELS: u32 = 32u;
-// Directions per texel: the map is drawn once for many frames and fragments, so it gathers over
-// four times the directions a fragment would, a less noisy estimate of the same integral.
-const LOSS_MAP_DIRECTIONS: u32 = 64u;
 
 // Per texel: irradiance rgb and glossy rgb as six half floats (pack2x16float), and 1 where the
 // texel holds a sphere's loss (0: the row was never drawn, or its sphere has no map).
@@ -278,7 +270,7 @@ fn fs_loss_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<u32>
         roughness = frame.sphere_material.coefficients.w;
     }
     let exponent = clamp(1.0 / max(roughness, 1e-4), 1.0, 10000.0);
-    let loss = shadow_loss_over(p, n, v, exponent, LOSS_MAP_DIRECTIONS);
+    let loss = shadow_loss(p, n, v, exponent);
     let top = vec3<f32>(65504.0);
     let irradiance = min(loss.irradiance, top);
     let glossy = min(loss.glossy, top);
