@@ -98,6 +98,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         depth_range: None,
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
         antialias: settings.antialias,
+        own_shadow_maps: true,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }

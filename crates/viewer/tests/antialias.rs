@@ -183,3 +183,81 @@ fn without_antialiasing_pixels_are_centre_samples() {
         assert_eq!(&linear[4 * k..4 * k + 3], &want, "pixel {k}");
     }
 }
+
+/// Antialiasing touches only the pixels near live objects, and keeps nothing of an earlier
+/// frame: a sphere that moved gives, bit for bit, the frame a fresh compositor draws with it
+/// there (lit, shadowing and seeing its own shadow), and with it gone the frame is the image.
+#[test]
+fn a_frame_after_a_move_equals_a_fresh_one() {
+    let light = DVec3::new(-0.2, 0.9, 0.1);
+    let mut scene = layered_cornell(light, false, 0.5);
+    scene.set_probes(uniform_probe([1.0; 3]));
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let sphere_at = |centre: DVec3| LiveObjects {
+        sphere: Some(Sphere { centre, radius: 0.25, material }),
+        meshes: Vec::new(),
+    };
+    let gpu = gpu();
+    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+    let mut moving = Compositor::new(&gpu, &scene, settings).unwrap();
+    assert!(moving.antialias_off().is_none(), "{:?}", moving.antialias_off());
+    moving.render(&sphere_at(DVec3::new(-0.2, -0.55, 0.1))).unwrap();
+    let image = {
+        let mut empty = Compositor::new(&gpu, &scene, settings).unwrap();
+        empty.render(&LiveObjects::default()).unwrap();
+        empty.read_back_linear().unwrap().rgba
+    };
+    let there = sphere_at(DVec3::new(0.3, -0.3, -0.2));
+    moving.render(&there).unwrap();
+    let mut fresh = Compositor::new(&gpu, &scene, settings).unwrap();
+    fresh.render(&there).unwrap();
+    let (got, want) = (moving.read_back_linear().unwrap().rgba, fresh.read_back_linear().unwrap().rgba);
+    assert_ne!(want, image, "the sphere is in view");
+    let differing = got.iter().zip(&want).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+    assert_eq!(differing, 0, "{differing} channels differ from a fresh compositor's frame");
+    moving.render(&LiveObjects::default()).unwrap();
+    let gone = moving.read_back_linear().unwrap().rgba;
+    assert!(gone.iter().zip(&image).all(|(a, b)| a.to_bits() == b.to_bits()), "the sphere left a trace");
+}
+
+/// A live sphere drawn as a mesh (as `--live` draws RIB spheres) is covered as the exact
+/// sphere, as the cursor sphere is: their antialiased frames agree but where the tessellated
+/// silhouette and the sphere's differ at a pixel centre.
+#[test]
+fn a_mesh_sphere_s_edges_are_the_exact_sphere_s() {
+    let mut scene = grey_cornell(vec![], 0);
+    scene.set_pixel_filter(PixelFilter::from_rib("gaussian", 2.0, 2.0).unwrap());
+    let (centre, radius) = (DVec3::new(0.1, 0.05, 0.2), 0.31);
+    let material = Material::unlit(COLOUR);
+    let cursor = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let mesh = LiveObjects {
+        sphere: None,
+        meshes: vec![viewer::MeshInstance {
+            mesh: std::sync::Arc::new(viewer::Mesh::unit_sphere(48, 96)),
+            world_from_object: glam::DMat4::from_translation(centre)
+                * glam::DMat4::from_scale(DVec3::splat(radius)),
+            material,
+            exact_sphere: Some((centre, radius)),
+        }],
+    };
+    let gpu = gpu();
+    let settings =
+        CompositorSettings { mode: CompositeMode::Fullscreen, shadows: None, ..Default::default() };
+    let frame = |live: &LiveObjects| {
+        let mut c = Compositor::new(&gpu, &scene, settings).unwrap();
+        c.render(live).unwrap();
+        (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
+    };
+    let ((a, a_mask), (b, b_mask)) = (frame(&cursor), frame(&mesh));
+    let centres_differ = a_mask.iter().zip(&b_mask).filter(|(x, y)| x != y).count();
+    let (mut edge, mut differ) = (0, 0);
+    for k in 0..a_mask.len() {
+        let (x, y) = (&a[4 * k..4 * k + 3], &b[4 * k..4 * k + 3]);
+        let partial = x.iter().any(|&v| v > 0.0 && v < 0.999 * COLOUR.x.max(COLOUR.y).max(COLOUR.z));
+        edge += usize::from(partial && a_mask[k] == 0);
+        differ += usize::from(x.iter().zip(y).any(|(p, q)| (p - q).abs() > 1e-3));
+    }
+    eprintln!("{edge} edge pixels, {differ} differ, {centres_differ} centre samples differ");
+    assert!(edge > 200, "{edge} edge pixels");
+    assert!(differ <= centres_differ, "{differ} pixels differ ({centres_differ} centres)");
+}

@@ -1,13 +1,15 @@
 //! Antialiased edges of live objects, as the ray tracer's pixel filter makes its own objects'
 //! edges: the centre-sampled frame (colour, mask and depth, as without antialiasing) is drawn
-//! first; live objects are then drawn again at four samples per pixel, depth-tested against the
-//! pre-rendered depth, each sample holding the live colour or nothing; a resolve pass filters
-//! those samples with the image's pixel filter over the pixel's neighbourhood and blends them
-//! with the pixel's own backdrop after shadows (`shaders/resolve.wgsl`).
+//! first, into the linear frame; live objects are then drawn again at four samples per pixel,
+//! depth-tested against the pre-rendered depth, each sample holding the live colour or nothing;
+//! the centre-sampled colours near them are copied aside, and a resolve pass filters the samples
+//! with the image's pixel filter over the pixel's neighbourhood and blends them with the pixel's
+//! own backdrop after shadows (`shaders/resolve.wgsl`).
 //!
-//! Only pixels near live objects are touched (the live objects' screen bounds plus the filter's
-//! reach); elsewhere, and wherever no live sample reaches, the frame keeps the centre-sampled
-//! value bit for bit. The mask and depth read back stay those of the pixel centre.
+//! Only pixels near live objects are touched, by every pass and copy (the live objects' screen
+//! bounds plus the filter's reach, twice for what the resolve reads); elsewhere, and wherever no
+//! live sample reaches, the frame keeps the centre-sampled value bit for bit. The mask and depth
+//! read back stay those of the pixel centre.
 
 use super::Compositor;
 use super::lighting::FrameUniform;
@@ -32,14 +34,15 @@ struct ResolveUniform {
 /// The GPU resources of antialiasing.
 #[derive(Debug)]
 pub(super) struct Antialias {
-    /// The centre-sampled frame, drawn first.
-    pub(super) centre_texture: wgpu::Texture,
-    pub(super) centre_view: wgpu::TextureView,
+    /// The centre-sampled frame near the live objects, copied before the resolve overwrites it.
+    centre_texture: wgpu::Texture,
     samples_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
     backdrop_pipeline: wgpu::RenderPipeline,
     sphere_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
+    /// Live spheres drawn as meshes, covered as exact spheres (`fs_mesh_sphere_coverage`).
+    mesh_sphere_pipeline: wgpu::RenderPipeline,
     resolve_pipeline: wgpu::RenderPipeline,
     resolve_bind_group: wgpu::BindGroup,
     /// The centre-sampled mask, for the mesh coverage pass (group 2).
@@ -95,12 +98,8 @@ impl Antialias {
         };
         use wgpu::TextureUsages as U;
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-        let centre_texture = texture(
-            "centre-sampled frame",
-            setup.linear_format,
-            1,
-            U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
-        );
+        let centre_texture =
+            texture("centre-sampled frame", setup.linear_format, 1, U::COPY_DST | U::TEXTURE_BINDING);
         let samples_texture =
             texture("live samples", SAMPLE_FORMAT, SAMPLE_COUNT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
         let depth_texture =
@@ -197,16 +196,27 @@ impl Antialias {
             triangles,
             wgpu::CompareFunction::Always,
         );
+        // The spheres' bounding cubes: back faces, so the cube covers the sphere with the eye
+        // inside it (composite.wgsl vs_sphere).
+        let cube = wgpu::PrimitiveState {
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: Some(wgpu::Face::Front),
+            ..Default::default()
+        };
         let sphere_pipeline = pipeline(
             "sphere coverage",
             &frame_only,
             ("vs_sphere", "fs_sphere_coverage"),
             &[],
-            wgpu::PrimitiveState {
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: Some(wgpu::Face::Front),
-                ..Default::default()
-            },
+            cube,
+            setup.nearer,
+        );
+        let mesh_sphere_pipeline = pipeline(
+            "mesh sphere coverage",
+            &with_mesh,
+            ("vs_mesh_sphere_coverage", "fs_mesh_sphere_coverage"),
+            &[],
+            cube,
             setup.nearer,
         );
         let mesh_pipeline = pipeline(
@@ -321,18 +331,36 @@ impl Antialias {
         });
         Antialias {
             centre_texture,
-            centre_view,
             samples_view,
             depth_view: view(&depth_texture),
             backdrop_pipeline,
             sphere_pipeline,
             mesh_pipeline,
+            mesh_sphere_pipeline,
             resolve_pipeline,
             resolve_bind_group,
             mask_bind_group,
             reach,
         }
     }
+}
+
+/// Where live objects can be this frame, for their coverage.
+#[derive(Debug)]
+pub(super) struct LiveBounds {
+    /// The pixels they can cover (x, y, width, height).
+    rect: [u32; 4],
+    /// Per mesh slot: whether it draws an exact sphere (its transform a translation and a
+    /// uniform scale of the unit sphere), covered by ray casting rather than by its triangles.
+    exact_spheres: Vec<bool>,
+}
+
+/// Whether `instance` draws its exact sphere with a transform that moves the unit sphere onto it.
+fn covered_as_sphere(instance: &crate::live::MeshInstance) -> bool {
+    instance.exact_sphere.is_some_and(|(c, r)| {
+        let placed = glam::DMat4::from_translation(c) * glam::DMat4::from_scale(DVec3::splat(r));
+        r > 0.0 && instance.world_from_object.abs_diff_eq(placed, 1e-9 * (1.0 + c.abs().max_element() + r))
+    })
 }
 
 impl Compositor {
@@ -343,7 +371,7 @@ impl Compositor {
         uniform: &FrameUniform,
         live: &LiveObjects,
         draws: &[usize],
-    ) -> Option<[u32; 4]> {
+    ) -> Option<LiveBounds> {
         let mut union = None;
         if uniform.counts[2] == 1 {
             let s = uniform.sphere;
@@ -367,38 +395,45 @@ impl Compositor {
                 .collect();
             union = super::shadows::merge(union, self.screen_bounds(&corners));
         }
-        union
+        let exact_spheres =
+            live.meshes.iter().filter(|m| m.world_from_object.is_finite()).map(covered_as_sphere).collect();
+        Some(LiveBounds { rect: union?, exact_spheres })
     }
 
     /// Draws live objects at four samples per pixel into the antialiasing targets and filters
-    /// them into the linear frame within `bounds` (the rest of the frame is the centre-sampled
-    /// one, copied first).
+    /// them into the linear frame (drawn at pixel centres) within `bounds` plus the filter's
+    /// reach. Every pass and copy is cut to the live objects' bounds: the frame elsewhere is
+    /// never touched.
     pub(super) fn record_antialiased(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        bounds: [u32; 4],
+        bounds: LiveBounds,
         draws: &[usize],
         sphere: bool,
     ) {
         let Some(aa) = &self.antialias else { return };
-        let far = self.settings.depth.convention.far_window_depth();
-        let [x, y, w, h] = bounds;
+        let LiveBounds { rect: bounds, exact_spheres } = bounds;
+        // The resolve writes the pixels the filter carries live samples to (`reach` beyond the
+        // bounds) and reads the samples and centre values `reach` beyond those.
+        let (rx, ry) = aa.reach;
+        let [x0, y0, x1, y1] = self.grown(bounds, rx, ry);
+        let [sx0, sy0, sx1, sy1] = self.grown(bounds, 2 * rx, 2 * ry);
         {
+            // Loaded, not cleared: the backdrop's depth pass below writes every sample the
+            // resolve reads (colour zero, the pre-rendered depth), so clearing all of a large
+            // frame's samples would be wasted.
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("live coverage"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                     view: &aa.samples_view,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &aa.depth_view,
                     depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(far),
+                        load: wgpu::LoadOp::Load,
                         store: wgpu::StoreOp::Discard,
                     }),
                     stencil_ops: None,
@@ -407,23 +442,37 @@ impl Compositor {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_scissor_rect(x, y, w, h);
+            pass.set_scissor_rect(sx0, sy0, sx1 - sx0, sy1 - sy0);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_pipeline(&aa.backdrop_pipeline);
             pass.draw(0..3, 0..1);
-            // The mesh coverage pipeline reads the centre mask (group 2).
+            // The mesh coverage pipelines read the centre mask (group 2).
             pass.set_bind_group(2, &aa.mask_bind_group, &[]);
-            self.draw_live(&mut pass, (&aa.mesh_pipeline, &aa.sphere_pipeline), draws, sphere);
+            for (slot, &k) in draws.iter().enumerate() {
+                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+                if exact_spheres.get(slot).copied().unwrap_or(false) {
+                    pass.set_pipeline(&aa.mesh_sphere_pipeline);
+                    pass.draw(0..36, 0..1);
+                } else {
+                    let mesh = &self.meshes[k];
+                    pass.set_pipeline(&aa.mesh_pipeline);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+                }
+            }
+            if sphere {
+                pass.set_pipeline(&aa.sphere_pipeline);
+                pass.draw(0..36, 0..1);
+            }
         }
+        let origin = wgpu::Origin3d { x: sx0, y: sy0, z: 0 };
         encoder.copy_texture_to_texture(
-            aa.centre_texture.as_image_copy(),
-            self.linear_texture.as_image_copy(),
-            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+            wgpu::TexelCopyTextureInfo { origin, ..self.linear_texture.as_image_copy() },
+            wgpu::TexelCopyTextureInfo { origin, ..aa.centre_texture.as_image_copy() },
+            wgpu::Extent3d { width: sx1 - sx0, height: sy1 - sy0, depth_or_array_layers: 1 },
         );
-        // The filter carries live samples up to `reach` pixels beyond the objects' bounds.
-        let (rx, ry) = aa.reach;
-        let (x0, y0) = (x.saturating_sub(rx), y.saturating_sub(ry));
-        let (x1, y1) = ((x + w + rx).min(self.width), (y + h + ry).min(self.height));
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("resolve"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -441,5 +490,16 @@ impl Compositor {
         pass.set_pipeline(&aa.resolve_pipeline);
         pass.set_bind_group(0, &aa.resolve_bind_group, &[]);
         pass.draw(0..3, 0..1);
+    }
+
+    /// `bounds` (x, y, width, height) grown by `mx` and `my` pixels on each side, within the
+    /// frame, as corners (x0, y0, x1, y1).
+    fn grown(&self, [x, y, w, h]: [u32; 4], mx: u32, my: u32) -> [u32; 4] {
+        [
+            x.saturating_sub(mx),
+            y.saturating_sub(my),
+            x.saturating_add(w).saturating_add(mx).min(self.width),
+            y.saturating_add(h).saturating_add(my).min(self.height),
+        ]
     }
 }

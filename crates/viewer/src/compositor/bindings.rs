@@ -82,6 +82,17 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             texture_entry(11, wgpu::ShaderStages::FRAGMENT),
             storage_entry(12),
             storage_entry(13),
+            // The live spheres' own-shadow loss maps (compositor/loss_map.rs), packed halves.
+            wgpu::BindGroupLayoutEntry {
+                binding: 14,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Uint,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
         ],
     })
 }

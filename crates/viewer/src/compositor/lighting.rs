@@ -99,6 +99,9 @@ pub(super) struct MeshUniform {
     pub(super) camera_from_object: [[f32; 4]; 4],
     pub(super) normal_from_object: [[f32; 4]; 4],
     pub(super) material: GpuMaterial,
+    /// x: the mesh's row in the own-shadow loss maps when it is a sphere, else -1
+    /// (`loss_map.rs`).
+    pub(super) loss_map: [i32; 4],
 }
 
 pub(super) fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {

@@ -9,6 +9,7 @@ mod irradiance;
 mod layers;
 mod lighting;
 mod live_objects;
+mod loss_map;
 mod readback;
 mod reflections;
 mod scene_shadows;
@@ -89,6 +90,8 @@ pub struct Compositor {
     depth_storage: wgpu::Buffer,
     /// The frame after shadows, before live objects (copied each frame with live objects).
     shadowed_texture: wgpu::Texture,
+    /// The live spheres' own-shadow loss maps (binding 14).
+    loss_maps: loss_map::LossMaps,
     /// Live objects' edges at four samples per pixel, filtered (`None`: off, for the reason
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
@@ -270,6 +273,7 @@ impl Compositor {
             projection.camera().camera_from_world(),
         );
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        let loss_map_textures = loss_map::LossMapTextures::new(device);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -312,6 +316,10 @@ impl Compositor {
                 },
                 wgpu::BindGroupEntry { binding: 12, resource: occluders.nodes.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 13, resource: occluders.triangles.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 14,
+                    resource: wgpu::BindingResource::TextureView(&loss_map_textures.read_view),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -349,6 +357,7 @@ impl Compositor {
             bind_group_layouts: &[Some(&frame_layout), Some(&mesh_layout)],
             immediate_size: 0,
         });
+        let loss_maps = loss_map::LossMaps::new(device, loss_map_textures, &module, &with_mesh);
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
@@ -509,8 +518,11 @@ impl Compositor {
         };
 
         let depth_view = view(&depth_texture);
-        let (readback_pipeline, readback_bind_group, depth_storage) =
-            readback::depth_readback(device, &depth_view, (width, height))?;
+        let readback::DepthReadback {
+            pipeline: readback_pipeline,
+            bind_group: readback_bind_group,
+            storage: depth_storage,
+        } = readback::DepthReadback::new(device, &depth_view, (width, height))?;
 
         let encode = encode::EncodePass::new(
             gpu,
@@ -576,6 +588,7 @@ impl Compositor {
             readback_bind_group,
             depth_storage,
             shadowed_texture,
+            loss_maps,
             antialias,
             antialias_off,
         })
@@ -641,7 +654,9 @@ impl Compositor {
         let uniform = self.frame_uniform(live);
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 
+        let loss_map_rows = loss_map::mesh_rows(&uniform, live);
         // Meshes: register new ones, then one uniform slot per instance.
+        let mut mesh_bytes = Vec::new();
         let mut draws = Vec::with_capacity(live.meshes.len());
         for instance in &live.meshes {
             if !instance.world_from_object.is_finite() {
@@ -661,7 +676,7 @@ impl Compositor {
                     Self::make_mesh_bind_group(&self.gpu.device, &self.mesh_layout, &self.mesh_uniform);
             }
             let camera_from_world = self.projection.camera().camera_from_world();
-            let mut bytes = vec![0u8; (needed * self.mesh_uniform_stride) as usize];
+            mesh_bytes = vec![0u8; (needed * self.mesh_uniform_stride) as usize];
             for (slot, instance) in live.meshes.iter().filter(|m| m.world_from_object.is_finite()).enumerate()
             {
                 let camera_from_object = camera_from_world * instance.world_from_object;
@@ -670,11 +685,13 @@ impl Compositor {
                     camera_from_object: mat4_f32(camera_from_object),
                     normal_from_object: Mat4::from_mat3(normal.as_mat3()).to_cols_array_2d(),
                     material: GpuMaterial::from(&instance.material),
+                    loss_map: [loss_map_rows[slot], 0, 0, 0],
                 };
                 let at = slot * self.mesh_uniform_stride as usize;
-                bytes[at..at + std::mem::size_of::<MeshUniform>()].copy_from_slice(bytemuck::bytes_of(&u));
+                mesh_bytes[at..at + std::mem::size_of::<MeshUniform>()]
+                    .copy_from_slice(bytemuck::bytes_of(&u));
             }
-            self.gpu.queue.write_buffer(&self.mesh_uniform, 0, &bytes);
+            self.gpu.queue.write_buffer(&self.mesh_uniform, 0, &mesh_bytes);
         }
 
         let sphere = uniform.counts[2] == 1;
@@ -682,11 +699,8 @@ impl Compositor {
             self.antialias.as_ref().and_then(|aa| Some((aa, self.live_bounds(&uniform, live, &draws)?)));
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        // Live objects' edges are resolved from a centre-sampled copy into the linear frame.
-        let (target, target_texture) = match antialiased {
-            Some((aa, _)) => (&aa.centre_view, &aa.centre_texture),
-            None => (&self.linear_view, &self.linear_texture),
-        };
+        // Live objects' edges are resolved into the linear frame from a copy of it near them.
+        let (target, target_texture) = (&self.linear_view, &self.linear_texture);
         let live_drawn = !draws.is_empty() || sphere;
         // The backdrop after shadows is read by live objects' shading (the light their shadows
         // took, with shadows on) and by their edges' resolve: kept only for them.
@@ -704,6 +718,7 @@ impl Compositor {
                 self.shadowed_texture.as_image_copy(),
                 wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
             );
+            self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
             self.record_live(&mut pass, &draws, sphere);
         }
@@ -791,7 +806,8 @@ impl Compositor {
     }
 
     /// Draws the live meshes (`draws`: their slots) and the cursor sphere with these pipelines
-    /// (centre-sampled, or the antialiasing's coverage).
+    /// (the centre-sampled ones; the antialiasing's coverage has its own loop, which covers
+    /// live spheres drawn as meshes as exact spheres).
     pub(super) fn draw_live(
         &self,
         pass: &mut wgpu::RenderPass<'_>,

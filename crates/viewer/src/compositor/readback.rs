@@ -231,71 +231,81 @@ impl Compositor {
     }
 }
 
-/// The depth readback's compute pipeline, its bind group and the storage buffer it writes: the
-/// depth texture copied through a compute pass, since GL cannot copy depth textures to buffers.
-pub(super) fn depth_readback(
-    device: &wgpu::Device,
-    depth_view: &wgpu::TextureView,
-    (width, height): (u32, u32),
-) -> Result<(wgpu::ComputePipeline, wgpu::BindGroup, wgpu::Buffer), ViewerError> {
-    let limits = device.limits();
-    let readback_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("readback.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/readback.wgsl").into()),
-    });
-    let depth_bytes = u64::from(width) * u64::from(height) * 4;
-    if depth_bytes > limits.max_storage_buffer_binding_size {
-        return Err(ViewerError::Unsupported(format!(
-            "depth readback of {width}x{height} exceeds the storage buffer limit {}",
-            limits.max_storage_buffer_binding_size
-        )));
-    }
-    let depth_storage = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("depth readback storage"),
-        size: depth_bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("depth readback"),
-        entries: &[
-            super::bindings::texture_layout_entry(
-                0,
-                wgpu::ShaderStages::COMPUTE,
-                wgpu::TextureViewDimension::D2,
-                false,
-            ),
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
-        ],
-    });
-    let readback_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("depth readback"),
-        layout: &readback_layout,
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth_view) },
-            wgpu::BindGroupEntry { binding: 1, resource: depth_storage.as_entire_binding() },
-        ],
-    });
-    let readback_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("depth readback"),
-        layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+/// The depth readback's compute pass (`readback.wgsl`): it copies the depth texture into a
+/// storage buffer, which is then copied to a mappable one.
+pub(super) struct DepthReadback {
+    pub(super) pipeline: wgpu::ComputePipeline,
+    pub(super) bind_group: wgpu::BindGroup,
+    pub(super) storage: wgpu::Buffer,
+}
+
+impl DepthReadback {
+    /// The pass over `depth_view`, an image of `width x height`; a storage buffer that large
+    /// beyond the adapter's limit is refused.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        depth_view: &wgpu::TextureView,
+        (width, height): (u32, u32),
+    ) -> Result<DepthReadback, ViewerError> {
+        let readback_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("readback.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/readback.wgsl").into()),
+        });
+        let depth_bytes = u64::from(width) * u64::from(height) * 4;
+        let limits = device.limits();
+        if depth_bytes > limits.max_storage_buffer_binding_size {
+            return Err(ViewerError::Unsupported(format!(
+                "depth readback of {width}x{height} exceeds the storage buffer limit {}",
+                limits.max_storage_buffer_binding_size
+            )));
+        }
+        let storage = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("depth readback storage"),
+            size: depth_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("depth readback"),
-            bind_group_layouts: &[Some(&readback_layout)],
-            immediate_size: 0,
-        })),
-        module: &readback_module,
-        entry_point: Some("cs_copy_depth"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    Ok((readback_pipeline, readback_bind_group, depth_storage))
+            entries: &[
+                super::bindings::texture_layout_entry(
+                    0,
+                    wgpu::ShaderStages::COMPUTE,
+                    wgpu::TextureViewDimension::D2,
+                    false,
+                ),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: false },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("depth readback"),
+            layout: &readback_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth_view) },
+                wgpu::BindGroupEntry { binding: 1, resource: storage.as_entire_binding() },
+            ],
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("depth readback"),
+            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("depth readback"),
+                bind_group_layouts: &[Some(&readback_layout)],
+                immediate_size: 0,
+            })),
+            module: &readback_module,
+            entry_point: Some("cs_copy_depth"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok(DepthReadback { pipeline, bind_group, storage })
+    }
 }

@@ -90,6 +90,10 @@ pub struct CompositorSettings {
     /// pixel filter (`compositor/antialias.rs`), as the ray tracer filters its own objects'
     /// edges; `false` shows each pixel's centre sample alone.
     pub antialias: bool,
+    /// Live spheres read what their own shadows took from their light from a map per sphere
+    /// (`compositor/loss_map.rs`); `false` gathers it per fragment (the reference the maps are
+    /// tested against).
+    pub own_shadow_maps: bool,
 }
 
 impl Default for CompositorSettings {
@@ -100,6 +104,7 @@ impl Default for CompositorSettings {
             depth_range: None,
             shadows: Some(ShadowSettings::default()),
             antialias: true,
+            own_shadow_maps: true,
         }
     }
 }

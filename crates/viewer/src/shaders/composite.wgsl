@@ -116,6 +116,8 @@ struct MeshUniform {
     camera_from_object: mat4x4<f32>,
     normal_from_object: mat4x4<f32>,
     material: Material,
+    // x: the mesh's row in the own-shadow loss maps when it is a sphere, else -1.
+    loss_map: vec4<i32>,
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniform;
@@ -535,7 +537,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
     // The probes saw the scene before the live objects' shadows took light from it.
     var loss = ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
     if frame.counts.y == 1u && (frame.counts.w == 1u || reflections) {
-        loss = shadow_loss(p, n, v, exponent);
+        loss = own_shadow_loss(p, n, v, exponent);
         let to_radiance = 1.0 / max(frame.tone.x, 1e-30);
         loss = ShadowLoss(loss.irradiance * to_radiance, loss.glossy * to_radiance);
     }
@@ -576,6 +578,13 @@ struct SphereVertexOut {
 
 @vertex
 fn vs_sphere(@builtin(vertex_index) index: u32) -> SphereVertexOut {
+    var out: SphereVertexOut;
+    out.position = sphere_cube_clip(index, frame.sphere);
+    return out;
+}
+
+// Corner `index` (0 to 35) of the bounding cube of `sphere` (camera-space centre, radius).
+fn sphere_cube_clip(index: u32, sphere: vec4<f32>) -> vec4<f32> {
     // 12 triangles of a unit cube, wound so that the outside is the front in raster space.
     var corners = array<vec3<f32>, 8>(
         vec3<f32>(-1.0, -1.0, -1.0), vec3<f32>(1.0, -1.0, -1.0), vec3<f32>(1.0, 1.0, -1.0), vec3<f32>(-1.0, 1.0, -1.0),
@@ -591,20 +600,22 @@ fn vs_sphere(@builtin(vertex_index) index: u32) -> SphereVertexOut {
     );
     let corner = corners[indices[index]];
     // A slightly larger cube so that rounding never trims the silhouette.
-    let p = frame.sphere.xyz + corner * frame.sphere.w * 1.001;
+    let p = sphere.xyz + corner * sphere.w * 1.001;
     var clip = frame.clip_from_camera * vec4<f32>(p, 1.0);
     clip.z = 0.5 * clip.w;
-    var out: SphereVertexOut;
-    out.position = clip;
-    return out;
+    return clip;
 }
 
 // The sphere's nearest visible hit along the ray through `raster`: camera-space point and
 // window depth, w < 0 when the ray misses it or its hits lie outside the depth range.
 fn sphere_hit(raster: vec2<f32>) -> vec4<f32> {
+    return sphere_hit_of(raster, frame.sphere);
+}
+
+fn sphere_hit_of(raster: vec2<f32>, sphere: vec4<f32>) -> vec4<f32> {
     let ray = ray_through_raster(raster);
-    let c = frame.sphere.xyz;
-    let r = frame.sphere.w;
+    let c = sphere.xyz;
+    let r = sphere.w;
     // Numerically robust ray-sphere intersection (Haines et al., Ray Tracing Gems, ch. 7).
     let f = ray.origin - c;
     let b = dot(f, ray.direction);
@@ -646,6 +657,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     }
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
+    loss_map_row = 0;
     var out: LiveOut;
     out.colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(position.xy).direction));
     out.mask = vec4<f32>(1.0);
@@ -680,6 +692,7 @@ struct MeshFragmentOut {
 fn mesh_colour(in: MeshVertexOut) -> vec4<f32> {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
+    loss_map_row = mesh.loss_map.x;
     return to_image_units(shade(mesh.material, in.p_camera, n, ray.direction));
 }
 

@@ -30,20 +30,27 @@ struct CoverageOut {
 
 // The sphere covers the samples whose rays hit it; it is shaded at the first covered sample's
 // hit where the centre ray misses it (elsewhere the resolve uses the centre frame's colour).
-@fragment
-fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
+// Which of a pixel's samples the rays through them hit `sphere`, and where: the centre ray's hit,
+// else the first covered sample's (its raster position in `raster`).
+struct SphereSamples {
+    hit: vec4<f32>,
+    raster: vec2<f32>,
+    samples: u32,
+}
+
+fn sphere_samples(position: vec2<f32>, sphere: vec4<f32>) -> SphereSamples {
     // The standard 4x sample positions from the pixel's top-left corner
     // (pixel_filter::SAMPLE_POSITIONS, resolve.wgsl).
     var positions = array<vec2<f32>, 4>(
         vec2<f32>(0.375, 0.125), vec2<f32>(0.875, 0.375), vec2<f32>(0.125, 0.625), vec2<f32>(0.625, 0.875),
     );
-    let corner = floor(position.xy);
-    var hit = sphere_hit(position.xy);
-    var raster = position.xy;
+    let corner = floor(position);
+    var hit = sphere_hit_of(position, sphere);
+    var raster = position;
     var samples = 0u;
     for (var i = 0u; i < 4u; i = i + 1u) {
         let at = corner + positions[i];
-        let sample_hit = sphere_hit(at);
+        let sample_hit = sphere_hit_of(at, sphere);
         if sample_hit.w >= 0.0 {
             samples = samples | (1u << i);
             if hit.w < 0.0 {
@@ -52,6 +59,15 @@ fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
             }
         }
     }
+    return SphereSamples(hit, raster, samples);
+}
+
+@fragment
+fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
+    let covered = sphere_samples(position.xy, frame.sphere);
+    let hit = covered.hit;
+    let raster = covered.raster;
+    let samples = covered.samples;
     if samples == 0u {
         discard;
     }
@@ -66,6 +82,7 @@ fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
     }
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
+    loss_map_row = 0;
     let colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(raster).direction));
     return CoverageOut(coverage_colour(colour), hit.w, samples);
 }
@@ -81,4 +98,37 @@ fn fs_mesh_coverage(in: MeshVertexOut) -> @location(0) vec4<f32> {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     return coverage_colour(mesh_colour(in));
+}
+
+// Live spheres drawn as meshes (`--live`'s): their samples are the exact sphere's, ray-cast as the
+// cursor sphere's over its bounding cube, since the rasteriser's cost for the tessellated
+// sphere's thousands of triangles at four samples per pixel was most of the frame's. The
+// sphere is the mesh's unit sphere moved by its transform (compositor/antialias.rs draws only
+// instances whose transform is a translation and a uniform scale this way).
+fn mesh_sphere() -> vec4<f32> {
+    let m = mesh.camera_from_object;
+    return vec4<f32>(m[3].xyz, length(m[0].xyz));
+}
+
+@vertex
+fn vs_mesh_sphere_coverage(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
+    return sphere_cube_clip(index, mesh_sphere());
+}
+
+@fragment
+fn fs_mesh_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
+    let sphere = mesh_sphere();
+    let covered = sphere_samples(position.xy, sphere);
+    if covered.samples == 0u {
+        discard;
+    }
+    // Where the centre-sampled frame shows a live object the resolve takes its colour.
+    if textureLoad(coverage_centre_mask, vec2<i32>(position.xy), 0).r > 0.5 {
+        return CoverageOut(vec4<f32>(0.0, 0.0, 0.0, 1.0), covered.hit.w, covered.samples);
+    }
+    let p = covered.hit.xyz;
+    let n = (p - sphere.xyz) / sphere.w;
+    loss_map_row = mesh.loss_map.x;
+    let colour = to_image_units(shade(mesh.material, p, n, ray_through_raster(covered.raster).direction));
+    return CoverageOut(coverage_colour(colour), covered.hit.w, covered.samples);
 }

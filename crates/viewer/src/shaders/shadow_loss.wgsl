@@ -138,3 +138,146 @@ fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> Shado
     let scale = PI / f32(SHADOW_GATHER_DIRECTIONS);
     return ShadowLoss(irradiance * scale, glossy * scale);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Own-shadow loss maps (compositor/loss_map.rs). On a sphere the loss is a smooth function of the
+// point on it (its normal) once the camera, the sphere and the shadows are fixed: the view
+// direction at a point of a sphere is the point's own. So shadow_loss runs once per texel of a
+// LOSS_MAP_TEXELS^2 map per sphere, over the hemisphere of normals facing the eye (a
+// hemi-octahedral map around the direction from the centre to the eye), and fragments read it
+// bilinearly instead of marching 16 directions each. Row k of the atlas is the k-th sphere of
+// loss_map_sphere.
+
+const LOSS_MAP_TEXELS: u32 = 32u;
+
+// Per texel: irradiance rgb and glossy rgb as six half floats (pack2x16float), and 1 where the
+// texel holds a sphere's loss (0: the row was never drawn, or its sphere has no map).
+@group(0) @binding(14) var loss_maps: texture_2d<u32>;
+
+// The atlas row of the sphere a fragment belongs to (-1: none, march per fragment). Set by the
+// fragment entry points of spheres before they shade.
+var<private> loss_map_row: i32 = -1;
+
+// How many spheres have a row: with the light layers, the spheres casting shadows (the cursor
+// sphere first); without them, the cursor sphere.
+fn loss_map_rows() -> u32 {
+    if frame.layer_info.x == 1u {
+        return min(frame.layer_info.w, 8u);
+    }
+    return frame.counts.z;
+}
+
+// The camera-space centre and radius of the sphere of atlas row `row`.
+fn loss_map_sphere(row: u32) -> vec4<f32> {
+    if frame.layer_info.x == 1u {
+        return frame.shadow_spheres[row];
+    }
+    return frame.sphere;
+}
+
+// A basis whose third axis points from the sphere's centre `c` toward the eye.
+fn loss_map_basis(c: vec3<f32>) -> mat3x3<f32> {
+    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
+    if frame.raster.w > 0.5 {
+        toward_eye = -normalize(c);
+    }
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(toward_eye.x) > 0.9);
+    let tangent = normalize(cross(helper, toward_eye));
+    return mat3x3<f32>(tangent, cross(toward_eye, tangent), toward_eye);
+}
+
+// The map serves a sphere whose outside the eye sees (a perspective eye inside it sees its
+// inside, which the map does not hold).
+fn loss_map_serves(s: vec4<f32>) -> bool {
+    return s.w > 0.0 && (frame.raster.w < 0.5 || length(s.xyz) > s.w * 1.0001);
+}
+
+// Hemi-octahedral coordinates in [-1, 1]^2 of unit `local` (z >= 0 the hemisphere kept; normals
+// behind it are taken to its rim).
+fn hemi_octahedral(local: vec3<f32>) -> vec2<f32> {
+    let d = vec3<f32>(local.xy, max(local.z, 0.0));
+    let p = d.xy / max(abs(d.x) + abs(d.y) + d.z, 1e-30);
+    return vec2<f32>(p.x + p.y, p.x - p.y);
+}
+
+fn hemi_octahedral_direction(uv: vec2<f32>) -> vec3<f32> {
+    let p = vec2<f32>(uv.x + uv.y, uv.x - uv.y) * 0.5;
+    return normalize(vec3<f32>(p, 1.0 - abs(p.x) - abs(p.y)));
+}
+
+fn unpack_loss(texel: vec4<u32>) -> array<vec3<f32>, 2> {
+    let a = unpack2x16float(texel.x);
+    let b = unpack2x16float(texel.y);
+    let c = unpack2x16float(texel.z);
+    return array<vec3<f32>, 2>(vec3<f32>(a, b.x), vec3<f32>(b.y, c));
+}
+
+// The loss at unit normal `n` (camera space) of the sphere of row `row`, bilinear in the map.
+fn loss_map_lookup(row: u32, n: vec3<f32>) -> ShadowLoss {
+    let basis = loss_map_basis(loss_map_sphere(row).xyz);
+    let uv = hemi_octahedral(transpose(basis) * n);
+    let size = f32(LOSS_MAP_TEXELS);
+    let texel = (uv * 0.5 + 0.5) * size - 0.5;
+    let base = clamp(floor(texel), vec2<f32>(0.0), vec2<f32>(size - 2.0));
+    let f = clamp(texel - base, vec2<f32>(0.0), vec2<f32>(1.0));
+    let at = vec2<i32>(base) + vec2<i32>(0, i32(row * LOSS_MAP_TEXELS));
+    let l00 = unpack_loss(textureLoad(loss_maps, at, 0));
+    let l10 = unpack_loss(textureLoad(loss_maps, at + vec2<i32>(1, 0), 0));
+    let l01 = unpack_loss(textureLoad(loss_maps, at + vec2<i32>(0, 1), 0));
+    let l11 = unpack_loss(textureLoad(loss_maps, at + vec2<i32>(1, 1), 0));
+    let irradiance = mix(mix(l00[0], l10[0], f.x), mix(l01[0], l11[0], f.x), f.y);
+    let glossy = mix(mix(l00[1], l10[1], f.x), mix(l01[1], l11[1], f.x), f.y);
+    return ShadowLoss(irradiance, glossy);
+}
+
+// What the live objects' shadows took from the light a live fragment receives (shadow_loss):
+// from its sphere's map where it has one, else gathered here.
+fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> ShadowLoss {
+    if loss_map_row >= 0 && u32(loss_map_row) < loss_map_rows() {
+        let row = u32(loss_map_row);
+        let drawn = textureLoad(loss_maps, vec2<i32>(0, i32(row * LOSS_MAP_TEXELS)), 0).w == 1u;
+        if drawn && loss_map_serves(loss_map_sphere(row)) {
+            return loss_map_lookup(row, n);
+        }
+    }
+    return shadow_loss(p, n, v, exponent);
+}
+
+// One texel of the atlas: the loss at the texel's normal of the sphere of its row, for the
+// material of that sphere (the cursor sphere's, or the mesh bound in group 1).
+@fragment
+fn fs_loss_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<u32> {
+    let texel = vec2<u32>(position.xy);
+    let row = texel.y / LOSS_MAP_TEXELS;
+    if row >= loss_map_rows() {
+        return vec4<u32>(0u);
+    }
+    let s = loss_map_sphere(row);
+    if !loss_map_serves(s) {
+        return vec4<u32>(0u);
+    }
+    let uv = (vec2<f32>(texel % vec2<u32>(LOSS_MAP_TEXELS)) + vec2<f32>(0.5)) / f32(LOSS_MAP_TEXELS) * 2.0
+        - vec2<f32>(1.0);
+    let n = loss_map_basis(s.xyz) * hemi_octahedral_direction(uv);
+    let p = s.xyz + s.w * n;
+    var v = vec3<f32>(0.0, 0.0, -1.0);
+    if frame.raster.w > 0.5 {
+        v = -normalize(p);
+    }
+    // The cursor sphere is the first row when it is drawn; the others are live meshes.
+    var roughness = mesh.material.coefficients.w;
+    if row == 0u && frame.counts.z == 1u {
+        roughness = frame.sphere_material.coefficients.w;
+    }
+    let exponent = clamp(1.0 / max(roughness, 1e-4), 1.0, 10000.0);
+    let loss = shadow_loss(p, n, v, exponent);
+    let top = vec3<f32>(65504.0);
+    let irradiance = min(loss.irradiance, top);
+    let glossy = min(loss.glossy, top);
+    return vec4<u32>(
+        pack2x16float(irradiance.rg),
+        pack2x16float(vec2<f32>(irradiance.b, glossy.r)),
+        pack2x16float(glossy.gb),
+        1u,
+    );
+}

@@ -240,3 +240,21 @@ pub fn layered_cornell(light: DVec3, indirect: bool, level: f32) -> ViewerScene 
     .unwrap();
     s
 }
+
+/// One probe in a uniform environment of radiance `l`: its only SH coefficient is
+/// `l * 4 pi * Y00`.
+pub fn uniform_probe(l: [f32; 3]) -> sidecar::ProbeGrid {
+    let mut sh = [[0.0f32; 3]; 9];
+    let y00 = 0.282_094_8 * 4.0 * std::f32::consts::PI;
+    sh[0] = l.map(|v| v * y00);
+    let texels = sidecar::VISIBILITY_TEXELS * sidecar::VISIBILITY_TEXELS;
+    sidecar::ProbeGrid {
+        depth_fingerprint: 0,
+        origin: [0.0, 0.0, 0.0],
+        spacing: [1.0, 1.0, 1.0],
+        counts: [1, 1, 1],
+        radiance_sh: vec![sh],
+        visibility: vec![[10.0, 100.0]; texels],
+        emitters_seen: false,
+    }
+}

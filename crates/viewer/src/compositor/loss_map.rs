@@ -1,0 +1,190 @@
+//! Own-shadow loss maps: what the live objects' shadows took from the light each point of a live
+//! sphere receives, computed once per sphere into a small map over its surface instead of once
+//! per fragment (`shaders/shadow_loss.wgsl`, `fs_loss_map` and `own_shadow_loss`).
+//!
+//! With the camera, the spheres and the shadows fixed, the loss on a sphere depends on the point
+//! alone (the view direction at a point of a sphere is the point's own), so a map of
+//! [`LOSS_MAP_TEXELS`]^2 normals over the hemisphere facing the eye, read bilinearly, stands for
+//! the per-fragment gather of 16 directions x (16 steps + 6 bisections): its cost no longer grows
+//! with the sphere's size on screen. The map is drawn into an atlas (a row per sphere) only when
+//! something it depends on changed (the frame's uniform or a live mesh's), then copied into the
+//! texture the shading passes read, so that no pass reads the texture it draws into. Live meshes
+//! other than spheres keep the per-fragment gather.
+
+use super::Compositor;
+use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use crate::live::LiveObjects;
+use std::cell::RefCell;
+
+/// Texels along each side of a sphere's map (`shadow_loss.wgsl` LOSS_MAP_TEXELS).
+pub(super) const LOSS_MAP_TEXELS: u32 = 32;
+/// Six half floats per texel (irradiance and glossy loss), packed in 32-bit words.
+const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
+
+/// The atlas's textures: the one drawn into and the copy the shading passes read (binding 14).
+#[derive(Debug)]
+pub(super) struct LossMapTextures {
+    drawn: wgpu::Texture,
+    read: wgpu::Texture,
+    /// The view of `read`, for the frame bind group.
+    pub(super) read_view: wgpu::TextureView,
+}
+
+impl LossMapTextures {
+    pub(super) fn new(device: &wgpu::Device) -> LossMapTextures {
+        let texture = |label: &str, usage: wgpu::TextureUsages| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: LOSS_MAP_TEXELS,
+                    height: LOSS_MAP_TEXELS * MAX_SHADOW_SPHERES as u32,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ATLAS_FORMAT,
+                usage,
+                view_formats: &[],
+            })
+        };
+        use wgpu::TextureUsages as U;
+        let drawn = texture("own-shadow loss maps, drawn", U::RENDER_ATTACHMENT | U::COPY_SRC);
+        let read = texture("own-shadow loss maps", U::TEXTURE_BINDING | U::COPY_DST);
+        let read_view = read.create_view(&wgpu::TextureViewDescriptor::default());
+        LossMapTextures { drawn, read, read_view }
+    }
+}
+
+/// The loss maps' pass and what it was last drawn from.
+#[derive(Debug)]
+pub(super) struct LossMaps {
+    textures: LossMapTextures,
+    drawn_view: wgpu::TextureView,
+    pipeline: wgpu::RenderPipeline,
+    /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
+    drawn_from: RefCell<Vec<u8>>,
+}
+
+impl LossMaps {
+    /// The pass over `textures`, with the compositing shaders' `module` and layouts.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        textures: LossMapTextures,
+        module: &wgpu::ShaderModule,
+        layout: &wgpu::PipelineLayout,
+    ) -> LossMaps {
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("own-shadow loss maps"),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_loss_map"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: ATLAS_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let drawn_view = textures.drawn.create_view(&wgpu::TextureViewDescriptor::default());
+        LossMaps { textures, drawn_view, pipeline, drawn_from: RefCell::new(Vec::new()) }
+    }
+}
+
+/// Each drawn live mesh's row in the atlas (-1: not a sphere with a map), in the order of the
+/// finite instances of `live.meshes`: the rows of `FrameUniform::shadow_spheres`, which lists
+/// the cursor sphere first, then live spheres (`lighting.rs`). Without light layers only the
+/// cursor sphere has a row.
+pub(super) fn mesh_rows(uniform: &FrameUniform, live: &LiveObjects) -> Vec<i32> {
+    let layered = uniform.layer_info[0] == 1;
+    let mut next = uniform.counts[2] as usize;
+    live.meshes
+        .iter()
+        .filter(|m| m.world_from_object.is_finite())
+        .map(|m| match m.exact_sphere {
+            Some((c, r))
+                if layered && c.is_finite() && r > 0.0 && r.is_finite() && next < MAX_SHADOW_SPHERES =>
+            {
+                next += 1;
+                (next - 1) as i32
+            }
+            _ => -1,
+        })
+        .collect()
+}
+
+impl Compositor {
+    /// Draws the spheres' loss maps when the live objects' shading reads them and they are not
+    /// already drawn from the same `uniform` and mesh uniforms (`mesh_bytes`). `rows`: each mesh
+    /// slot's row ([`mesh_rows`]). Runs after the backdrop after shadows is kept.
+    pub(super) fn record_loss_maps(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        rows: &[i32],
+        mesh_bytes: &[u8],
+    ) {
+        let maps = &self.loss_maps;
+        let layered = uniform.layer_info[0] == 1;
+        let row_count = if layered { uniform.layer_info[3] } else { uniform.counts[2] };
+        // The shading reads the loss only with shadows and probes (`shade` in composite.wgsl).
+        let probes = uniform.counts[3] == 1 || uniform.reflection_origin[3] > 0.5;
+        if !self.settings.own_shadow_maps || uniform.counts[1] != 1 || !probes || row_count == 0 {
+            return;
+        }
+        let mut key = bytemuck::bytes_of(uniform).to_vec();
+        key.extend_from_slice(mesh_bytes);
+        if *maps.drawn_from.borrow() == key {
+            return;
+        }
+        *maps.drawn_from.borrow_mut() = key;
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("own-shadow loss maps"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &maps.drawn_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&maps.pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            for row in 0..row_count.min(MAX_SHADOW_SPHERES as u32) {
+                // The row's material: the cursor sphere's (row 0 when drawn, from the frame
+                // uniform) or its mesh's, bound at the mesh's slot.
+                let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
+                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+                pass.set_scissor_rect(0, row * LOSS_MAP_TEXELS, LOSS_MAP_TEXELS, LOSS_MAP_TEXELS);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        encoder.copy_texture_to_texture(
+            maps.textures.drawn.as_image_copy(),
+            maps.textures.read.as_image_copy(),
+            wgpu::Extent3d {
+                width: LOSS_MAP_TEXELS,
+                height: LOSS_MAP_TEXELS * MAX_SHADOW_SPHERES as u32,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+}
