@@ -1,4 +1,4 @@
-//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse] [--viewer-arg ARG]...`: how well a live object passes
+//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse] [--viewer-arg ARG]... [--frame-sizes 512,2048]`: how well a live object passes
 //! for part of the ray-traced scene (issue 10).
 //!
 //! For each scene (the Cornell box, the caustics scene, the room), each placement and each
@@ -15,7 +15,8 @@
 //!   5x5 pixels so that noise alone does not select a pixel;
 //! - elsewhere: all other pixels.
 //!
-//! Then the viewer's frame time at 512^2 and 2048^2 (`--headless --frames 20 --stats`).
+//! Then the viewer's frame time at 512^2 and 2048^2 (`--headless --frames 20 --stats`; `--frame-sizes`
+//! picks the sizes, an empty list none).
 //! Writes `docs/illusion.md` and one picture per scene, `docs/illusion-SCENE.png` (truth,
 //! composite, render without the object and 4x the absolute error, for each material at the
 //! first placement).
@@ -358,6 +359,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     let (mut spp, mut size, mut only): (u32, u32, Option<Vec<String>>) = (64, 256, None);
     let mut reuse = false;
     let mut viewer_args = Vec::new();
+    let mut frame_sizes = vec![512u32, 2048];
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or(format!("{a} needs a value"));
@@ -367,6 +369,13 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
             "--scenes" => only = Some(value()?.split(',').map(str::to_string).collect()),
             "--reuse" => reuse = true,
             "--viewer-arg" => viewer_args.push(value()?.clone()),
+            "--frame-sizes" => {
+                frame_sizes = value()?
+                    .split(',')
+                    .filter(|s| !s.is_empty())
+                    .map(|s| s.parse().map_err(|_| format!("--frame-sizes: '{s}' is not a pixel count")))
+                    .collect::<Result<_, _>>()?
+            }
             other => return Err(format!("illusion: unknown argument {other}")),
         }
     }
@@ -454,7 +463,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
         let picture = root.join(format!("docs/illusion-{}.png", scene.name));
         contact_sheet(&rows, &picture)?;
         pictures.push(scene.name);
-        for frame_size in [512, 2048] {
+        for &frame_size in &frame_sizes {
             let ms = frame_time(&viewer, &viewer_args, &lrt, &dir, &scene, frame_size)?;
             let _ = writeln!(frames, "| {} | {frame_size} | {ms:.2} |", scene.name);
         }
