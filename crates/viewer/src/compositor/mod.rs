@@ -5,6 +5,7 @@ mod antialias;
 mod backdrop_points;
 mod bindings;
 mod encode;
+mod frame;
 mod irradiance;
 mod layers;
 mod lighting;
@@ -24,13 +25,13 @@ pub use settings::{
 
 use crate::error::ViewerError;
 use crate::gpu::Gpu;
-use crate::live::{LiveLight, LiveObjects};
+use crate::live::LiveLight;
 use crate::projection::{Projection, nearer};
 use crate::scene::ViewerScene;
-use glam::{DMat3, DVec3, Mat4};
+use glam::DVec3;
 
 use backdrop_points::PointVertex;
-use lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
+use lighting::{FrameUniform, MeshUniform};
 use live_objects::{GpuMesh, MeshVertex};
 use shadows::camera_space_bounds;
 
@@ -643,192 +644,5 @@ impl Compositor {
     /// Window depths of the pre-rendered pixels, as the compositor writes them.
     pub fn backdrop_window_depths(&self) -> &[f32] {
         &self.window_depths
-    }
-
-    /// Draws one frame into the offscreen targets and submits it. Does not wait for the GPU.
-    pub fn render(&mut self, live: &LiveObjects) -> Result<(), ViewerError> {
-        if self.settings.mode == CompositeMode::Points {
-            self.ensure_points()?;
-        }
-        self.occluders.update_live(&self.gpu.queue, live, self.projection.camera().camera_from_world());
-        let uniform = self.frame_uniform(live);
-        self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
-
-        let loss_map_rows = loss_map::mesh_rows(&uniform, live);
-        // Meshes: register new ones, then one uniform slot per instance.
-        let mut mesh_bytes = Vec::new();
-        let mut draws = Vec::with_capacity(live.meshes.len());
-        for instance in &live.meshes {
-            if !instance.world_from_object.is_finite() {
-                continue;
-            }
-            draws.push(self.mesh_index(&instance.mesh)?);
-        }
-        if !draws.is_empty() {
-            let needed = draws.len() as u64;
-            if needed > self.mesh_uniform_capacity {
-                self.mesh_uniform_capacity = needed.next_power_of_two();
-                self.mesh_uniform = Self::make_mesh_uniform(
-                    &self.gpu.device,
-                    self.mesh_uniform_capacity * self.mesh_uniform_stride,
-                );
-                self.mesh_bind_group =
-                    Self::make_mesh_bind_group(&self.gpu.device, &self.mesh_layout, &self.mesh_uniform);
-            }
-            let camera_from_world = self.projection.camera().camera_from_world();
-            mesh_bytes = vec![0u8; (needed * self.mesh_uniform_stride) as usize];
-            for (slot, instance) in live.meshes.iter().filter(|m| m.world_from_object.is_finite()).enumerate()
-            {
-                let camera_from_object = camera_from_world * instance.world_from_object;
-                let normal = DMat3::from_mat4(camera_from_object).inverse().transpose();
-                let u = MeshUniform {
-                    camera_from_object: mat4_f32(camera_from_object),
-                    normal_from_object: Mat4::from_mat3(normal.as_mat3()).to_cols_array_2d(),
-                    material: GpuMaterial::from(&instance.material),
-                    loss_map: [loss_map_rows[slot], 0, 0, 0],
-                };
-                let at = slot * self.mesh_uniform_stride as usize;
-                mesh_bytes[at..at + std::mem::size_of::<MeshUniform>()]
-                    .copy_from_slice(bytemuck::bytes_of(&u));
-            }
-            self.gpu.queue.write_buffer(&self.mesh_uniform, 0, &mesh_bytes);
-        }
-
-        let sphere = uniform.counts[2] == 1;
-        let antialiased =
-            self.antialias.as_ref().and_then(|aa| Some((aa, self.live_bounds(&uniform, live, &draws)?)));
-        let mut encoder =
-            self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        // Live objects' edges are resolved into the linear frame from a copy of it near them.
-        let (target, target_texture) = (&self.linear_view, &self.linear_texture);
-        let live_drawn = !draws.is_empty() || sphere;
-        // The backdrop after shadows is read by live objects' shading (the light their shadows
-        // took, with shadows on) and by their edges' resolve: kept only for them.
-        let keep_shadowed = live_drawn && (uniform.counts[1] == 1 || antialiased.is_some());
-        {
-            let mut pass = self.begin_frame_pass(&mut encoder, target, true);
-            self.record_backdrop(&mut pass, &uniform);
-            if live_drawn && !keep_shadowed {
-                self.record_live(&mut pass, &draws, sphere);
-            }
-        }
-        if keep_shadowed {
-            encoder.copy_texture_to_texture(
-                target_texture.as_image_copy(),
-                self.shadowed_texture.as_image_copy(),
-                wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
-            );
-            self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
-            let mut pass = self.begin_frame_pass(&mut encoder, target, false);
-            self.record_live(&mut pass, &draws, sphere);
-        }
-        if let Some((_, bounds)) = antialiased {
-            self.record_antialiased(&mut encoder, bounds, &draws, sphere);
-        }
-        self.encode.record(&mut encoder, &self.frame_view);
-        self.gpu.queue.submit([encoder.finish()]);
-        self.gpu.take_errors()
-    }
-
-    /// Begins a pass over the frame's colour, mask and depth targets (colour into `view`),
-    /// clearing them or keeping what an earlier pass drew.
-    fn begin_frame_pass<'e>(
-        &self,
-        encoder: &'e mut wgpu::CommandEncoder,
-        view: &wgpu::TextureView,
-        clear: bool,
-    ) -> wgpu::RenderPass<'e> {
-        let far = self.settings.depth.convention.far_window_depth();
-        let (colour, mask, depth) = if clear {
-            (
-                wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                wgpu::LoadOp::Clear(far),
-            )
-        } else {
-            (wgpu::LoadOp::Load, wgpu::LoadOp::Load, wgpu::LoadOp::Load)
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("composite"),
-            color_attachments: &[
-                Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: colour, store: wgpu::StoreOp::Store },
-                }),
-                Some(wgpu::RenderPassColorAttachment {
-                    view: &self.mask_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: mask, store: wgpu::StoreOp::Store },
-                }),
-            ],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &self.depth_view,
-                depth_ops: Some(wgpu::Operations { load: depth, store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_bind_group(0, &self.frame_bind_group, &[]);
-        pass
-    }
-
-    /// The pre-rendered image and depth, then the live objects' shadows on it.
-    fn record_backdrop(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform) {
-        match (self.settings.mode, &self.points) {
-            (CompositeMode::Points, Some(points)) => {
-                pass.set_pipeline(&self.backdrop_points);
-                pass.set_vertex_buffer(0, points.slice(..));
-                pass.draw(0..self.width * self.height, 0..1);
-            }
-            _ => {
-                pass.set_pipeline(&self.backdrop_fullscreen);
-                pass.draw(0..3, 0..1);
-            }
-        }
-        if uniform.counts[1] == 1
-            && let Some([x, y, w, h]) = self.shadow_scissor_all(uniform)
-        {
-            pass.set_scissor_rect(x, y, w, h);
-            pass.set_pipeline(&self.shadow_pipeline);
-            pass.draw(0..3, 0..1);
-            pass.set_scissor_rect(0, 0, self.width, self.height);
-        }
-    }
-
-    /// The live meshes (`draws`: their slots) and the cursor sphere, sampled at pixel centres.
-    fn record_live(&self, pass: &mut wgpu::RenderPass<'_>, draws: &[usize], sphere: bool) {
-        self.draw_live(pass, (&self.mesh_pipeline, &self.sphere_pipeline), draws, sphere);
-    }
-
-    /// Draws the live meshes (`draws`: their slots) and the cursor sphere with these pipelines
-    /// (the centre-sampled ones; the antialiasing's coverage has its own loop, which covers
-    /// live spheres drawn as meshes as exact spheres).
-    pub(super) fn draw_live(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        (mesh_pipeline, sphere_pipeline): (&wgpu::RenderPipeline, &wgpu::RenderPipeline),
-        draws: &[usize],
-        sphere: bool,
-    ) {
-        if !draws.is_empty() {
-            pass.set_pipeline(mesh_pipeline);
-            for (slot, &k) in draws.iter().enumerate() {
-                let mesh = &self.meshes[k];
-                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
-                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-            }
-        }
-        if sphere {
-            pass.set_pipeline(sphere_pipeline);
-            pass.draw(0..36, 0..1);
-        }
     }
 }
