@@ -120,7 +120,11 @@ impl Boundaries {
             let t = same.along(at);
             same.span = [same.span[0].min(t), same.span[1].max(t)];
             if distance < same.distance {
-                (same.toward, same.distance) = (toward, distance);
+                // An opposite direction keeps the line's own, which its span is measured along.
+                if same.toward.dot(toward) > 0.0 {
+                    same.toward = toward;
+                }
+                same.distance = distance;
             }
             return;
         }
