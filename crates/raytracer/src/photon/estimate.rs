@@ -3,6 +3,7 @@
 
 use super::{Photon, unpack_unit};
 use crate::bsdf::{Bsdf, LobeFlags};
+use crate::photon::clip::Boundaries;
 use crate::photon::grid::{GridPhoton, PhotonGrid};
 use crate::photon::kdtree::{KdTree, KnnHeap};
 use glam::Vec3;
@@ -136,12 +137,21 @@ pub fn radiance(
 /// Radiance reflected toward `wo` by the non-specular part of `bsdf` from every photon of `grid`
 /// within `sqrt(q.max_d2)` of `q.p`: the fixed-radius estimate of progressive photon mapping,
 /// summed during the search (no photon is kept, so a dense region costs time, never memory).
+/// The sum is divided by the part of the disc that lies on the surface: the photons the normal
+/// test rejects mark where an adjacent surface cuts it ([`Boundaries`]).
 pub fn radiance_within(grid: &PhotonGrid, q: &Query, bsdf: &Bsdf, wo: Vec3, filter: PhotonFilter) -> Vec3 {
     let r2 = q.max_d2;
     if !(r2 > 0.0) || !r2.is_finite() {
         return Vec3::ZERO;
     }
-    let accept = |ph: &GridPhoton| ph.n.dot(q.n) > NORMAL_COSINE;
+    let mut edges = Boundaries::new(q.p, q.n, r2);
+    let mut accept = |ph: &GridPhoton| {
+        let aligned = ph.n.dot(q.n) > NORMAL_COSINE;
+        if !aligned {
+            edges.add(ph.p, ph.n);
+        }
+        aligned
+    };
     let lambertian = bsdf
         .lobes()
         .iter()
@@ -149,29 +159,89 @@ pub fn radiance_within(grid: &PhotonGrid, q: &Query, bsdf: &Bsdf, wo: Vec3, filt
     let mut sum = Vec3::ZERO;
     if lambertian && filter == PhotonFilter::Box {
         // Every photon on the viewer's side weighs the same: a plain sum, without branches.
-        sum = grid.sum_power_within(q.p, r2, q.n, bsdf.ng, wo.dot(bsdf.ng));
+        sum = grid.sum_power_within(q.p, r2, q.n, bsdf.ng, wo.dot(bsdf.ng), |x, m| edges.add(x, m));
         sum *= bsdf.diffuse_reflectance() * std::f32::consts::FRAC_1_PI;
     } else if lambertian {
         // `f` is the same for every photon on the viewer's side.
         let wo_side = wo.dot(bsdf.ng);
-        grid.for_each_within(q.p, r2, accept, |d2, ph| {
+        grid.for_each_within(q.p, r2, &mut accept, |d2, ph| {
             if ph.wi.dot(bsdf.ng) * wo_side > 0.0 {
                 sum += ph.power * filter.weight(d2, r2);
             }
         });
         sum *= bsdf.diffuse_reflectance() * std::f32::consts::FRAC_1_PI;
     } else {
-        grid.for_each_within(q.p, r2, accept, |d2, ph| {
+        grid.for_each_within(q.p, r2, &mut accept, |d2, ph| {
             let f = bsdf.f(wo, ph.wi, LobeFlags::NON_SPECULAR);
             sum += f * ph.power * filter.weight(d2, r2);
         });
     }
-    sum / (filter.normalisation() * PI * r2)
+    // The kernels other than the box weigh the disc's rim less, and the part cut off is at the
+    // rim: dividing by the cut area is then a slight overcorrection that vanishes with the radius.
+    sum / (filter.normalisation() * PI * r2 * edges.area_fraction())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::Lobe;
+    use crate::math::Frame;
+    use crate::photon::pack_unit;
+    use crate::sampling::Rng;
+
+    /// A floor (`z = 0`, normal `+z`) meeting a wall (`x = 1`, normal `-x`), each with photons
+    /// of the same density: the fixed-radius estimate on the floor is the floor's irradiance
+    /// times `albedo / pi` everywhere, next to the wall too, where the disc without the cut
+    /// (the estimate before 2026-11-26) was a quarter too dark at half a radius from it.
+    #[test]
+    fn estimate_next_to_a_wall_is_not_dark() {
+        let mut rng = Rng::new(11, 2);
+        let (per_area, power) = (40_000.0f32, 1e-3f32);
+        let mut photons = Vec::new();
+        // The floor over [-1, 1] x [-1, 1], the wall over y in [-1, 1], z in [0, 2].
+        for _ in 0..(per_area * 4.0) as u32 {
+            let (u, v) = (rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0);
+            let wi = pack_unit(Vec3::new(0.1, 0.2, 1.0).normalize());
+            photons.push(Photon {
+                p: Vec3::new(u, v, 0.0),
+                power: Vec3::splat(power),
+                wi,
+                n: pack_unit(Vec3::Z),
+            });
+            let wi = pack_unit(Vec3::new(-1.0, 0.2, 0.1).normalize());
+            photons.push(Photon {
+                p: Vec3::new(1.0, v, u + 1.0),
+                power: Vec3::splat(power),
+                wi,
+                n: pack_unit(-Vec3::X),
+            });
+        }
+        let grid = PhotonGrid::build(&photons, 0.1);
+        let mut bsdf = Bsdf::new(Frame::from_z(Vec3::Z), Vec3::Z);
+        bsdf.add(Lobe::Lambert { r: Vec3::splat(0.5) });
+        let wo = Vec3::new(0.0, 0.3, 1.0).normalize();
+        let expected = 0.5 * std::f32::consts::FRAC_1_PI * per_area * power;
+        let r = 0.1f32;
+        // Several points per distance from the wall, so that photon noise averages out.
+        for distance in [0.0, 0.02, 0.05, 0.08, 0.3] {
+            let (mut sum, mut uncut) = (0.0, 0.0);
+            let points = 40;
+            for i in 0..points {
+                let p = Vec3::new(1.0 - distance, -0.8 + 1.6 * i as f32 / points as f32, 0.0);
+                let q = Query { p, n: Vec3::Z, max_d2: r * r };
+                let l = radiance_within(&grid, &q, &bsdf, wo, PhotonFilter::Box).x;
+                sum += l;
+                let mut edges = Boundaries::new(p, Vec3::Z, r * r);
+                grid.sum_power_within(p, r * r, Vec3::Z, Vec3::Z, 1.0, |x, m| edges.add(x, m));
+                uncut += l * edges.area_fraction();
+            }
+            let (mean, uncut) = (sum / points as f32, uncut / points as f32);
+            assert!((mean / expected - 1.0).abs() < 0.03, "{distance}: {mean} vs {expected}");
+            if distance == 0.05 {
+                assert!(uncut / expected < 0.85, "without the cut: {uncut} vs {expected}");
+            }
+        }
+    }
 
     /// Each kernel integrates to `normalisation * pi` over the unit disc.
     #[test]

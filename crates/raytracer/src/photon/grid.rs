@@ -22,6 +22,7 @@ use std::collections::HashMap;
 /// A photon as the estimates read it: its unit vectors decoded once, at build time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridPhoton {
+    pub p: Vec3,
     /// The surface normal on the side the photon arrived from.
     pub n: Vec3,
     /// The direction the photon came from.
@@ -301,6 +302,7 @@ impl PhotonGrid {
                 let d2 = (Columns::get(&c.p, i) - p).length_squared();
                 if d2 < max_d2 {
                     let ph = GridPhoton {
+                        p: Columns::get(&c.p, i),
                         n: Columns::get(&c.n, i),
                         wi: Columns::get(&c.wi, i),
                         power: Columns::get(&c.power, i),
@@ -317,11 +319,20 @@ impl PhotonGrid {
     /// within [`NORMAL_COSINE`] of `n` and whose direction `wi` has `wi.dot(ng) * side > 0`:
     /// a matte surface's box-filtered estimate, before the reflectance and the disc's area.
     /// The same photons as [`PhotonGrid::for_each_within`] with those tests, summed without
-    /// branches in four lanes.
-    pub fn sum_power_within(&self, p: Vec3, max_d2: f32, n: Vec3, ng: Vec3, side: f32) -> Vec3 {
+    /// branches in four lanes. `rejected(position, normal)` is called for each photon within
+    /// the radius that fails the normal test (those of an adjacent surface; rare, so a branch).
+    pub fn sum_power_within(
+        &self,
+        p: Vec3,
+        max_d2: f32,
+        n: Vec3,
+        ng: Vec3,
+        side: f32,
+        mut rejected: impl FnMut(Vec3, Vec3),
+    ) -> Vec3 {
         let mut lanes = Lanes { sum: [Vec4::ZERO; 3] };
         self.for_each_cell(p, max_d2, |start, end| {
-            self.sum_range(start, end, p, max_d2, n, ng, side, &mut lanes)
+            self.sum_range(start, end, p, max_d2, n, ng, side, &mut lanes, &mut rejected)
         });
         let total = |s: Vec4| (s.x + s.y) + (s.z + s.w);
         Vec3::new(total(lanes.sum[0]), total(lanes.sum[1]), total(lanes.sum[2]))
@@ -339,6 +350,7 @@ impl PhotonGrid {
         ng: Vec3,
         side: f32,
         lanes: &mut Lanes,
+        rejected: &mut impl FnMut(Vec3, Vec3),
     ) {
         let c = &self.columns;
         // Cells start at multiples of four and are padded to them with photons that fail
@@ -354,7 +366,16 @@ impl PhotonGrid {
             let d2 = dx * dx + dy * dy + dz * dz;
             let cos = col(&c.n[0], i) * nx + col(&c.n[1], i) * ny + col(&c.n[2], i) * nz;
             let facing = (col(&c.wi[0], i) * gx + col(&c.wi[1], i) * gy + col(&c.wi[2], i) * gz) * side;
-            let keep = d2.cmplt(r2) & cos.cmpgt(min_cos) & facing.cmpgt(Vec4::ZERO);
+            let within = d2.cmplt(r2);
+            let aligned = cos.cmpgt(min_cos);
+            let keep = within & aligned & facing.cmpgt(Vec4::ZERO);
+            let other_surface = within & !aligned;
+            if other_surface.any() {
+                let bits = other_surface.bitmask();
+                for lane in (0..4).filter(|l| bits & (1 << l) != 0) {
+                    rejected(Columns::get(&c.p, i + lane), Columns::get(&c.n, i + lane));
+                }
+            }
             for (sum, column) in lanes.sum.iter_mut().zip(&c.power) {
                 *sum += Vec4::select(keep, col(column, i), Vec4::ZERO);
             }
@@ -489,7 +510,8 @@ mod tests {
     }
 
     /// The branch-free matte sum adds exactly the photons `for_each_within` visits with the
-    /// same tests: counted in one channel, their indices summed (exactly, in `f32`) in another.
+    /// same tests: counted in one channel, their indices summed (exactly, in `f32`) in another;
+    /// and it reports the same photons rejected by the normal test, in the same order.
     #[test]
     fn matte_sum_adds_the_photons_in_the_radius() {
         let mut rng = Rng::new(6, 6);
@@ -506,7 +528,7 @@ mod tests {
             });
         }
         let grid = PhotonGrid::build(&photons, 0.07);
-        let mut tested = 0.0;
+        let (mut tested, mut rejected) = (0.0, 0);
         for q in 0..300 {
             let p = Vec3::new(rng.uniform(), rng.uniform(), if q % 3 == 0 { 0.0 } else { rng.uniform() });
             let n = crate::sampling::sample_uniform_sphere(rng.uniform2());
@@ -514,21 +536,32 @@ mod tests {
             let side = if q % 2 == 0 { 0.3 } else { -0.8 };
             let max_d2 = [0.001f32, 0.01, 0.05, 4.0][q % 4];
             let mut want = Vec3::ZERO;
+            let mut want_rejected = Vec::new();
             grid.for_each_within(
                 p,
                 max_d2,
-                |ph| ph.n.dot(n) > NORMAL_COSINE,
+                |ph| {
+                    let aligned = ph.n.dot(n) > NORMAL_COSINE;
+                    if !aligned {
+                        want_rejected.push((ph.p, ph.n));
+                    }
+                    aligned
+                },
                 |_, ph| {
                     if ph.wi.dot(ng) * side > 0.0 {
                         want += ph.power;
                     }
                 },
             );
-            let got = grid.sum_power_within(p, max_d2, n, ng, side);
+            let mut got_rejected = Vec::new();
+            let got = grid.sum_power_within(p, max_d2, n, ng, side, |x, m| got_rejected.push((x, m)));
             assert_eq!((got.x, got.y), (want.x, want.y), "query {q}");
+            assert_eq!(got_rejected, want_rejected, "query {q}");
             tested += got.x;
+            rejected += got_rejected.len();
         }
         assert!(tested > 2000.0, "{tested} photons summed: too few to test anything");
+        assert!(rejected > 2000, "{rejected} photons rejected: too few to test anything");
     }
 
     /// The same photons give the same grid and the same visiting order, and every photon is

@@ -27,6 +27,7 @@
 //! kd-trees are built deterministically, so an image depends only on the seed, never on the
 //! thread count.
 
+pub mod clip;
 pub mod cull;
 pub mod estimate;
 pub mod grid;
