@@ -3,14 +3,9 @@
 //! the ray tracer renders the same sphere in the scene (direct lighting, so a shadowed point
 //! gets nothing). Without the scene's triangles in the viewer the shadowed half was lit.
 
-use raytracer::integrators::IntegratorKind;
-use raytracer::output::{OutputSettings, write_image};
-use raytracer::render::{RenderOptions, render};
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-const LIVE: &str = "AttributeBegin\n  Color [0.9 0.6 0.3]\n  Surface \"matte\"\n  \
-    Translate 0.2 0.5 0.1\n  Sphere 0.5 -0.5 0.5 360\nAttributeEnd\n";
+use common::{LIVE, composite_live, render_rib};
 
 const LIGHT: &str = "LightSource \"pointlight\" 1 \"intensity\" [3] \"from\" [1.5 2.5 -1]";
 
@@ -26,51 +21,14 @@ fn scene(live: bool) -> String {
     )
 }
 
-/// Renders `rib` with direct lighting; writes the image (and the depth table) when asked.
-fn render_rib(rib: &str, outputs: Option<(&Path, &Path)>) -> Vec<[f32; 4]> {
-    let loaded = rib_parser::load_bytes("scene.rib", rib.as_bytes().to_vec(), &Default::default()).unwrap();
-    let options = RenderOptions {
-        threads: Some(2),
-        spp: Some(16),
-        seed: 3,
-        integrator: Some(IntegratorKind::DirectLighting { max_depth: 1 }),
-        depth: true,
-        layers: false,
-        ..Default::default()
-    };
-    let out = render(&loaded.scene, &options).unwrap();
-    if let Some((image, depth)) = outputs {
-        let settings =
-            OutputSettings { exposure: Default::default(), quantize: Default::default(), alpha: false };
-        write_image(image, "openexr", &out.image, &settings).unwrap();
-        out.depth.unwrap().to_table().unwrap().write(depth).unwrap();
-    }
-    out.image.pixels
-}
-
 #[test]
 fn a_live_sphere_in_a_scene_shadow_gets_no_direct_light_there_as_the_ray_tracer_renders_it() {
     let dir = tempfile::Builder::new().prefix("hybrid-view-scene-shadows-").tempdir().unwrap();
-    let (image, depth, rib) =
-        (dir.path().join("without.exr"), dir.path().join("without.depth"), dir.path().join("without.rib"));
-    let without = scene(false);
-    std::fs::write(&rib, &without).unwrap();
-    render_rib(&without, Some((&image, &depth)));
     let truth = render_rib(&scene(true), None);
-    let live = dir.path().join("live.rib");
-    std::fs::write(&live, LIVE).unwrap();
-    let (shot, mask) = (dir.path().join("shot.exr"), dir.path().join("mask.png"));
-    let p = |p: &Path| p.to_str().unwrap().to_string();
-    let out = Command::new(env!("CARGO_BIN_EXE_hybrid-view"))
-        .args([p(&image), p(&depth), p(&rib), "--headless".into(), "--live".into(), p(&live)])
-        .args(["--screenshot".into(), p(&shot), "--mask".into(), p(&mask), "--stats".into()])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    let composite = composite_live(dir.path(), &scene(false), &["--stats"]);
+    let stderr = &composite.stderr;
     assert!(stderr.contains("scene shadows on live objects: 4 triangles"), "{stderr}");
-    let composite = image::open(&shot).unwrap().to_rgb32f();
-    let mask = image::open(&mask).unwrap().to_luma8();
+    let (mask, composite) = (composite.mask, composite.image);
     let (mut sum_composite, mut sum_truth, mut inside) = ([0.0f64; 3], [0.0f64; 3], 0);
     let (mut dark, mut dark_but_lit) = (0, 0);
     for (k, (m, c)) in mask.pixels().zip(composite.pixels()).enumerate() {
