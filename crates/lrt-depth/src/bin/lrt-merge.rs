@@ -499,12 +499,15 @@ fn merge(cli: &Cli) -> Result<String, String> {
     image.attributes.display_window = frame;
     let mut bytes = std::io::Cursor::new(Vec::new());
     image.write().to_buffered(&mut bytes).map_err(|e| format!("{}: {e}", cli.output.display()))?;
+    // In name order, as lrt-depth writes its images, so the merge is the full render byte for byte.
+    let mut bytes = bytes.into_inner();
+    sidecar::sort_exr_header_attributes(&mut bytes);
     let mut depth_summary = String::new();
     if let Some((depth_path, table)) = merged_depth {
         table.write(depth_path).map_err(|e| e.to_string())?;
         depth_summary = format!(", {}", depth_path.display());
     }
-    raytracer::output::write_atomically(&cli.output, bytes.get_ref()).map_err(|e| e.to_string())?;
+    raytracer::output::write_atomically(&cli.output, &bytes).map_err(|e| e.to_string())?;
     Ok(format!(
         "merged {} tiles into {} ({width}x{height}){depth_summary}",
         tiles.len(),
