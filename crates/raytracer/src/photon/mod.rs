@@ -746,10 +746,12 @@ impl Integrator for PhotonMapper {
         self.settings.progressive.then_some(self.settings.passes)
     }
 
-    fn next_pass(&self, world: &World) -> Option<Box<dyn Integrator>> {
-        self.settings
-            .progressive
-            .then(|| Box::new(PhotonMapper::next_pass(self, world)) as Box<dyn Integrator>)
+    /// Drops this pass's grids before the next pass builds its own: nothing reads them again.
+    fn next_pass(&mut self, world: &World) -> Option<Box<dyn Integrator>> {
+        self.settings.progressive.then(|| {
+            (self.fixed, self.indirect) = (None, None);
+            Box::new(PhotonMapper::next_pass(self, world)) as Box<dyn Integrator>
+        })
     }
 }
 
