@@ -355,7 +355,9 @@ pub trait Integrator: Sync {
     }
     /// The integrator of the next pass when it differs from this one (progressive photon
     /// mapping: new photons, a smaller radius); `None` renders the next pass with this one.
-    fn next_pass(&self, _world: &World) -> Option<Box<dyn Integrator>> {
+    /// Called once the pass is rendered: an integrator that returns a successor may free what
+    /// only its pass reads first, so that the two are not held at once.
+    fn next_pass(&mut self, _world: &World) -> Option<Box<dyn Integrator>> {
         None
     }
 }

@@ -4,7 +4,7 @@
 
 use raytracer::integrators::IntegratorKind;
 use raytracer::passes::StopReason;
-use raytracer::photon::PhotonMapSettings;
+use raytracer::photon::{GatherSampling, PhotonMapSettings};
 use raytracer::render::{RenderOptions, RenderOutput, render};
 use rib_parser::scene::Scene;
 use std::path::PathBuf;
@@ -32,14 +32,18 @@ fn cornell_crop() -> Scene {
     scene
 }
 
-fn progressive(passes: u32) -> IntegratorKind {
-    IntegratorKind::PhotonMap(PhotonMapSettings {
+fn progressive_settings(passes: u32) -> PhotonMapSettings {
+    PhotonMapSettings {
         indirect_photons: 5_000,
         final_gather_samples: 4,
         progressive: true,
         passes,
         ..Default::default()
-    })
+    }
+}
+
+fn progressive(passes: u32) -> IntegratorKind {
+    IntegratorKind::PhotonMap(progressive_settings(passes))
 }
 
 fn run(scene: &Scene, integrator: IntegratorKind, threads: usize, extra: RenderOptions) -> RenderOutput {
@@ -86,6 +90,19 @@ fn progressive_images_do_not_depend_on_the_thread_count_and_converge() {
     let (pass, radii) = photon.progressive.as_ref().unwrap();
     assert_eq!(*pass, 2);
     assert!(radii.scale < 1.0);
+    // A pass reads its photons from grids: its maps are counted but keep no kd-tree, except the
+    // indirect map's where photon-guided gathering searches it.
+    let tree_bytes = |p: &raytracer::photon::PhotonStats| {
+        [&p.direct, &p.indirect].map(|m| m.as_ref().expect("the map is counted").bytes)
+    };
+    assert_eq!(tree_bytes(photon), [0, 0]);
+    let guided = IntegratorKind::PhotonMap(PhotonMapSettings {
+        gather_sampling: GatherSampling::Photons,
+        ..progressive_settings(2)
+    });
+    let guided = run(&scene, guided, 2, RenderOptions::default());
+    let [direct, indirect] = tree_bytes(guided.stats.photon.as_ref().unwrap());
+    assert!(direct == 0 && indirect > 0, "direct {direct} and indirect {indirect} bytes of kd-tree");
 
     // Each pass has new photons and a smaller radius: the error falls with passes.
     let few = rel_mse(&one);

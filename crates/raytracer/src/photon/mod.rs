@@ -23,6 +23,9 @@
 //! gathering without diffuse interreflection, no light sampling or shadow rays toward a light
 //! that cannot reach the point ([`cull`]).
 //!
+//! A progressive pass ([`progressive`]) reads its photons from grids and builds only the
+//! kd-trees that it reads ([`progressive::build_pass_maps`]).
+//!
 //! Deterministic: photon paths are numbered and seeded by their number, merged in order, and the
 //! kd-trees are built deterministically, so an image depends only on the seed, never on the
 //! thread count.
@@ -331,6 +334,8 @@ pub struct MapStats {
     pub photons: usize,
     /// Light paths its photons are normalised by.
     pub paths: u64,
+    /// Bytes of its kd-tree; 0 where none is kept (a progressive pass reads its photons from
+    /// the pass's grids).
     pub bytes: usize,
     /// Total power of its photons: the flux the map carries onto surfaces (an unbiased
     /// estimate, whatever the density estimates do with it). Zero for radiance photons, which
@@ -372,6 +377,12 @@ impl PhotonStats {
     pub fn lines(&self) -> Vec<String> {
         let mut out = Vec::new();
         let map = |name: &str, m: &Option<MapStats>| match m {
+            Some(m) if m.bytes == 0 => {
+                format!(
+                    "{name} map: {} photons from {} paths, in the pass's photon grids",
+                    m.photons, m.paths
+                )
+            }
             Some(m) => format!(
                 "{name} map: {} photons from {} paths, {:.2} MiB",
                 m.photons,
@@ -381,7 +392,7 @@ impl PhotonStats {
             None => format!("{name} map: not built"),
         };
         out.push(format!(
-            "photons: {} paths traced, {} photon rays; shoot {:.3} s, kd-trees {:.3} s, radiance photons {:.3} s",
+            "photons: {} paths traced, {} photon rays; shoot {:.3} s, kd-trees or grids {:.3} s, radiance photons {:.3} s",
             self.paths_traced,
             self.photon_rays,
             self.time_shoot.as_secs_f64(),
@@ -582,46 +593,33 @@ impl PhotonMapper {
         }
 
         let build_start = Instant::now();
-        // Progressive gathering reads every stored photon with one fixed-radius estimate.
-        let global_photons: Option<Vec<Photon>> = (settings.progressive && gather)
-            .then(|| [&shot.direct, &shot.indirect, &shot.caustic].into_iter().flatten().copied().collect());
-        let tree = |photons: Vec<Photon>, paths: u64, stats: &mut Option<MapStats>| {
-            if photons.is_empty() {
-                return None;
-            }
+        let map_stats = |photons: &[Photon], paths: u64| {
             let flux = photons.iter().fold(glam::DVec3::ZERO, |sum, p| sum + p.power.as_dvec3()).as_vec3();
-            let t = KdTree::build(photons);
-            *stats = Some(MapStats { photons: t.len(), paths, bytes: t.bytes(), flux });
-            Some(t)
+            (!photons.is_empty()).then(|| {
+                let photons = photons.iter().filter(|p| p.p.is_finite()).count();
+                MapStats { photons, paths, bytes: 0, flux }
+            })
         };
-        let caustic = tree(shot.caustic, shot.caustic_paths, &mut stats.caustic);
-        let direct = tree(shot.direct, shot.indirect_paths, &mut stats.direct);
-        let indirect = tree(shot.indirect, shot.indirect_paths, &mut stats.indirect);
-        let fixed = settings.progressive.then(|| {
-            let global_or_indirect = global_photons.as_deref().or(indirect.as_ref().map(|t| t.items()));
-            let first = first_radii.unwrap_or_else(|| {
-                // The first pass's radii: k-nearest searches, which the kd-tree serves.
-                let k = settings.n_used as usize;
-                let global = global_photons.clone().map(KdTree::build);
-                progressive::Radii {
-                    global: progressive::RadiusField::new(global.as_ref().or(indirect.as_ref()), k, max_d2)
-                        .map(std::sync::Arc::new),
-                    caustic: progressive::RadiusField::new(caustic.as_ref(), k, max_d2)
-                        .map(std::sync::Arc::new),
-                    scale: 1.0,
-                }
-            });
-            let radii = first.at_pass(pass, settings.alpha);
-            stats.progressive = Some((pass, radii.clone()));
-            (
-                progressive::FixedRadius::new(radii, global_or_indirect, caustic.as_ref().map(|t| t.items())),
-                first,
-            )
-        });
-        let (fixed, first_radii) = match fixed {
-            Some((f, first)) => (Some(f), Some(first)),
-            None => (None, None),
+        stats.caustic = map_stats(&shot.caustic, shot.caustic_paths);
+        stats.direct = map_stats(&shot.direct, shot.indirect_paths);
+        stats.indirect = map_stats(&shot.indirect, shot.indirect_paths);
+        let (caustic, direct, indirect, fixed, first_radii) = if settings.progressive {
+            let (photons, d2) = ([shot.caustic, shot.direct, shot.indirect], max_d2);
+            let maps = progressive::build_pass_maps(photons, gather, &settings, first_radii, d2, pass);
+            stats.progressive = Some((pass, maps.fixed.radii.clone()));
+            (None, None, maps.indirect, Some(maps.fixed), Some(maps.first))
+        } else {
+            let tree = |photons: Vec<Photon>| (!photons.is_empty()).then(|| KdTree::build(photons));
+            (tree(shot.caustic), tree(shot.direct), tree(shot.indirect), None, None)
         };
+        for (m, t) in
+            [(&mut stats.caustic, &caustic), (&mut stats.direct, &direct), (&mut stats.indirect, &indirect)]
+        {
+            if let (Some(m), Some(t)) = (m.as_mut(), t) {
+                m.photons = t.len();
+                m.bytes = t.bytes();
+            }
+        }
         stats.time_build = build_start.elapsed();
 
         let radiance_start = Instant::now();
@@ -686,7 +684,8 @@ impl PhotonMapper {
         self.gather
     }
 
-    /// The maps: caustic, direct, indirect.
+    /// The maps' kd-trees: caustic, direct, indirect. A progressive pass keeps none but the
+    /// indirect map's for photon-guided gathering (its estimates read grids).
     pub fn maps(&self) -> [Option<&KdTree<Photon>>; 3] {
         [self.caustic.as_ref(), self.direct.as_ref(), self.indirect.as_ref()]
     }
@@ -747,10 +746,12 @@ impl Integrator for PhotonMapper {
         self.settings.progressive.then_some(self.settings.passes)
     }
 
-    fn next_pass(&self, world: &World) -> Option<Box<dyn Integrator>> {
-        self.settings
-            .progressive
-            .then(|| Box::new(PhotonMapper::next_pass(self, world)) as Box<dyn Integrator>)
+    /// Drops this pass's grids before the next pass builds its own: nothing reads them again.
+    fn next_pass(&mut self, world: &World) -> Option<Box<dyn Integrator>> {
+        self.settings.progressive.then(|| {
+            (self.fixed, self.indirect) = (None, None);
+            Box::new(PhotonMapper::next_pass(self, world)) as Box<dyn Integrator>
+        })
     }
 }
 

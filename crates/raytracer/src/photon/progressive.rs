@@ -27,7 +27,7 @@
 use super::estimate::NORMAL_COSINE;
 use super::grid::PhotonGrid;
 use super::kdtree::{KdTree, KnnHeap, Positioned};
-use super::{Photon, unpack_unit};
+use super::{GatherSampling, Photon, PhotonMapSettings, unpack_unit};
 use crate::sampling::mix64;
 use glam::Vec3;
 use std::sync::Arc;
@@ -136,6 +136,64 @@ impl FixedRadius {
         let caustic = grid(caustic, &radii.caustic);
         FixedRadius { radii, global, caustic }
     }
+}
+
+/// The photons of one progressive pass, as it reads them.
+pub(super) struct PassMaps {
+    /// The grids and radii of the pass's estimates.
+    pub fixed: FixedRadius,
+    /// The first pass's radii (this pass's, unscaled).
+    pub first: Radii,
+    /// The indirect map as a kd-tree, kept only where photon-guided gathering searches it for
+    /// its `k` nearest photons.
+    pub indirect: Option<KdTree<Photon>>,
+}
+
+/// Sorts one pass's photons (caustic, direct, indirect) into what its estimates read, building
+/// nothing else: no kd-tree of the direct map (the global grid holds its photons), none of the
+/// indirect map unless photon-guided gathering searches it or, without final gathering, its
+/// grid is filled in the tree's order. The caustic map is put in tree order for its grid (as
+/// before, so that sums run in the same order and images stay bit-identical), then dropped.
+/// `first` is the first pass's radii; `None` in the first pass, which computes them from its
+/// photons with `nused` nearest neighbours within `sqrt(max_d2)`.
+pub(super) fn build_pass_maps(
+    [caustic, direct, indirect]: [Vec<Photon>; 3],
+    gather: bool,
+    settings: &PhotonMapSettings,
+    first: Option<Radii>,
+    max_d2: f32,
+    pass: u32,
+) -> PassMaps {
+    let keep_indirect_tree =
+        gather && settings.gather_sampling == GatherSampling::Photons && settings.final_gather_samples >= 2;
+    let k = settings.n_used as usize;
+    let tree_of = |photons: Vec<Photon>| (!photons.is_empty()).then(|| KdTree::build(photons));
+    // Final gathering reads every stored photon with one estimate, in the order they were shot.
+    let global: Option<Vec<Photon>> = gather.then(|| {
+        let mut all = direct;
+        all.reserve_exact(indirect.len() + caustic.len());
+        all.extend_from_slice(&indirect);
+        all.extend_from_slice(&caustic);
+        all
+    });
+    let caustic = tree_of(caustic);
+    let indirect = if !gather || keep_indirect_tree { tree_of(indirect) } else { None };
+    let first = first.unwrap_or_else(|| {
+        // The first pass's radii: k-nearest searches, which a kd-tree serves (built here once).
+        let global_tree = global.clone().map(KdTree::build);
+        Radii {
+            global: RadiusField::new(global_tree.as_ref().or(indirect.as_ref()), k, max_d2).map(Arc::new),
+            caustic: RadiusField::new(caustic.as_ref(), k, max_d2).map(Arc::new),
+            scale: 1.0,
+        }
+    });
+    let global_or_indirect = global.as_deref().or(indirect.as_ref().map(|t| t.items()));
+    let fixed = FixedRadius::new(
+        first.at_pass(pass, settings.alpha),
+        global_or_indirect,
+        caustic.as_ref().map(|t| t.items()),
+    );
+    PassMaps { fixed, first, indirect: indirect.filter(|_| keep_indirect_tree) }
 }
 
 /// The search radii of one pass: the first pass's fields, scaled.

@@ -150,33 +150,56 @@ impl PhotonMapper {
                 l += self.direct(world, &si, &bsdf, sampler, counters, scratch);
                 crate::light_layers::end_primary();
                 let n = facing_normal(&si);
-                if let Some(map) = &self.caustic {
-                    scratch.lookups += 1;
-                    l += match &self.fixed {
-                        Some(f) => f.caustic.as_ref().map_or(Vec3::ZERO, |grid| {
+                // A progressive pass keeps its photons in grids only (no kd-trees).
+                match &self.fixed {
+                    Some(f) => {
+                        if let Some(grid) = &f.caustic {
+                            scratch.lookups += 1;
                             let q = Query { p: si.p, n, max_d2: f.radii.caustic_d2(si.p) };
-                            estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter)
-                        }),
-                        None => {
-                            let q = Query { p: si.p, n, max_d2: self.max_d2 };
-                            estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap)
+                            l += estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter);
                         }
-                    };
+                    }
+                    None => {
+                        if let Some(map) = &self.caustic {
+                            scratch.lookups += 1;
+                            let q = Query { p: si.p, n, max_d2: self.max_d2 };
+                            l += estimate::radiance(
+                                map,
+                                &q,
+                                &bsdf,
+                                si.wo,
+                                self.settings.filter,
+                                &mut scratch.heap,
+                            );
+                        }
+                    }
                 }
                 if self.gather {
                     l += self.gather(world, &si, &bsdf, sampler, counters, scratch);
-                } else if let Some(map) = &self.indirect {
-                    scratch.lookups += 1;
-                    l += match &self.fixed {
-                        Some(f) => f.global.as_ref().map_or(Vec3::ZERO, |grid| {
-                            let q = Query { p: si.p, n, max_d2: f.radii.global_d2(si.p) };
-                            estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter)
-                        }),
-                        None => {
-                            let q = Query { p: si.p, n, max_d2: self.max_d2 };
-                            estimate::radiance(map, &q, &bsdf, si.wo, self.settings.filter, &mut scratch.heap)
+                } else {
+                    match &self.fixed {
+                        Some(f) => {
+                            if let Some(grid) = &f.global {
+                                scratch.lookups += 1;
+                                let q = Query { p: si.p, n, max_d2: f.radii.global_d2(si.p) };
+                                l += estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter);
+                            }
                         }
-                    };
+                        None => {
+                            if let Some(map) = &self.indirect {
+                                scratch.lookups += 1;
+                                let q = Query { p: si.p, n, max_d2: self.max_d2 };
+                                l += estimate::radiance(
+                                    map,
+                                    &q,
+                                    &bsdf,
+                                    si.wo,
+                                    self.settings.filter,
+                                    &mut scratch.heap,
+                                );
+                            }
+                        }
+                    }
                 }
             }
             if depth < self.settings.max_depth {
