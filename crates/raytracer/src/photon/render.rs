@@ -47,6 +47,15 @@ fn lattice_point(j: u32, n: u32, generator: u32, offset: Vec2) -> Vec2 {
     Vec2::new(x.fract(), y.fract()).min(Vec2::splat(1.0 - f32::EPSILON / 2.0))
 }
 
+/// The photon maps read where a camera path meets a non-specular surface.
+#[derive(Clone, Copy)]
+enum VisibleMap {
+    /// Caustic photons (always read directly).
+    Caustic,
+    /// Indirect photons, read directly when there is no final gathering.
+    Indirect,
+}
+
 /// Per-camera-ray scratch space and counts.
 struct Scratch {
     heap: KnnHeap,
@@ -150,56 +159,15 @@ impl PhotonMapper {
                 l += self.direct(world, &si, &bsdf, sampler, counters, scratch);
                 crate::light_layers::end_primary();
                 let n = facing_normal(&si);
-                // A progressive pass keeps its photons in grids only (no kd-trees).
-                match &self.fixed {
-                    Some(f) => {
-                        if let Some(grid) = &f.caustic {
-                            scratch.lookups += 1;
-                            let q = Query { p: si.p, n, max_d2: f.radii.caustic_d2(si.p) };
-                            l += estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter);
-                        }
-                    }
-                    None => {
-                        if let Some(map) = &self.caustic {
-                            scratch.lookups += 1;
-                            let q = Query { p: si.p, n, max_d2: self.max_d2 };
-                            l += estimate::radiance(
-                                map,
-                                &q,
-                                &bsdf,
-                                si.wo,
-                                self.settings.filter,
-                                &mut scratch.heap,
-                            );
-                        }
-                    }
+                if let Some(caustic) = self.visible_photons(VisibleMap::Caustic, &si, n, &bsdf, scratch) {
+                    l += caustic;
                 }
                 if self.gather {
                     l += self.gather(world, &si, &bsdf, sampler, counters, scratch);
-                } else {
-                    match &self.fixed {
-                        Some(f) => {
-                            if let Some(grid) = &f.global {
-                                scratch.lookups += 1;
-                                let q = Query { p: si.p, n, max_d2: f.radii.global_d2(si.p) };
-                                l += estimate::radiance_within(grid, &q, &bsdf, si.wo, self.settings.filter);
-                            }
-                        }
-                        None => {
-                            if let Some(map) = &self.indirect {
-                                scratch.lookups += 1;
-                                let q = Query { p: si.p, n, max_d2: self.max_d2 };
-                                l += estimate::radiance(
-                                    map,
-                                    &q,
-                                    &bsdf,
-                                    si.wo,
-                                    self.settings.filter,
-                                    &mut scratch.heap,
-                                );
-                            }
-                        }
-                    }
+                } else if let Some(indirect) =
+                    self.visible_photons(VisibleMap::Indirect, &si, n, &bsdf, scratch)
+                {
+                    l += indirect;
                 }
             }
             if depth < self.settings.max_depth {
@@ -420,6 +388,40 @@ impl PhotonMapper {
             ray = si.spawn_ray(bs.wi);
         }
         l
+    }
+
+    /// The estimate of `which` map at a camera path's vertex `si` (normal `n`), or `None` when
+    /// the render has no such map. A progressive pass keeps its photons in grids only (no
+    /// kd-trees) and reads them within the pass's radius there; otherwise the kd-tree is read
+    /// within `max_d2`.
+    fn visible_photons(
+        &self,
+        which: VisibleMap,
+        si: &SurfaceInteraction,
+        n: Vec3,
+        bsdf: &Bsdf,
+        scratch: &mut Scratch,
+    ) -> Option<Vec3> {
+        let filter = self.settings.filter;
+        if let Some(f) = &self.fixed {
+            let grid = match which {
+                VisibleMap::Caustic => f.caustic.as_ref()?,
+                VisibleMap::Indirect => f.global.as_ref()?,
+            };
+            scratch.lookups += 1;
+            let max_d2 = match which {
+                VisibleMap::Caustic => f.radii.caustic_d2(si.p),
+                VisibleMap::Indirect => f.radii.global_d2(si.p),
+            };
+            return Some(estimate::radiance_within(grid, &Query { p: si.p, n, max_d2 }, bsdf, si.wo, filter));
+        }
+        let map = match which {
+            VisibleMap::Caustic => self.caustic.as_ref()?,
+            VisibleMap::Indirect => self.indirect.as_ref()?,
+        };
+        scratch.lookups += 1;
+        let q = Query { p: si.p, n, max_d2: self.max_d2 };
+        Some(estimate::radiance(map, &q, bsdf, si.wo, filter, &mut scratch.heap))
     }
 
     /// Radiance leaving a gather ray's surface toward its origin, from the photons.
