@@ -4,7 +4,7 @@
 //! [`Tolerance`]), placed, diced into micropolygons by [`DicingRule`] (`dice.rs`), every vertex
 //! moved along the smooth surface normal by the shader's amount, and its normals recomputed
 //! from the displaced triangles (RenderMan's `calculatenormal(P)`). The shaders, as in the
-//! RenderMan Companion and RISpec's standard library (Aqsis ships the same):
+//! RenderMan Companion and RISpec's standard library:
 //!
 //! - `null`: no displacement;
 //! - `dented` (`Km` = 1): `magnitude = sum_{i<6} |0.5 - noise(P_shader 2^i)| / 2^i`, then
@@ -12,8 +12,8 @@
 //!   transformation current at the `Displacement` request) and `noise` Perlin's improved
 //!   noise mapped to [0, 1] (`noise.rs`);
 //! - `bumpy` (`Km` = 1, `amplitude` = 1, `texturename` = ""): `P += normalize(N) Km amplitude
-//!   float texture(texturename, s, t)`; without a texture it does nothing (3Delight's and
-//!   Aqsis' `bumpy`), an unreadable one reads 0 as RenderMan's `texture()` does.
+//!   float texture(texturename, s, t)`; without a texture it does nothing (as 3Delight's
+//!   `bumpy` does), an unreadable one reads 0 as RenderMan's `texture()` does.
 //!
 //! Amounts are in the units of the space the mesh is placed in, taken as RenderMan's "current"
 //! (camera) space: they agree for the world and the ray tracer's render space whenever the
