@@ -209,7 +209,11 @@ fn dice_mesh_of(mesh: &TriangleMesh) -> DiceMesh {
             }
         }
     }
-    let normals = positions.iter().map(|p| by_position[&key(*p)].normalize_or_zero()).collect();
+    // A vertex no triangle uses has no normal and is not moved.
+    let normals = positions
+        .iter()
+        .map(|p| by_position.get(&key(*p)).copied().unwrap_or_default().normalize_or_zero())
+        .collect();
     let st = match &mesh.st {
         Some(st) => st.clone(),
         None => vec![Vec2::ZERO; positions.len()],
