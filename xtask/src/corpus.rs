@@ -488,10 +488,6 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "A displaced shape's `ShadingRate` asks for more micropolygons than the per-shape budget (`MAX_DISPLACED_TRIANGLES`) allows: diced as finely as the budget allows, reported (a hostile file costs bounded memory and time).",
     ),
     (
-        "deforming displaced shape",
-        "Gap: a shape that deforms and is displaced is drawn displaced at shutter open; its deformation keys are not displaced (no deformation blur).",
-    ),
-    (
         "is a custom shader (RenderMan Shading Language)",
         "A custom displacement shader written in the RenderMan Shading Language (the standard `null`, `dented` and `bumpy` are run: docs/raytracer.md): a renderer without an RSL compiler cannot know what it computes, so the surface is not displaced. Stays (the parser's warning and the ray tracer's are two lines for one cause).",
     ),

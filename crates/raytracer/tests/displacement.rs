@@ -112,3 +112,39 @@ fn null_renders_bit_identically_and_custom_shaders_are_named() {
     );
     assert!(plain.image.pixels == custom.image.pixels, "a custom shader is not run");
 }
+
+/// A deforming square (z = 0 at shutter open, z = 1 at close) with `bumpy` of a white texture
+/// (Km 0.5, amplitude 0.4: +0.2 along the normal, +z) is displaced at every key: rays at shutter
+/// open and close meet it at z = 0.2 and z = 1.2 (0.1 halfway), with no warning.
+#[test]
+fn a_deforming_displaced_shape_is_displaced_at_every_key() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(4, 4, image::Rgb([255, 255, 255]))
+        .save(dir.path().join("white.png"))
+        .unwrap();
+    let path = dir.path().join("scene.rib");
+    let square = |z: f32| format!("Polygon \"P\" [-1 -1 {z}  1 -1 {z}  1 1 {z}  -1 1 {z}]");
+    std::fs::write(
+        &path,
+        format!(
+            "Shutter 0 1\nWorldBegin\nShadingRate 16\n\
+             Displacement \"bumpy\" \"Km\" [0.5] \"amplitude\" [0.4] \"texturename\" [\"white.png\"]\n\
+             MotionBegin [0 1]\n{}\n{}\nMotionEnd\nWorldEnd\n",
+            square(0.0),
+            square(1.0)
+        ),
+    )
+    .unwrap();
+    let scene =
+        rib_parser::load_scene(&path, &Default::default()).unwrap_or_else(|e| panic!("{}", e.render())).scene;
+    let (world, diagnostics) = world_of(&scene);
+    assert!(diagnostics.warnings.is_empty(), "{:?}", diagnostics.warnings);
+    for (time, z) in [(0.0f32, 0.2f64), (1.0, 1.2), (0.5, 0.7)] {
+        // From z = 5 straight down, at (0.3, -0.2).
+        let origin = DVec3::new(0.3, -0.2, 5.0) - EYE;
+        let ray = Ray { time, ..Ray::new(origin.as_vec3(), glam::Vec3::new(0.0, 0.0, -1.0)) };
+        let hit = world.intersect(&ray).expect("the ray meets the square");
+        let hit_z = 5.0 - f64::from(hit.t);
+        assert!((hit_z - z).abs() < 1e-4, "at time {time} the square is at z {hit_z}, expected {z}");
+    }
+}

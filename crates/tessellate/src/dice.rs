@@ -123,6 +123,84 @@ pub(crate) fn dice(
     DiceReport { base_triangles, triangles: mesh.indices.len(), coarsened_by: None }
 }
 
+/// [`dice`] for the keys of a deforming mesh (the same triangles, each key its own vertices):
+/// an edge is halved when it is too long at any key, so every key gets the same triangles;
+/// the budget counts the triangles of one key.
+pub(crate) fn dice_keys(
+    keys: &mut [DiceMesh],
+    rule: &DicingRule,
+    floor: f64,
+    size: f64,
+    max_triangles: u64,
+) -> DiceReport {
+    let base_triangles = keys.first().map_or(0, |k| k.indices.len());
+    let too_long = |keys: &[DiceMesh], a: u32, b: u32| -> Option<f64> {
+        keys.iter()
+            .filter_map(|m| {
+                let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
+                let ratio = (pa - pb).length() / rule.edge_at(0.5 * (pa + pb), floor, size);
+                (ratio > 1.0).then_some(ratio)
+            })
+            .reduce(f64::max)
+    };
+    let Some(first) = keys.first() else {
+        return DiceReport { base_triangles, triangles: 0, coarsened_by: None };
+    };
+    let mut indices = first.indices.clone();
+    let mut faces = first.face_index.clone();
+    for _ in 0..64 {
+        let marks: Vec<[bool; 3]> = indices
+            .iter()
+            .map(|t| std::array::from_fn(|k| too_long(keys, t[k], t[(k + 1) % 3]).is_some()))
+            .collect();
+        let after: u64 = marks.iter().map(|m| 1 + m.iter().filter(|&&x| x).count() as u64).sum();
+        if after == indices.len() as u64 {
+            break;
+        }
+        if after > max_triangles {
+            let worst = indices
+                .iter()
+                .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+                .filter_map(|(a, b)| too_long(keys, a, b))
+                .fold(1.0f64, f64::max);
+            for key in keys.iter_mut() {
+                (key.indices, key.face_index) = (indices.clone(), faces.clone());
+            }
+            return DiceReport { base_triangles, triangles: indices.len(), coarsened_by: Some(worst) };
+        }
+        // Midpoints keyed by the edge's vertex indices, the same in every key.
+        let mut split: HashMap<(u32, u32), u32> = HashMap::new();
+        let (old_indices, old_faces) = (std::mem::take(&mut indices), std::mem::take(&mut faces));
+        for ((tri, mark), face) in old_indices.iter().zip(&marks).zip(old_faces) {
+            let mut mid = [u32::MAX; 3];
+            for k in 0..3 {
+                if mark[k] {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let key = (a.min(b), a.max(b));
+                    mid[k] = *split.entry(key).or_insert_with(|| {
+                        for m in keys.iter_mut() {
+                            let (ia, ib) = (a as usize, b as usize);
+                            m.positions.push(0.5 * (m.positions[ia] + m.positions[ib]));
+                            m.normals.push((m.normals[ia] + m.normals[ib]).normalize_or_zero());
+                            m.st.push(0.5 * (m.st[ia] + m.st[ib]));
+                        }
+                        keys[0].positions.len() as u32 - 1
+                    });
+                }
+            }
+            for t in cut(*tri, mid, &keys[0].positions) {
+                indices.push(t);
+                faces.push(face);
+            }
+        }
+    }
+    let triangles = indices.len();
+    for key in keys.iter_mut() {
+        (key.indices, key.face_index) = (indices.clone(), faces.clone());
+    }
+    DiceReport { base_triangles, triangles, coarsened_by: None }
+}
+
 /// An edge by its end positions' bits, in a fixed order.
 type EdgeKey = ([u64; 3], [u64; 3]);
 

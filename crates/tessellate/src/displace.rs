@@ -19,7 +19,7 @@
 //! (camera) space: they agree for the world and the ray tracer's render space whenever the
 //! camera transformation is rigid.
 
-use crate::dice::{DiceMesh, DiceReport, DicingRule, dice};
+use crate::dice::{DiceMesh, DiceReport, DicingRule, dice, dice_keys};
 use crate::noise::renderman_noise;
 use crate::placed::place;
 use crate::{ShapeOptions, TessellateError, Tolerance, TriangleMesh};
@@ -179,6 +179,79 @@ pub(crate) fn tessellate_displaced_with(
     out.check_finite(kind)?;
     Ok(DisplacedMesh {
         mesh: out,
+        dicing: report,
+        largest_displacement: largest,
+        unreadable_textures: unreadable,
+    })
+}
+
+/// The keys of a deforming shape displaced alike (see [`displace_keys`]).
+#[derive(Clone, Debug)]
+pub struct DisplacedKeys {
+    pub meshes: Vec<TriangleMesh>,
+    pub dicing: DiceReport,
+    /// The largest distance any vertex of any key moved.
+    pub largest_displacement: f64,
+    pub unreadable_textures: Vec<String>,
+}
+
+/// Displaces the keys of a deforming shape: meshes with the same triangles, each key its own
+/// vertices (as [`crate::tessellate_placed_keys`] makes them). They are diced alike (an edge is
+/// halved where any key needs it), and each key's vertices are moved by the shader at their
+/// own positions along their own normals, as RenderMan displaces every motion sample; each
+/// key's normals are then those of its own displaced triangles, so every key keeps the same
+/// triangles. `flip_normal`: the keys are wound by the normal before `Orientation` flips it,
+/// and the displacement goes along the flipped one.
+pub fn displace_keys(
+    keys: &[TriangleMesh],
+    flip_normal: bool,
+    displaced: &Displaced<'_>,
+    max_triangles: u64,
+) -> Result<DisplacedKeys, TessellateError> {
+    let kind = "deformation key";
+    let Some(first) = keys.first() else {
+        return Err(TessellateError::InvalidShape { kind, reason: "no keys".into() });
+    };
+    if keys.iter().any(|k| k.indices != first.indices || k.positions.len() != first.positions.len()) {
+        return Err(TessellateError::InvalidShape { kind, reason: "the keys have other triangles".into() });
+    }
+    let base_triangles = first.triangle_count();
+    if displaced.shader.is_identity() || first.is_empty() {
+        let dicing = DiceReport { base_triangles, triangles: base_triangles, coarsened_by: None };
+        return Ok(DisplacedKeys {
+            meshes: keys.to_vec(),
+            dicing,
+            largest_displacement: 0.0,
+            unreadable_textures: Vec::new(),
+        });
+    }
+    let sign = if flip_normal { -1.0 } else { 1.0 };
+    let mut diced: Vec<DiceMesh> = keys
+        .iter()
+        .map(|k| {
+            let mut m = dice_mesh_of(k);
+            m.normals.iter_mut().for_each(|n| *n *= sign);
+            m
+        })
+        .collect();
+    let size = keys
+        .iter()
+        .filter_map(|k| k.bounds())
+        .map(|(lo, hi)| (hi - lo).as_dvec3().length())
+        .fold(0.0, f64::max);
+    let report = dice_keys(&mut diced, &displaced.dicing, size * (-20f64).exp2(), size, max_triangles);
+    let mut unreadable = Vec::new();
+    let mut largest = 0.0f64;
+    let mut meshes = Vec::with_capacity(keys.len());
+    for (mut m, key) in diced.into_iter().zip(keys) {
+        largest = largest.max(displace(&mut m, displaced, &mut unreadable));
+        m.normals.iter_mut().for_each(|n| *n *= sign);
+        let out = finish(m, key.degenerate_faces, key.st.is_some());
+        out.check_finite(kind)?;
+        meshes.push(out);
+    }
+    Ok(DisplacedKeys {
+        meshes,
         dicing: report,
         largest_displacement: largest,
         unreadable_textures: unreadable,

@@ -81,8 +81,8 @@ pub use curves::{
 };
 pub use dice::{DiceReport, DicingRule};
 pub use displace::{
-    DENTED_MAX_MAGNITUDE_CUBED, Displaced, DisplacedMesh, DisplacementShader, dented_magnitude_cubed,
-    displacement_bound, tessellate_displaced,
+    DENTED_MAX_MAGNITUDE_CUBED, Displaced, DisplacedKeys, DisplacedMesh, DisplacementShader,
+    dented_magnitude_cubed, displace_keys, displacement_bound, tessellate_displaced,
 };
 pub use keys::tessellate_placed_keys;
 pub use mesh::TriangleMesh;

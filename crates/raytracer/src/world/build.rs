@@ -3,8 +3,10 @@
 
 use super::clipping::render_clipping_planes;
 use super::csg::Csg;
-use super::deformation::{deforming_blas, shutter_deformation};
-use super::displacement::{DisplacementTextures, custom_shader_warning, displaced_geometry, displacement_of};
+use super::deformation::{KeyDisplacement, deforming_blas, shutter_deformation};
+use super::displacement::{
+    DisplacementTextures, custom_shader_warning, displaced_geometry, displaced_keys, displacement_of,
+};
 use super::lighting::{self, area_light_params, background, emitter_shape};
 use super::motion::{camera_shutter_motion, motion_box, shutter_motion};
 use super::placement::{
@@ -259,22 +261,13 @@ impl World {
         };
         for (i, entity) in scene.shapes.iter().enumerate() {
             if let Some(deformation) = shutter_deformation(scene, &entity.deformation) {
-                if displacement_of(scene, entity).is_some() {
-                    diagnostics.warn_once(
-                        Some(&entity.loc),
-                        "a deforming displaced shape is drawn displaced at shutter open (its deformation keys \
-                         are not displaced: no deformation blur)"
-                            .to_string(),
-                    );
-                } else {
-                    let why = [
-                        "a deforming shape inside SolidBegin is drawn at shutter open (no deformation blur)",
-                        "a deforming area light is drawn at shutter open (no deformation blur)",
-                    ];
-                    if !held_at_open(i, entity, why, diagnostics) {
-                        deforming_shapes.push((entity, deformation));
-                        continue;
-                    }
+                let why = [
+                    "a deforming shape inside SolidBegin is drawn at shutter open (no deformation blur)",
+                    "a deforming area light is drawn at shutter open (no deformation blur)",
+                ];
+                if !held_at_open(i, entity, why, diagnostics) {
+                    deforming_shapes.push((entity, deformation));
+                    continue;
                 }
             }
             if let Some(motion) = shutter_motion(scene, &entity.motion, &render_from_world) {
@@ -383,8 +376,41 @@ impl World {
             }
             let fp = if motion.is_none() { Some(&footprint) } else { None };
             let budget = MAX_WORLD_TRIANGLES.saturating_sub(triangle_count.get());
-            let placed =
-                deforming_blas(&deformation, entity.attributes, &blas_from_object, fp, budget, scene);
+            // A displaced shape's keys are diced alike and displaced each at its own vertices.
+            let shader = displacement_of(scene, entity);
+            let world_from_blas = match motion {
+                Some(_) => entity.world_from_object,
+                None => world_from_render,
+            };
+            let mut key_warnings = Diagnostics::default();
+            let mut displace_keys = |keys: &[tessellate::TriangleMesh], budget: u64| {
+                let shader = shader.as_ref().ok_or("no displacement")?;
+                displaced_keys(
+                    scene,
+                    entity,
+                    shader,
+                    keys,
+                    &world_from_blas,
+                    fp,
+                    &displacement_textures,
+                    budget,
+                    &mut key_warnings,
+                )
+            };
+            let displace: Option<KeyDisplacement<'_>> =
+                if shader.is_some() { Some(&mut displace_keys) } else { None };
+            let placed = deforming_blas(
+                &deformation,
+                entity.attributes,
+                &blas_from_object,
+                fp,
+                budget,
+                scene,
+                displace,
+            );
+            for warning in std::mem::take(&mut key_warnings.warnings) {
+                diagnostics.warn_once(warning.loc.as_ref(), warning.message);
+            }
             let blas = match placed {
                 Ok((blas, keyed_triangles)) => {
                     triangle_count.set(triangle_count.get() + keyed_triangles);

@@ -112,24 +112,14 @@ pub(super) fn displaced_geometry(
     let reverse = attrs.reverse_orientation;
     let out = tessellate_displaced(&entity.shape, blas_from_object, reverse, &tolerance, &displaced)
         .map_err(|e| e.to_string())?;
-    if let Some(factor) = out.dicing.coarsened_by {
-        diagnostics.warn_once(
-            Some(&entity.loc),
-            format!(
-                "displaced {kind}: ShadingRate {} would need more than {} triangles; diced {factor:.3}x coarser",
-                attrs.shading_rate,
-                tolerance.max_triangles
-            ),
-        );
-    }
-    for texture in &out.unreadable_textures {
-        diagnostics.warn_once(
-            loc,
-            format!(
-                "Displacement \"{name}\": texture \"{texture}\" cannot be read: it reads 0 (not displaced)"
-            ),
-        );
-    }
+    report(
+        scene,
+        entity,
+        out.dicing.coarsened_by,
+        tolerance.max_triangles,
+        &out.unreadable_textures,
+        diagnostics,
+    );
     if let Some(bound) = displacement_bound(attrs) {
         let bound = bound_in_render_units(bound, attrs, blas_from_object);
         if out.largest_displacement > bound * (1.0 + 1e-6) {
@@ -158,6 +148,69 @@ pub(super) fn displaced_geometry(
         }
     }
     Ok(Geometry::Mesh(mesh))
+}
+
+/// The keys of a deforming shape (the same triangles at every key, placed by
+/// `blas_from_object`) displaced alike by `tessellate::displace_keys`, at most `budget`
+/// triangles per key; warnings as for [`displaced_geometry`].
+#[allow(clippy::too_many_arguments)]
+pub(super) fn displaced_keys(
+    scene: &Scene,
+    entity: &ShapeEntity,
+    shader: &DisplacementShader,
+    keys: &[tessellate::TriangleMesh],
+    world_from_blas: &DMat4,
+    footprint: Option<&PixelFootprint>,
+    textures: &DisplacementTextures<'_>,
+    budget: u64,
+    diagnostics: &mut Diagnostics,
+) -> Result<Vec<tessellate::TriangleMesh>, String> {
+    let attrs = scene.attributes_of(entity.attributes);
+    let lookup = |name: &str, st: Vec2| textures.value(name, st);
+    let displaced = Displaced {
+        shader,
+        world_from_placed: *world_from_blas,
+        texture: &lookup,
+        dicing: dicing_rule(footprint, attrs.shading_rate),
+    };
+    let max_triangles = budget.min(MAX_DISPLACED_TRIANGLES);
+    let out = tessellate::displace_keys(keys, attrs.reverse_orientation, &displaced, max_triangles)
+        .map_err(|e| e.to_string())?;
+    report(scene, entity, out.dicing.coarsened_by, max_triangles, &out.unreadable_textures, diagnostics);
+    Ok(out.meshes)
+}
+
+/// Warns about a coarsened dicing and unreadable textures.
+fn report(
+    scene: &Scene,
+    entity: &ShapeEntity,
+    coarsened_by: Option<f64>,
+    max_triangles: u64,
+    unreadable_textures: &[String],
+    diagnostics: &mut Diagnostics,
+) {
+    let attrs = scene.attributes_of(entity.attributes);
+    let kind = shape_kind(&entity.shape);
+    let name = attrs.displacement.as_ref().map_or("", |d| d.name.as_str());
+    let loc = attrs.displacement.as_ref().map(|d| &d.loc);
+    if let Some(factor) = coarsened_by {
+        diagnostics.warn_once(
+            Some(&entity.loc),
+            format!(
+                "displaced {kind}: ShadingRate {} would need more than {max_triangles} triangles; diced {factor:.3}x \
+                 coarser",
+                attrs.shading_rate
+            ),
+        );
+    }
+    for texture in unreadable_textures {
+        diagnostics.warn_once(
+            loc,
+            format!(
+                "Displacement \"{name}\": texture \"{texture}\" cannot be read: it reads 0 (not displaced)"
+            ),
+        );
+    }
 }
 
 /// `displacementbound`'s sphere in render units: its `"coordinatesystem"` ("object" by

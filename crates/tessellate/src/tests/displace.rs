@@ -169,3 +169,47 @@ fn the_scene_tessellation_displaces_dented_shapes() {
     // The undisplaced sphere is untouched.
     assert!(radii(1, DVec3::new(5.0, 0.0, 0.0)).all(|r| r > 1.0 - 2e-3 && r <= 1.0 + 1e-6));
 }
+
+/// The keys of a deforming square (z = 0 and a key tilted to z = x / 2 and lifted by 1)
+/// with `bumpy` of a constant texture: diced alike (the same triangles), every vertex of each
+/// key moved by the amount along that key's own normal.
+#[test]
+fn deformation_keys_are_diced_alike_and_displaced_along_their_own_normals() {
+    let square = |z: [f32; 4]| {
+        Shape::Polygons(super::polygon::points_polygons(
+            &[[-1.0, -1.0, z[0]], [1.0, -1.0, z[1]], [1.0, 1.0, z[2]], [-1.0, 1.0, z[3]]],
+            &[&[0, 1, 2, 3]],
+        ))
+    };
+    let (flat, tilted) = (square([0.0; 4]), square([0.5, 1.5, 1.5, 0.5]));
+    let tol = Tolerance::absolute(1e-3);
+    let keys: Vec<_> = [&flat, &tilted]
+        .iter()
+        .map(|s| tessellate_placed(s, &DMat4::IDENTITY, false, &tol).unwrap())
+        .collect();
+    let texture = constant_texture(1.0);
+    let shader = bumpy(0.5, 0.2);
+    let displaced = Displaced {
+        shader: &shader,
+        world_from_placed: DMat4::IDENTITY,
+        texture: &texture,
+        dicing: DicingRule::Orthographic { pixel: 0.1, shading_rate: 1.0 },
+    };
+    let out = crate::displace_keys(&keys, false, &displaced, 100_000).unwrap();
+    let [a, b] = [&out.meshes[0], &out.meshes[1]];
+    assert_eq!(a.indices, b.indices);
+    assert!(a.triangle_count() > 500, "{:?}", out.dicing);
+    let tilted_normal = DVec3::new(-0.5, 0.0, 1.0).normalize();
+    for (p, q) in a.positions.iter().zip(&b.positions) {
+        let (p, q) = (p.as_dvec3(), q.as_dvec3());
+        assert!((p.z - 0.1).abs() < 1e-6, "flat key at z {}", p.z);
+        // The tilted key's undisplaced point is at z = x / 2 + 1.
+        let undisplaced = q - 0.1 * tilted_normal;
+        assert!(
+            (undisplaced.z - (0.5 * undisplaced.x + 1.0)).abs() < 1e-5,
+            "tilted key off its plane at {q}"
+        );
+        // Same parameters at both keys: the undisplaced x, y match the flat key's.
+        assert!((undisplaced.y - p.y).abs() < 1e-5 && (undisplaced.x - p.x).abs() < 1e-5);
+    }
+}

@@ -355,14 +355,13 @@ fn displacement() -> impl Strategy<Value = (DisplacementShader, DicingRule)> {
         }),
     ];
     let rate = prop_oneof![3 => 0.1f64..16.0, 1 => prop::sample::select(vec![1e-30, 0.0, f64::NAN, 1e30])];
-    let rule =
-        prop_oneof![
-            (rate.clone(), 1e-4f64..1e-2).prop_map(|(shading_rate, radians_per_pixel)| {
-                DicingRule::Perspective { eye: DVec3::new(0.0, 0.0, -5.0), radians_per_pixel, shading_rate }
-            }),
-            rate.prop_map(|shading_rate| DicingRule::Orthographic { pixel: 0.01, shading_rate }),
-            (-1.0f64..0.5).prop_map(DicingRule::RelativeToSize),
-        ];
+    let rule = prop_oneof![
+        (rate.clone(), 1e-4f64..1e-2).prop_map(|(shading_rate, radians_per_pixel)| {
+            DicingRule::Perspective { eye: DVec3::new(0.0, 0.0, -5.0), radians_per_pixel, shading_rate }
+        }),
+        rate.prop_map(|shading_rate| DicingRule::Orthographic { pixel: 0.01, shading_rate }),
+        (-1.0f64..0.5).prop_map(DicingRule::RelativeToSize),
+    ];
     (shader, rule)
 }
 
