@@ -480,12 +480,16 @@ const EXPLANATIONS: &[(&str, &str)] = &[
         "A custom shader written in the RenderMan Shading Language: a ray tracer without an RSL compiler cannot know what it computes, so the surface is rendered with the named standard stand-in. Stays.",
     ),
     (
-        "Displacement",
-        "Custom or standard displacement shaders: surfaces are not displaced. Standard ones are a gap (displacement by tessellation is not built); custom RSL ones cannot be known.",
+        "beyond its displacementbound",
+        "Informational: a standard displacement shader (`dented`, `bumpy`, run by the renderer, docs/raytracer.md) moves the surface farther than the scene's `Attribute \"displacementbound\"` says. RenderMan would clip the displacement at the bound (and crack); the ray tracer needs no bound and draws it in full.",
     ),
     (
-        "displacement shaders are ignored",
-        "As above, from the ray tracer: displacement is a gap still to build.",
+        "coarser",
+        "A displaced shape's `ShadingRate` asks for more micropolygons than the per-shape budget (`MAX_DISPLACED_TRIANGLES`) allows: diced as finely as the budget allows, reported (a hostile file costs bounded memory and time).",
+    ),
+    (
+        "is a custom shader (RenderMan Shading Language)",
+        "A custom displacement shader written in the RenderMan Shading Language (the standard `null`, `dented` and `bumpy` are run: docs/raytracer.md): a renderer without an RSL compiler cannot know what it computes, so the surface is not displaced. Stays (the parser's warning and the ray tracer's are two lines for one cause).",
     ),
     (
         "drawn at shutter open",

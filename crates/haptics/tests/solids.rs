@@ -147,3 +147,26 @@ fn an_intersection_of_spheres_is_the_lens() {
     let (touched, _) = probe(&g, DVec3::new(-1.5, 0.0, 0.0), DVec3::new(-0.5, 0.0, 0.0));
     assert!(!touched, "the first sphere's far side is not part of the lens");
 }
+
+/// A unit sphere with `Displacement "dented" "Km" 2` is touched where the ray tracer draws it:
+/// a probe pushed toward the centre stops its radius off the dented surface, at
+/// `1 - Km magnitude^3` of the direction it rests in (the undisplaced sphere is at 1).
+#[test]
+fn a_dented_sphere_is_touched_at_its_displaced_radius() {
+    let g = geometry("WorldBegin\nDisplacement \"dented\" \"Km\" [2]\nSphere 1 -1 1 360\nWorldEnd\n");
+    // The direction (of a few) where the dent is deepest, so that the test tells dented from
+    // undented.
+    let directions = [DVec3::new(1.0, 0.3, 0.2), DVec3::new(-0.4, 0.8, 0.1), DVec3::new(0.2, -0.5, -0.9)];
+    let dent = |d: DVec3| 2.0 * tessellate::dented_magnitude_cubed(d.normalize());
+    let d = directions.into_iter().max_by(|a, b| dent(*a).total_cmp(&dent(*b))).unwrap().normalize();
+    assert!(dent(d) > 0.02, "dent {} too shallow to tell", dent(d));
+    let (touched, end) = probe(&g, 3.0 * d, 0.5 * d);
+    assert!(touched, "the proxy never touched the dented sphere");
+    let rest = end.normalize();
+    let expected = 1.0 - dent(rest);
+    let surface = end.length() - RADIUS;
+    assert!(
+        (surface - expected).abs() < 4e-3,
+        "proxy rests at radius {surface}, the dented surface is at {expected}"
+    );
+}

@@ -180,6 +180,11 @@ impl ParamList {
     }
 }
 
+/// The displacement shaders of the RenderMan standard library that consumers evaluate (the
+/// RenderMan Companion's `dented`, RISpec's `bumpy`, and `null`); any other name is a custom
+/// shader written in the RenderMan Shading Language.
+pub const STANDARD_DISPLACEMENT_SHADERS: [&str; 3] = ["null", "dented", "bumpy"];
+
 /// A shader-like call as given: `Surface "plastic" "Ks" [0.5]`, `LightSource ...`,
 /// `SurfaceIntegrator "photonmap" ...`, `PixelFilter`-style calls are typed elsewhere.
 #[derive(Clone, Debug, PartialEq)]
@@ -422,8 +427,14 @@ pub struct Attributes {
     pub opacity: Vec3,
     /// `Surface`; `None` means RenderMan's default surface (`"defaultsurface"`).
     pub surface: Option<ShaderCall>,
-    /// `Displacement`: kept, and ignored by every consumer (the builder warns once).
+    /// `Displacement`. The standard shaders (`null`, `dented`, `bumpy`, see
+    /// [`STANDARD_DISPLACEMENT_SHADERS`]) are evaluated by `tessellate::displace`; the builder
+    /// warns once about any other (a custom shader in the RenderMan Shading Language).
     pub displacement: Option<ShaderCall>,
+    /// The shader space of [`Attributes::displacement`]: the transformation current at the
+    /// `Displacement` request (`world_from_shader`; relative to the definition inside
+    /// `ObjectBegin`), where `dented` evaluates its noise. Identity without a displacement.
+    pub displacement_space: DMat4,
     /// `Atmosphere`, `Interior`, `Exterior`: kept as given.
     pub atmosphere: Option<ShaderCall>,
     pub interior: Option<ShaderCall>,
@@ -463,6 +474,7 @@ impl Default for Attributes {
             opacity: Vec3::ONE,
             surface: None,
             displacement: None,
+            displacement_space: DMat4::IDENTITY,
             atmosphere: None,
             interior: None,
             exterior: None,

@@ -445,6 +445,11 @@ impl Writer {
             ("Exterior", &a.exterior),
         ] {
             if let Some(c) = call {
+                // The shader space is the transformation current at the request; the shape's
+                // own `Transform` follows the attributes.
+                if request == "Displacement" && a.displacement_space != DMat4::IDENTITY {
+                    self.line(format!("Transform {}", matrix(&a.displacement_space)));
+                }
                 self.line(format!("{request} {}{}", s(&c.name), param_list(&c.params)));
             }
         }

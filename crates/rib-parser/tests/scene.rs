@@ -385,3 +385,25 @@ fn geometry_teapot_is_32_bezier_patches_and_other_names_are_named() {
     assert!(warnings.contains("parameter \"s\""), "{warnings}");
     assert!(!warnings.contains("\"teapot\" is not supported"), "{warnings}");
 }
+
+/// `Displacement` keeps the transformation current at the request as its shader space
+/// (RenderMan's "shader" space, where `dented` evaluates its noise); the standard shaders are
+/// evaluated downstream without a warning, a custom one is named as custom.
+#[test]
+fn displacement_keeps_its_shader_space_and_warns_only_for_custom_shaders() {
+    let l = load(
+        "WorldBegin\nAttributeBegin\nTranslate 1 2 3\nDisplacement \"dented\" \"Km\" 2\nScale 2 2 2\n\
+         Sphere 1 -1 1 360\nAttributeEnd\nAttributeBegin\nDisplacement \"bumpy\"\nSphere 1 -1 1 360\n\
+         AttributeEnd\nWorldEnd\n",
+    );
+    assert_eq!(l.diagnostics.warning_count(), 0, "{}", l.render_warnings());
+    let a = l.scene.attributes_of(l.scene.shapes[0].attributes);
+    assert_eq!(a.displacement.as_ref().map(|d| d.name.as_str()), Some("dented"));
+    assert_eq!(a.displacement_space, DMat4::from_translation(DVec3::new(1.0, 2.0, 3.0)));
+    let b = l.scene.attributes_of(l.scene.shapes[1].attributes);
+    assert_eq!(b.displacement_space, DMat4::IDENTITY);
+
+    let custom = load("WorldBegin\nDisplacement \"micro_bumps\"\nSphere 1 -1 1 360\nWorldEnd\n");
+    let warnings = custom.render_warnings();
+    assert!(warnings.contains("\"micro_bumps\" is a custom shader"), "{warnings}");
+}

@@ -9,6 +9,8 @@
 //!   transform (applied in `f64`), orienting it as the RenderMan Interface says.
 //! - [`tessellate_placed_keys`] tessellates the keys of a deforming shape (`MotionBegin`) so
 //!   that every key has the same triangles, each with its own vertex positions.
+//! - [`tessellate_displaced`] places a shape, dices it into micropolygons and runs a standard
+//!   RenderMan displacement shader on it (`null`, `dented`, `bumpy`).
 //! - [`tessellate_scene`] yields a world-space mesh for every
 //!   [`ShapeEntity`](rib_parser::scene::ShapeEntity) and every shape of every object instance of a
 //!   [`Scene`](rib_parser::scene::Scene), with its [`AttributesId`](rib_parser::scene::AttributesId).
@@ -56,9 +58,12 @@
 
 mod blobby;
 mod curves;
+mod dice;
+mod displace;
 mod grid;
 mod keys;
 mod mesh;
+mod noise;
 mod nurbs;
 mod patch;
 mod placed;
@@ -74,11 +79,17 @@ pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
 pub use curves::{
     CurvePolyline, RibbonFacing, curve_polylines, curve_ribbons, curve_ribbons_keys, point_widths,
 };
+pub use dice::{DiceReport, DicingRule};
+pub use displace::{
+    DENTED_MAX_MAGNITUDE_CUBED, Displaced, DisplacedKeys, DisplacedMesh, DisplacementShader,
+    dented_magnitude_cubed, displace_keys, displacement_bound, tessellate_displaced,
+};
 pub use keys::tessellate_placed_keys;
 pub use mesh::TriangleMesh;
+pub use noise::{perlin_noise, renderman_noise};
 pub use placed::{
-    MeshOrigin, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds, tessellate_placed,
-    tessellate_scene, tessellate_scene_filtered,
+    MeshOrigin, SCENE_DICING, SceneMeshes, SkippedShape, WorldMesh, scene_bounds, shape_bounds,
+    tessellate_placed, tessellate_scene, tessellate_scene_filtered,
 };
 pub use seam::SeamWelder;
 

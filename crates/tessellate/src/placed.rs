@@ -1,6 +1,8 @@
 //! Placing tessellations in the world: transforms in `f64`, RenderMan orientation, and the
 //! scene-level walk over shapes and object instances.
 
+use super::dice::DicingRule;
+use super::displace::{Displaced, DisplacementShader, tessellate_displaced_with};
 use super::seam::SeamWelder;
 use super::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, blobby, tessellate_scaled};
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
@@ -78,7 +80,7 @@ pub fn tessellate_placed(
     place(shape, world_from_object, reverse_orientation, tol, ShapeOptions::default())
 }
 
-fn place(
+pub(crate) fn place(
     shape: &Shape,
     world_from_object: &DMat4,
     reverse_orientation: bool,
@@ -216,8 +218,14 @@ pub(crate) fn spectral_norm(a: &DMat3) -> f64 {
     largest.max(0.0).sqrt()
 }
 
+/// How finely [`tessellate_scene`] dices displaced shapes, where no camera is known: edges of
+/// at most 1/128 of the shape's bounding-box diagonal.
+pub const SCENE_DICING: DicingRule = DicingRule::RelativeToSize(1.0 / 128.0);
+
 /// Tessellates every [`ShapeEntity`] of the scene and every shape of every object instance,
-/// in world space (see [`tessellate_placed`] for the transform and tolerance rules).
+/// in world space (see [`tessellate_placed`] for the transform and tolerance rules). Surfaces
+/// with a standard displacement shader are displaced (see [`crate::tessellate_displaced`]),
+/// diced by [`SCENE_DICING`]; `bumpy`'s texture is not read here (it reads 0).
 pub fn tessellate_scene(scene: &Scene, tol: &Tolerance) -> SceneMeshes {
     tessellate_scene_filtered(scene, tol, |_| true)
 }
@@ -238,7 +246,8 @@ pub fn tessellate_scene_filtered(
                      entity: &ShapeEntity,
                      world_from_object: DMat4,
                      shape_attributes: AttributesId,
-                     instance_attributes: Option<AttributesId>| {
+                     instance_attributes: Option<AttributesId>,
+                     world_from_definition: DMat4| {
         if !keep(&entity.shape) {
             return;
         }
@@ -257,7 +266,35 @@ pub fn tessellate_scene_filtered(
         }
         // Leave the scene budget's remainder as this shape's limit.
         let local = tol.with_max_triangles(tol.max_triangles.min(tol.max_scene_triangles - total));
-        match place(&entity.shape, &world_from_object, reverse, &local, options) {
+        let placed = match own.map(DisplacementShader::from_attributes) {
+            Some(Ok(Some(shader))) if !shader.is_identity() && super::is_surface(&entity.shape) => {
+                // The shader space of a shape in an object definition is the definition's.
+                let shader = match shader {
+                    DisplacementShader::Dented { km, world_from_shader } => DisplacementShader::Dented {
+                        km,
+                        world_from_shader: world_from_definition * world_from_shader,
+                    },
+                    other => other,
+                };
+                let displaced = Displaced {
+                    shader: &shader,
+                    world_from_placed: DMat4::IDENTITY,
+                    texture: &|_, _| None,
+                    dicing: SCENE_DICING,
+                };
+                tessellate_displaced_with(
+                    &entity.shape,
+                    &world_from_object,
+                    reverse,
+                    &local,
+                    &displaced,
+                    options,
+                )
+                .map(|d| d.mesh)
+            }
+            _ => place(&entity.shape, &world_from_object, reverse, &local, options),
+        };
+        match placed {
             Ok(mut mesh) => {
                 if let Some(seams) = seams.as_mut().filter(|_| SeamWelder::applies_to(&entity.shape)) {
                     seams.weld(&mut mesh);
@@ -277,7 +314,14 @@ pub fn tessellate_scene_filtered(
         }
     };
     for (index, entity) in scene.shapes.iter().enumerate() {
-        visit(MeshOrigin::Shape { index }, entity, entity.world_from_object, entity.attributes, None);
+        visit(
+            MeshOrigin::Shape { index },
+            entity,
+            entity.world_from_object,
+            entity.attributes,
+            None,
+            DMat4::IDENTITY,
+        );
     }
     for (instance, inst) in scene.instances.iter().enumerate() {
         let Some(def) = scene.objects.get(inst.object.0 as usize) else { continue };
@@ -287,7 +331,7 @@ pub fn tessellate_scene_filtered(
             // definition's attribute requests over the instance's state).
             let resolved = inst.shape_attributes.get(shape).copied().unwrap_or(entity.attributes);
             let origin = MeshOrigin::Instance { instance, object: inst.object, shape };
-            visit(origin, entity, m, resolved, Some(inst.attributes));
+            visit(origin, entity, m, resolved, Some(inst.attributes), inst.world_from_instance);
         }
     }
     out

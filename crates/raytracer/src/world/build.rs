@@ -3,7 +3,10 @@
 
 use super::clipping::render_clipping_planes;
 use super::csg::Csg;
-use super::deformation::{deforming_blas, shutter_deformation};
+use super::deformation::{KeyDisplacement, deforming_blas, shutter_deformation};
+use super::displacement::{
+    DisplacementTextures, custom_shader_warning, displaced_geometry, displaced_keys, displacement_of,
+};
 use super::lighting::{self, area_light_params, background, emitter_shape};
 use super::motion::{camera_shutter_motion, motion_box, shutter_motion};
 use super::placement::{
@@ -28,7 +31,7 @@ use tessellate::{SeamWelder, is_quadric, shape_kind};
 /// that made `name`, with its wrap modes, a cube-face environment's six pictures resampled to
 /// a lat-long map, or else the file `name` itself. Relative paths are
 /// tried from the working directory, then from the RIB file's directory.
-fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
+pub(super) fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
     let resolve = |file: &str| {
         let direct = PathBuf::from(file);
         if direct.is_absolute() || direct.exists() {
@@ -109,11 +112,8 @@ impl World {
                     ),
                 }
             }
-            if attrs.displacement.is_some() {
-                diagnostics.warn_once(
-                    attrs.displacement.as_ref().map(|d| &d.loc),
-                    "displacement shaders are ignored".to_string(),
-                );
+            if let Some(warning) = custom_shader_warning(attrs) {
+                diagnostics.warn_once(attrs.displacement.as_ref().map(|d| &d.loc), warning);
             }
             materials.push(m);
         }
@@ -127,11 +127,18 @@ impl World {
         // so the watertight triangle test closes the seam.
         let mut seams =
             tessellate::scene_bounds(scene).map(|(lo, hi)| SeamWelder::new(lo - eye_world, hi - eye_world));
+        let displacement_textures = DisplacementTextures::new(scene);
+        let world_from_render = DMat4::from_translation(eye_world);
         let mut geometry = |entity: &ShapeEntity,
                             blas_from_object: &DMat4,
-                            in_render_space: bool,
+                            world_from_blas: Option<&DMat4>,
                             diagnostics: &mut Diagnostics| {
-            if triangle_count.get() >= MAX_WORLD_TRIANGLES && !is_quadric(&entity.shape) {
+            // Render space (`None`), or the space of an object definition or a moving shape.
+            let in_render_space = world_from_blas.is_none();
+            let displacement = displacement_of(scene, entity);
+            if triangle_count.get() >= MAX_WORLD_TRIANGLES
+                && (!is_quadric(&entity.shape) || displacement.is_some())
+            {
                 let kind = shape_kind(&entity.shape);
                 let why = format!("the world already has {MAX_WORLD_TRIANGLES} triangles");
                 diagnostics.warn_once(Some(&entity.loc), format!("{kind} skipped: {why}"));
@@ -139,7 +146,21 @@ impl World {
                 return None;
             }
             let fp = if in_render_space { Some(&footprint) } else { None };
-            match place_geometry(&entity.shape, blas_from_object, fp) {
+            let placed = match &displacement {
+                Some(shader) => displaced_geometry(
+                    scene,
+                    entity,
+                    shader,
+                    blas_from_object,
+                    world_from_blas.unwrap_or(&world_from_render),
+                    fp,
+                    &displacement_textures,
+                    MAX_WORLD_TRIANGLES.saturating_sub(triangle_count.get()) as u64,
+                    diagnostics,
+                ),
+                None => place_geometry(&entity.shape, blas_from_object, fp),
+            };
+            match placed {
                 Ok(mut g) => {
                     if let Geometry::Mesh(m) = &mut g {
                         if let Some(seams) = seams.as_mut().filter(|_| in_render_space)
@@ -197,7 +218,7 @@ impl World {
                 diagnostics.skip("shapes (singular transform)");
                 return None;
             }
-            let g = geometry(entity, &render_from_object, true, diagnostics)?;
+            let g = geometry(entity, &render_from_object, None, diagnostics)?;
             let Some(shape_index) = builder.add(&g, &render_from_object, entity.attributes, scene) else {
                 diagnostics.skip("shapes (degenerate geometry)");
                 return None;
@@ -312,7 +333,10 @@ impl World {
 
         for (entity, motion) in moving_shapes {
             let object_from_object = DMat4::IDENTITY;
-            let Some(g) = geometry(entity, &object_from_object, false, diagnostics) else { continue };
+            let Some(g) = geometry(entity, &object_from_object, Some(&entity.world_from_object), diagnostics)
+            else {
+                continue;
+            };
             let mut builder = BlasBuilder::new();
             if builder.add(&g, &object_from_object, entity.attributes, scene).is_none() {
                 diagnostics.skip("shapes (degenerate geometry)");
@@ -352,8 +376,41 @@ impl World {
             }
             let fp = if motion.is_none() { Some(&footprint) } else { None };
             let budget = MAX_WORLD_TRIANGLES.saturating_sub(triangle_count.get());
-            let placed =
-                deforming_blas(&deformation, entity.attributes, &blas_from_object, fp, budget, scene);
+            // A displaced shape's keys are diced alike and displaced each at its own vertices.
+            let shader = displacement_of(scene, entity);
+            let world_from_blas = match motion {
+                Some(_) => entity.world_from_object,
+                None => world_from_render,
+            };
+            let mut key_warnings = Diagnostics::default();
+            let mut displace_keys = |keys: &[tessellate::TriangleMesh], budget: u64| {
+                let shader = shader.as_ref().ok_or("no displacement")?;
+                displaced_keys(
+                    scene,
+                    entity,
+                    shader,
+                    keys,
+                    &world_from_blas,
+                    fp,
+                    &displacement_textures,
+                    budget,
+                    &mut key_warnings,
+                )
+            };
+            let displace: Option<KeyDisplacement<'_>> =
+                if shader.is_some() { Some(&mut displace_keys) } else { None };
+            let placed = deforming_blas(
+                &deformation,
+                entity.attributes,
+                &blas_from_object,
+                fp,
+                budget,
+                scene,
+                displace,
+            );
+            for warning in std::mem::take(&mut key_warnings.warnings) {
+                diagnostics.warn_once(warning.loc.as_ref(), warning.message);
+            }
             let blas = match placed {
                 Ok((blas, keyed_triangles)) => {
                     triangle_count.set(triangle_count.get() + keyed_triangles);
@@ -366,7 +423,8 @@ impl World {
                         format!("deforming {kind} drawn at shutter open (no deformation blur): {why}"),
                     );
                     // The shape at shutter open, in a BLAS of its own.
-                    let Some(g) = geometry(entity, &blas_from_object, motion.is_none(), diagnostics) else {
+                    let world_from_blas = motion.as_ref().map(|_| &entity.world_from_object);
+                    let Some(g) = geometry(entity, &blas_from_object, world_from_blas, diagnostics) else {
                         continue;
                     };
                     let mut builder = BlasBuilder::new();
@@ -406,7 +464,11 @@ impl World {
                 let mut placed = Vec::new();
                 let mut seams = definition_seams(&def.shapes);
                 for entity in &def.shapes {
-                    let Some(mut g) = geometry(entity, &entity.world_from_object, false, diagnostics) else {
+                    // The definition's own space stands for the world (its shader spaces are
+                    // relative to it too).
+                    let Some(mut g) =
+                        geometry(entity, &entity.world_from_object, Some(&DMat4::IDENTITY), diagnostics)
+                    else {
                         continue;
                     };
                     if let (Geometry::Mesh(m), Some(seams)) = (&mut g, seams.as_mut())

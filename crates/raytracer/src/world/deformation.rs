@@ -222,11 +222,17 @@ pub(super) fn deforming_blas(
     footprint: Option<&PixelFootprint>,
     budget: usize,
     scene: &Scene,
+    displace: Option<KeyDisplacement<'_>>,
 ) -> Result<(Blas, usize), String> {
     let shapes = deformation.shapes();
     let times = deformation.times().to_vec();
     let mut builder = BlasBuilder::new();
     if is_quadric(&shapes[0]) || matches!(*shapes[0], Shape::Points(_)) {
+        if displace.is_some() {
+            return Err(
+                "the keys of a displaced quadric are not displaced (it is a mesh at shutter open)".into()
+            );
+        }
         // Each key's quadrics (a Points key: one sphere per point).
         let mut per_key = Vec::with_capacity(shapes.len());
         for shape in shapes {
@@ -324,6 +330,15 @@ pub(super) fn deforming_blas(
             "its keys tessellate to different meshes (the surface is refined differently at each key)".into(),
         );
     }
+    if let Some(displace) = displace {
+        // Every key diced alike and displaced at its own vertices; the displaced keys replace
+        // the plain ones in the budget, shared by the keys.
+        meshes = displace(&meshes, (budget / meshes.len()) as u64)?;
+        let keyed: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        left = budget.checked_sub(keyed).ok_or_else(|| {
+            format!("its displaced keys would make more than the world's {MAX_WORLD_TRIANGLES} triangles")
+        })?;
+    }
     let normals: Option<Vec<Vec<Vec3>>> = meshes.iter().map(|m| m.normals.clone()).collect();
     let positions: Vec<Vec<Vec3>> = meshes.iter().map(|m| m.positions.clone()).collect();
     // The mesh at shutter open stands for the shape where no time is known.
@@ -355,6 +370,11 @@ pub(super) fn deforming_blas(
     );
     Ok((builder.finish_deforming(deforming), keyed_triangles))
 }
+
+/// Displaces the keys of a deforming mesh (the same triangles at every key) within a number
+/// of triangles per key, keeping them alike.
+pub(super) type KeyDisplacement<'a> =
+    &'a mut dyn FnMut(&[tessellate::TriangleMesh], u64) -> Result<Vec<tessellate::TriangleMesh>, String>;
 
 /// Every vertex of the keys `(i, j)` interpolated `f` of the way.
 fn lerp_keys(keys: &[Vec<Vec3>], (i, j, f): (usize, usize, f64)) -> Vec<Vec3> {

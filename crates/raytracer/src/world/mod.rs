@@ -14,12 +14,14 @@ mod build;
 mod clipping;
 mod csg;
 mod deformation;
+mod displacement;
 mod lighting;
 mod motion;
 mod placement;
 mod shadow;
 
 pub use build::WorldError;
+pub use displacement::MAX_DISPLACED_TRIANGLES;
 pub use placement::{
     MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
 };

@@ -91,7 +91,11 @@ fn control_bounds(shape: &Shape) -> Option<(DVec3, DVec3)> {
 /// The tessellation tolerance of a shape placed with `blas_from_object`: half a pixel at the
 /// shape's nearest point to the eye (`eye_distance` from its bounds, when known), clamped to
 /// [`TESSELLATION_FINEST`, `TESSELLATION_COARSEST`] of the shape's size.
-fn tolerance_for(shape: &Shape, blas_from_object: &DMat4, footprint: Option<&PixelFootprint>) -> Tolerance {
+pub(super) fn tolerance_for(
+    shape: &Shape,
+    blas_from_object: &DMat4,
+    footprint: Option<&PixelFootprint>,
+) -> Tolerance {
     let relative = Tolerance::relative(TESSELLATION_DEFAULT);
     let (Some(footprint), Some((lo, hi))) = (footprint, control_bounds(shape)) else { return relative };
     let (lo, hi) = transformed_box(blas_from_object, lo, hi);

@@ -6,7 +6,7 @@ use crate::basis::bezier_basis;
 use crate::diagnostics::DiagnosticKind;
 use crate::scene::*;
 use crate::target::{Cx, ShaderSlot};
-use glam::Vec3;
+use glam::{DMat4, Vec3};
 use std::sync::Arc;
 
 /// The attribute part of the graphics state: the scene-facing [`Attributes`] plus what only
@@ -49,6 +49,8 @@ pub(crate) enum AttrOp {
     Color(Vec3),
     Opacity(Vec3),
     Shader(ShaderSlot, ShaderCall),
+    /// The transformation current at a `Displacement` request (its shader space).
+    DisplacementSpace(DMat4),
     ShadingRate(f32),
     Matte(bool),
     Orientation(Orient),
@@ -74,6 +76,7 @@ pub(crate) fn apply(a: &mut Attributes, op: &AttrOp, coordsys_left_handed: bool)
             };
             *slot_ref = Some(call.clone());
         }
+        AttrOp::DisplacementSpace(m) => a.displacement_space = *m,
         AttrOp::ShadingRate(r) => a.shading_rate = *r,
         AttrOp::Matte(m) => a.matte = *m,
         AttrOp::Orientation(o) => {
@@ -211,12 +214,21 @@ impl SceneBuilder {
 
     pub(super) fn shader(&mut self, slot: ShaderSlot, call: ShaderCall, cx: &mut Cx<'_>) {
         match slot {
-            ShaderSlot::Displacement => self.warn_once(
-                "displacement",
-                cx,
-                DiagnosticKind::Unsupported,
-                format!("Displacement \"{}\" is kept but ignored: surfaces are not displaced", call.name),
-            ),
+            ShaderSlot::Displacement => {
+                if !STANDARD_DISPLACEMENT_SHADERS.contains(&call.name.as_str()) {
+                    self.warn_once(
+                        "displacement",
+                        cx,
+                        DiagnosticKind::Unsupported,
+                        format!(
+                            "Displacement \"{}\" is a custom shader (RenderMan Shading Language), which is \
+                             not run: surfaces are not displaced",
+                            call.name
+                        ),
+                    );
+                }
+                self.set_attr(AttrOp::DisplacementSpace(self.gs.ctm), cx);
+            }
             ShaderSlot::Deformation => {
                 cx.warn(
                     DiagnosticKind::Unsupported,

@@ -173,6 +173,7 @@ impl SceneBuilder {
                 (a.color, a.opacity, a.shading_rate) = (b.color, b.opacity, b.shading_rate);
                 a.surface.clone_from(&b.surface);
                 a.displacement.clone_from(&b.displacement);
+                a.displacement_space = b.displacement_space;
                 a.atmosphere.clone_from(&b.atmosphere);
                 a.interior.clone_from(&b.interior);
                 a.exterior.clone_from(&b.exterior);

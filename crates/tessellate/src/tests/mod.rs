@@ -2,6 +2,7 @@
 
 mod blobby;
 mod curves;
+mod displace;
 mod keys;
 mod nurbs;
 mod patch;

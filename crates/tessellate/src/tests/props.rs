@@ -1,7 +1,9 @@
 //! Property tests: arbitrary shapes and tolerances never panic and never yield NaN.
 
 use super::assert_well_formed;
-use crate::{Tolerance, tessellate, tessellate_placed};
+use crate::{
+    DicingRule, Displaced, DisplacementShader, Tolerance, tessellate, tessellate_displaced, tessellate_placed,
+};
 use glam::{DMat4, DVec3, Vec3, Vec4};
 use proptest::prelude::*;
 use rib_parser::scene::{
@@ -339,6 +341,42 @@ fn check(shape: &Shape, tol: &Tolerance) {
     }
 }
 
+/// A displacement shader with arbitrary amounts and a dicing rule with arbitrary rates.
+fn displacement() -> impl Strategy<Value = (DisplacementShader, DicingRule)> {
+    let shader = prop_oneof![
+        number().prop_map(|km| DisplacementShader::Dented {
+            km: f64::from(km),
+            world_from_shader: DMat4::IDENTITY
+        }),
+        (number(), number()).prop_map(|(km, amplitude)| DisplacementShader::Bumpy {
+            km: f64::from(km),
+            amplitude: f64::from(amplitude),
+            texture: Some("t".into()),
+        }),
+    ];
+    let rate = prop_oneof![3 => 0.1f64..16.0, 1 => prop::sample::select(vec![1e-30, 0.0, f64::NAN, 1e30])];
+    let rule = prop_oneof![
+        (rate.clone(), 1e-4f64..1e-2).prop_map(|(shading_rate, radians_per_pixel)| {
+            DicingRule::Perspective { eye: DVec3::new(0.0, 0.0, -5.0), radians_per_pixel, shading_rate }
+        }),
+        rate.prop_map(|shading_rate| DicingRule::Orthographic { pixel: 0.01, shading_rate }),
+        (-1.0f64..0.5).prop_map(DicingRule::RelativeToSize),
+    ];
+    (shader, rule)
+}
+
+/// A displaced shape stays within its budget and is well formed, whatever the shader does.
+fn check_displaced(shape: &Shape, tol: &Tolerance, (shader, dicing): &(DisplacementShader, DicingRule)) {
+    let texture = |_: &str, st: glam::Vec2| Some(f64::from(st.x * 3.0 - 1.0));
+    let displaced =
+        Displaced { shader, world_from_placed: DMat4::IDENTITY, texture: &texture, dicing: *dicing };
+    let m = DMat4::from_scale(DVec3::new(-2.0, 1.0, 0.5)) * DMat4::from_rotation_z(1.0);
+    if let Ok(out) = tessellate_displaced(shape, &m, true, tol, &displaced) {
+        assert_well_formed(&out.mesh);
+        assert!(out.mesh.triangle_count() as u64 <= tol.max_triangles.max(out.dicing.base_triangles as u64));
+    }
+}
+
 proptest! {
     // 200 cases each in the normal suite; `PROPTEST_CASES=N` runs more.
     #![proptest_config(ProptestConfig {
@@ -370,5 +408,14 @@ proptest! {
     #[test]
     fn subdivision_meshes_never_panic_or_nan(shape in subdivision(), tol in tolerance()) {
         check(&shape, &tol);
+    }
+
+    #[test]
+    fn displaced_shapes_never_panic_or_nan(
+        shape in prop_oneof![quadric(), polygons(), patches()],
+        tol in tolerance(),
+        displacement in displacement(),
+    ) {
+        check_displaced(&shape, &tol, &displacement);
     }
 }
