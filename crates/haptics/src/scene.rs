@@ -75,7 +75,7 @@ impl SceneGeometry {
 
 /// Tessellates every surface of `scene` (see [`tessellation_tolerance`]) into a collision mesh.
 pub fn scene_geometry(scene: &Scene, tolerance: &Tolerance) -> SceneGeometry {
-    geometry_from_meshes(scene, tessellate_scene(scene, tolerance))
+    scene_geometry_from_meshes(scene, &tessellate_scene(scene, tolerance))
 }
 
 /// The attribute state whose haptic material applies to a mesh: the shape's own, unless it
@@ -90,7 +90,9 @@ fn material_of(scene: &Scene, mesh: &WorldMesh) -> AttributesId {
     }
 }
 
-fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
+/// The collision mesh of `scene` from its tessellation `meshes` (`tessellate_scene` at
+/// [`tessellation_tolerance`] or finer), for a caller that shares one tessellation.
+pub fn scene_geometry_from_meshes(scene: &Scene, meshes: &SceneMeshes) -> SceneGeometry {
     let materials = material_specs(scene);
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -111,7 +113,7 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
     // What the ray tracer clips away is not touched either.
     let planes = world_clipping_planes(scene);
     // What CSG removes is not touched either; the solids' work is bounded per scene.
-    let mut solids = Solids::new(scene, &meshes);
+    let mut solids = Solids::new(scene, meshes);
     for skipped in &meshes.skipped {
         let what =
             if skipped.error.is_not_a_surface() { "has no surface to touch" } else { "cannot be touched" };
