@@ -25,19 +25,23 @@ fn depth(bvh: &FlatBvh) -> u32 {
     deepest
 }
 
+/// `n` unit-sized triangles spread over a cube of side 100 by the R3 low-discrepancy sequence
+/// (Roberts' generalised golden ratio): scattered, and the same on every run.
 fn scattered(n: usize) -> Vec<[Vec3; 3]> {
-    let mut s = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
+    const G: f64 = 1.220_744_084_605_759_5;
+    let step = [1.0 / G, 1.0 / (G * G), 1.0 / (G * G * G)];
+    let at = |k: f64, offset: f64| {
+        Vec3::new(
+            (offset + k * step[0]).fract() as f32,
+            (offset + k * step[1]).fract() as f32,
+            (offset + k * step[2]).fract() as f32,
+        )
     };
     (0..n)
-        .map(|_| {
-            let c = Vec3::new(next(), next(), next()) * 100.0 - 50.0;
-            let mut corner = || c + Vec3::new(next(), next(), next()) - 0.5;
-            [corner(), corner(), corner()]
+        .map(|k| {
+            let c = at(k as f64, 0.5) * 100.0 - 50.0;
+            // Corners from further along the sequence: orientations vary from one to the next.
+            [0.1, 0.3, 0.7].map(|o| c + at(7.0 * k as f64, o) - 0.5)
         })
         .collect()
 }
