@@ -267,6 +267,44 @@ impl Bvh {
         best
     }
 
+    /// Calls `visit(vertices, triangle index)` (local frame) for the triangles of every leaf
+    /// whose box, grown by `margin`, the ray `o + t d` (`t >= 0`) meets: every triangle the ray
+    /// can cross and a few more. Returns how many nodes it tested (the caller's work bound).
+    pub fn for_each_on_ray(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        margin: f64,
+        mut visit: impl FnMut([DVec3; 3], u32),
+    ) -> u64 {
+        if self.nodes.is_empty() || !(d.length_squared() > 0.0) {
+            return 0;
+        }
+        let inv = DVec3::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+        let mut stack = [0u32; MAX_DEPTH + 2];
+        let mut top = 1usize;
+        let mut tested = 0u64;
+        while top > 0 {
+            top -= 1;
+            let node = &self.nodes[stack[top] as usize];
+            tested += 1;
+            if slab_entry(node, o, d, inv, margin, f64::INFINITY).is_none() {
+                continue;
+            }
+            if node.count > 0 {
+                let first = node.first as usize;
+                for leaf in &self.triangles[first..first + node.count as usize] {
+                    visit(leaf.vertices.map(Vec3::as_dvec3), leaf.mesh_index);
+                }
+                continue;
+            }
+            stack[top] = node.first;
+            stack[top + 1] = node.first + 1;
+            top += 2;
+        }
+        tested
+    }
+
     /// The closest point of the mesh to `p` among points closer than `max_distance`.
     pub fn closest_point(&self, p: DVec3, max_distance: f64) -> Option<ClosestPoint> {
         let mut best: Option<ClosestPoint> = None;
@@ -543,6 +581,41 @@ mod tests {
                 .fold(f64::INFINITY, f64::min);
             assert!((fast.distance - slow).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn a_ray_visits_every_triangle_it_crosses() {
+        let mesh = terrain(20);
+        let bvh = Bvh::build(&mesh);
+        let mut seed = 5u64;
+        // Whether the ray `o + t d`, `t >= 0`, meets the triangle (closed barycentric bounds).
+        let crosses = |o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]| {
+            let (e1, e2) = (b - a, c - a);
+            let q = d.cross(e2);
+            let det = e1.dot(q);
+            let s = o - a;
+            let (u, r) = (s.dot(q) / det, s.cross(e1));
+            let v = d.dot(r) / det;
+            det != 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) / det >= 0.0
+        };
+        let (mut crossed_any, mut visited_total) = (0, 0);
+        for _ in 0..300 {
+            let o = DVec3::new(lcg(&mut seed), lcg(&mut seed), 0.3 * lcg(&mut seed) - 0.15);
+            let d = DVec3::new(lcg(&mut seed) - 0.5, lcg(&mut seed) - 0.5, lcg(&mut seed) - 0.5);
+            let mut visited = vec![false; mesh.triangle_count()];
+            let tested = bvh.for_each_on_ray(o, d, 1e-9, |_, i| visited[i as usize] = true);
+            assert!(tested >= 1 && tested <= bvh.node_count() as u64);
+            for (i, seen) in visited.iter().enumerate() {
+                if crosses(o, d, mesh.triangle_local(i)) {
+                    crossed_any += 1;
+                    assert!(seen, "ray {o} {d} crosses triangle {i} unvisited");
+                }
+            }
+            visited_total += visited.iter().filter(|v| **v).count();
+        }
+        assert!(crossed_any > 100, "the rays cross the terrain ({crossed_any} crossings)");
+        // The tree is worth having: on average a ray visits a small part of the mesh.
+        assert!(visited_total < 300 * mesh.triangle_count() / 10, "{visited_total} triangles visited");
     }
 
     #[test]

@@ -1,23 +1,30 @@
 //! `SolidBegin` constructive solid geometry for the haptic proxy: the touchable surface is the
 //! boundary of the result, as the ray tracer renders it (crates/raytracer/src/world/csg.rs).
 //!
-//! The tree is the ray tracer's: the leaves are primitive solids (all the surfaces of one
-//! `"primitive"` block, or one shape given directly inside another operation), and a point is
-//! inside a leaf when a ray from it crosses the leaf's triangles an odd number of times. A
-//! point on leaf `L`'s surface is on the result's boundary when the tree's answer differs with
-//! `L` taken as inside and as outside, the other leaves as they are there. Each tessellated
-//! triangle of a solid's shape is kept where its points are on the boundary: vertices are
-//! classified, and an edge whose ends differ is cut where the class changes (found by
-//! bisection), the triangle clipped marching-triangles style. Where the result lies outside
-//! `L` (a subtracted solid), the kept triangles are turned over to face out of the result.
+//! The tree and its boolean evaluation are rib-parser's (`rib_parser::csg`), the ray tracer's
+//! too: the leaves are primitive solids (all the surfaces of one `"primitive"` block, or one
+//! shape given directly inside another operation), and a point is inside a leaf when a ray from
+//! it crosses the leaf's triangles an odd number of times; each leaf's triangles are in a
+//! [`Bvh`], so a test costs about the logarithm of their number. A point on leaf `L`'s surface
+//! is on the result's boundary when the tree's answer differs with `L` taken as inside and as
+//! outside, the other leaves as they are there. Each tessellated triangle of a solid's shape is
+//! kept where its points are on the boundary: vertices are classified, and an edge whose ends
+//! differ is cut where the class changes (found by bisection), the triangle clipped
+//! marching-triangles style. Where the result lies outside `L` (a subtracted solid), the kept
+//! triangles are turned over to face out of the result.
 
+use crate::bvh::Bvh;
+use crate::geometry::{CollisionMesh, MaterialId};
 use glam::DVec3;
-use rib_parser::scene::{Scene, SolidOp, SolidPart};
+use rib_parser::csg::CsgTree;
+use rib_parser::scene::Scene;
 use tessellate::{MeshOrigin, SceneMeshes};
 
-/// Parity tests times triangles tested that one scene may spend on its solids; past it the
-/// solids are touched as their union, with a warning (a hostile file cannot stall loading).
-pub const MAX_CSG_WORK: u64 = 4_000_000_000;
+/// BVH nodes and triangles that one scene's solids may test; past it a solid's shapes are
+/// touched as they are (the union), with a warning, so a hostile file (thousands of coplanar
+/// layers that every ray crosses) cannot stall loading. Counted as spent, so an ordinary
+/// solid, about a logarithm of its triangles per test, stays far below it.
+pub const MAX_CSG_WORK: u64 = 1_000_000_000;
 
 /// Bisection steps for an edge's crossing: `2^-24` of the edge, far below any tolerance.
 const BISECTION_STEPS: u32 = 24;
@@ -26,49 +33,51 @@ const BISECTION_STEPS: u32 = 24;
 /// tessellations are not met along their edges.
 const RAY: DVec3 = DVec3::new(0.5773502691896258, 0.5773502691896257 + 1e-3, 0.5773502691896258 - 2e-3);
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Child {
-    Node(usize),
-    Leaf(usize),
+/// Why a shape could not be clipped to its solid's boundary.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum CsgError {
+    #[error("its solid's CSG would test more than {MAX_CSG_WORK} BVH nodes and triangles")]
+    TooMuchWork,
+    #[error("its solid's triangles cannot be indexed: {0}")]
+    Leaf(String),
 }
 
-#[derive(Clone, Debug)]
-struct Node {
-    op: SolidOp,
-    children: Vec<Child>,
-}
-
-/// The triangles of one primitive solid, with their bounds for a quick outside answer.
+/// The triangles of one primitive solid in a hierarchy (world coordinates: local frame at the
+/// origin, so the stored `f32` vertices are the tessellation's own).
 #[derive(Clone, Debug, Default)]
 struct Leaf {
-    triangles: Vec<[DVec3; 3]>,
+    mesh: CollisionMesh,
+    bvh: Bvh,
     lo: DVec3,
     hi: DVec3,
+    /// The box test's margin: far above the rounding of the slab test, far below any triangle.
+    margin: f64,
 }
 
 impl Leaf {
-    fn add(&mut self, t: [DVec3; 3]) {
-        if self.triangles.is_empty() {
-            (self.lo, self.hi) = (t[0], t[0]);
+    fn finish(&mut self) {
+        self.bvh = Bvh::build(&self.mesh);
+        if let Some((lo, hi)) = self.mesh.local_bounds() {
+            (self.lo, self.hi) = (lo, hi);
+            self.margin = 1e-9 * (hi - lo).max_element().max(lo.abs().max(hi.abs()).max_element());
         }
-        for p in t {
-            self.lo = self.lo.min(p);
-            self.hi = self.hi.max(p);
-        }
-        self.triangles.push(t);
     }
 
-    /// Crossing parity of the ray `p + t RAY`, `t > 0`, with the leaf's triangles.
-    fn contains(&self, p: DVec3) -> bool {
-        if self.triangles.is_empty() || p.cmplt(self.lo).any() || p.cmpgt(self.hi).any() {
+    /// Crossing parity of the ray `p + t RAY`, `t > 0`, with the leaf's triangles; adds the
+    /// nodes and triangles tested to `work`.
+    fn contains(&self, p: DVec3, work: &mut u64) -> bool {
+        if self.mesh.is_empty() || p.cmplt(self.lo).any() || p.cmpgt(self.hi).any() {
             return false;
         }
         let mut inside = false;
-        for &[a, b, c] in &self.triangles {
+        let mut triangles = 0u64;
+        let nodes = self.bvh.for_each_on_ray(p, RAY, self.margin, |[a, b, c], _| {
+            triangles += 1;
             if ray_crosses(p, a, b, c) {
                 inside = !inside;
             }
-        }
+        });
+        *work = work.saturating_add(nodes + triangles);
         inside
     }
 }
@@ -95,39 +104,24 @@ fn ray_crosses(o: DVec3, a: DVec3, b: DVec3, c: DVec3) -> bool {
     e2.dot(r) / det > 0.0
 }
 
-/// One outermost solid: its tree (node 0 the root) and leaves.
-#[derive(Clone, Debug)]
+/// One outermost solid: its tree and leaves, and the first problem met filling them.
+#[derive(Debug)]
 struct Tree {
-    nodes: Vec<Node>,
+    csg: CsgTree,
     leaves: Vec<Leaf>,
+    broken: Option<String>,
 }
 
 impl Tree {
-    fn inside(&self, node: usize, states: &[bool]) -> bool {
-        let n = &self.nodes[node];
-        let child = |c: &Child| match *c {
-            Child::Node(k) => self.inside(k, states),
-            Child::Leaf(l) => states[l],
-        };
-        match n.op {
-            SolidOp::Union | SolidOp::Primitive => n.children.iter().any(child),
-            SolidOp::Intersection => !n.children.is_empty() && n.children.iter().all(child),
-            SolidOp::Difference => match n.children.split_first() {
-                Some((first, rest)) => child(first) && !rest.iter().any(child),
-                None => false,
-            },
-        }
-    }
-
     /// For a point on leaf `leaf`'s surface: whether it bounds the result, and whether the
     /// result lies outside the leaf there (the surface must face the other way).
-    fn classify(&self, leaf: usize, p: DVec3, states: &mut [bool]) -> (bool, bool) {
+    fn classify(&self, leaf: usize, p: DVec3, states: &mut [bool], work: &mut u64) -> (bool, bool) {
         for (l, state) in states.iter_mut().enumerate() {
-            *state = l != leaf && self.leaves[l].contains(p);
+            *state = l != leaf && self.leaves[l].contains(p, work);
         }
-        let outside_leaf = self.inside(0, states);
+        let outside_leaf = self.csg.inside(states);
         states[leaf] = true;
-        let inside_leaf = self.inside(0, states);
+        let inside_leaf = self.csg.inside(states);
         (outside_leaf != inside_leaf, outside_leaf)
     }
 }
@@ -137,111 +131,140 @@ pub(crate) struct Solids {
     trees: Vec<Tree>,
     /// By scene shape index: `(tree, leaf)`.
     shape_leaf: Vec<Option<(usize, usize)>>,
+    /// Work left to [`Solids::clip`] (see [`MAX_CSG_WORK`]).
+    budget: u64,
 }
 
 impl Solids {
     /// The trees of `scene`'s outermost solid blocks, their leaves filled with the world
     /// triangles of `meshes`. `None` when the scene has no solid.
     pub(crate) fn new(scene: &Scene, meshes: &SceneMeshes) -> Option<Solids> {
-        let mut solids = Solids { trees: Vec::new(), shape_leaf: vec![None; scene.shapes.len()] };
-        for (root, solid) in scene.solids.iter().enumerate() {
-            if solid.parent.is_some() {
-                continue;
+        let mut shape_leaf = vec![None; scene.shapes.len()];
+        let mut trees = Vec::new();
+        for csg in CsgTree::outermost(scene) {
+            for &(shape, leaf) in csg.shapes() {
+                if let Some(slot) = shape_leaf.get_mut(shape as usize) {
+                    *slot = Some((trees.len(), leaf as usize));
+                }
             }
-            let mut tree = Tree { nodes: Vec::new(), leaves: Vec::new() };
-            let tree_index = solids.trees.len();
-            add_node(scene, root, &mut tree, &mut solids.shape_leaf, tree_index, 0);
-            solids.trees.push(tree);
+            let leaves = (0..csg.leaf_count()).map(|_| Leaf::default()).collect();
+            trees.push(Tree { csg, leaves, broken: None });
         }
-        if solids.trees.is_empty() {
+        if trees.is_empty() {
             return None;
         }
         for m in &meshes.meshes {
             let MeshOrigin::Shape { index } = m.origin else { continue };
-            let Some(Some((tree, leaf))) = solids.shape_leaf.get(index).copied() else { continue };
-            let p = |i: u32| m.mesh.positions[i as usize].as_dvec3();
-            for &[a, b, c] in &m.mesh.indices {
-                solids.trees[tree].leaves[leaf].add([p(a), p(b), p(c)]);
+            let Some(Some((tree, leaf))) = shape_leaf.get(index).copied() else { continue };
+            let positions: Vec<DVec3> = m.mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+            let tree = &mut trees[tree];
+            if let Err(e) =
+                tree.leaves[leaf].mesh.push_indexed(&positions, &m.mesh.indices, None, MaterialId(0))
+            {
+                tree.broken.get_or_insert(e.to_string());
             }
         }
-        Some(solids)
+        for leaf in trees.iter_mut().flat_map(|t| t.leaves.iter_mut()) {
+            leaf.finish();
+        }
+        Some(Solids { trees, shape_leaf, budget: MAX_CSG_WORK })
     }
 
-    /// The work [`Solids::clip`] would do on `vertices` points of one shape: a parity test
-    /// against every other leaf of its tree per point (and per bisection step on the edges that
-    /// cross, counted as twice the vertices).
-    pub(crate) fn work(&self, shape: usize, vertices: usize) -> u64 {
-        let Some(Some((tree, _))) = self.shape_leaf.get(shape).copied() else { return 0 };
-        let triangles: u64 = self.trees[tree].leaves.iter().map(|l| l.triangles.len() as u64).sum();
-        (vertices as u64).saturating_mul(3).saturating_mul(triangles)
-    }
-
-    /// Clips one shape's world triangles to the result's boundary. `None` when the shape is in
-    /// no solid (keep it as it is).
+    /// Clips one shape's world triangles to the result's boundary. `Ok(None)` when the shape is
+    /// in no solid (keep it as it is); an error when its solid cannot be evaluated within what
+    /// is left of the scene's work bound, or its leaves could not be filled.
     pub(crate) fn clip(
-        &self,
+        &mut self,
         shape: usize,
         positions: &[DVec3],
         triangles: &[[u32; 3]],
         normals: Option<&[DVec3]>,
-    ) -> Option<ClippedMesh> {
-        let (tree, leaf) = self.shape_leaf.get(shape).copied().flatten()?;
+    ) -> Result<Option<ClippedMesh>, CsgError> {
+        let Some((tree, leaf)) = self.shape_leaf.get(shape).copied().flatten() else { return Ok(None) };
         let tree = &self.trees[tree];
-        let mut states = vec![false; tree.leaves.len()];
-        let class: Vec<(bool, bool)> =
-            positions.iter().map(|&p| tree.classify(leaf, p, &mut states)).collect();
-        let mut out = ClippedMesh {
-            positions: positions.to_vec(),
-            triangles: Vec::new(),
-            normals: normals.map(<[DVec3]>::to_vec),
-            flipped: class.iter().map(|c| c.1).collect(),
-        };
-        for &[a, b, c] in triangles {
-            let corners = [a, b, c];
-            let kept = corners.map(|v| class.get(v as usize).is_some_and(|c| c.0));
-            if kept.iter().all(|&k| !k) {
-                continue;
-            }
-            // The polygon of the kept part: kept corners and the crossings of mixed edges.
-            let mut polygon: Vec<u32> = Vec::with_capacity(4);
-            for i in 0..3 {
-                let (v, w) = (corners[i], corners[(i + 1) % 3]);
-                if kept[i] {
-                    polygon.push(v);
-                }
-                if kept[i] != kept[(i + 1) % 3] {
-                    let (p, q) = (positions[v as usize], positions[w as usize]);
-                    // Bisection between the kept end and the other.
-                    let (mut on, mut off) = if kept[i] { (0.0, 1.0) } else { (1.0, 0.0) };
-                    for _ in 0..BISECTION_STEPS {
-                        let mid = 0.5 * (on + off);
-                        if tree.classify(leaf, p.lerp(q, mid), &mut states).0 {
-                            on = mid;
-                        } else {
-                            off = mid;
-                        }
-                    }
-                    let (kept_end, other, t) = if kept[i] { (v, w, on) } else { (w, v, 1.0 - on) };
-                    polygon.push(out.push_vertex(kept_end, other, t));
-                }
-            }
-            // Which way the kept part faces: from its first kept corner.
-            let flip = kept.iter().zip(corners).find(|(k, _)| **k).is_some_and(|(_, v)| class[v as usize].1);
-            for k in 1..polygon.len().saturating_sub(1) {
-                let t = [polygon[0], polygon[k], polygon[k + 1]];
-                out.triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
-            }
+        if let Some(e) = &tree.broken {
+            return Err(CsgError::Leaf(e.clone()));
         }
-        // Turned-over triangles carry turned-over normals.
-        if let Some(n) = out.normals.as_mut() {
-            for (normal, &flip) in n.iter_mut().zip(&out.flipped) {
-                if flip {
-                    *normal = -*normal;
-                }
-            }
-        }
-        Some(out)
+        let mut work = 0u64;
+        let result = clip_to_tree(tree, leaf, positions, triangles, normals, self.budget, &mut work);
+        self.budget = self.budget.saturating_sub(work);
+        result.map(Some)
     }
+}
+
+/// [`Solids::clip`] for leaf `leaf` of `tree`, spending at most `budget` (the work done is
+/// added to `work`).
+fn clip_to_tree(
+    tree: &Tree,
+    leaf: usize,
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    normals: Option<&[DVec3]>,
+    budget: u64,
+    work: &mut u64,
+) -> Result<ClippedMesh, CsgError> {
+    let mut states = vec![false; tree.leaves.len()];
+    let mut class: Vec<(bool, bool)> = Vec::with_capacity(positions.len());
+    for &p in positions {
+        class.push(tree.classify(leaf, p, &mut states, work));
+        if *work > budget {
+            return Err(CsgError::TooMuchWork);
+        }
+    }
+    let mut out = ClippedMesh {
+        positions: positions.to_vec(),
+        triangles: Vec::new(),
+        normals: normals.map(<[DVec3]>::to_vec),
+        flipped: class.iter().map(|c| c.1).collect(),
+    };
+    for &[a, b, c] in triangles {
+        let corners = [a, b, c];
+        let kept = corners.map(|v| class.get(v as usize).is_some_and(|c| c.0));
+        if kept.iter().all(|&k| !k) {
+            continue;
+        }
+        // The polygon of the kept part: kept corners and the crossings of mixed edges.
+        let mut polygon: Vec<u32> = Vec::with_capacity(4);
+        for i in 0..3 {
+            let (v, w) = (corners[i], corners[(i + 1) % 3]);
+            if kept[i] {
+                polygon.push(v);
+            }
+            if kept[i] != kept[(i + 1) % 3] {
+                let (p, q) = (positions[v as usize], positions[w as usize]);
+                // Bisection between the kept end and the other.
+                let (mut on, mut off) = if kept[i] { (0.0, 1.0) } else { (1.0, 0.0) };
+                for _ in 0..BISECTION_STEPS {
+                    let mid = 0.5 * (on + off);
+                    if tree.classify(leaf, p.lerp(q, mid), &mut states, work).0 {
+                        on = mid;
+                    } else {
+                        off = mid;
+                    }
+                }
+                if *work > budget {
+                    return Err(CsgError::TooMuchWork);
+                }
+                let (kept_end, other, t) = if kept[i] { (v, w, on) } else { (w, v, 1.0 - on) };
+                polygon.push(out.push_vertex(kept_end, other, t));
+            }
+        }
+        // Which way the kept part faces: from its first kept corner.
+        let flip = kept.iter().zip(corners).find(|(k, _)| **k).is_some_and(|(_, v)| class[v as usize].1);
+        for k in 1..polygon.len().saturating_sub(1) {
+            let t = [polygon[0], polygon[k], polygon[k + 1]];
+            out.triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
+        }
+    }
+    // Turned-over triangles carry turned-over normals.
+    if let Some(n) = out.normals.as_mut() {
+        for (normal, &flip) in n.iter_mut().zip(&out.flipped) {
+            if flip {
+                *normal = -*normal;
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// A shape's triangles clipped to a solid's boundary (vertices added on cut edges).
@@ -268,68 +291,67 @@ impl ClippedMesh {
     }
 }
 
-/// Adds solid `id` to `tree`; returns its place in its parent. A `"primitive"` block is one
-/// leaf, whatever it nests.
-fn add_node(
-    scene: &Scene,
-    id: usize,
-    tree: &mut Tree,
-    shape_leaf: &mut [Option<(usize, usize)>],
-    tree_index: usize,
-    depth: usize,
-) -> Child {
-    let solid = &scene.solids[id];
-    if solid.op == SolidOp::Primitive {
-        let leaf = tree.leaves.len();
-        tree.leaves.push(Leaf::default());
-        collect_shapes(scene, id, (tree_index, leaf), shape_leaf, depth);
-        if tree.nodes.is_empty() {
-            tree.nodes.push(Node { op: SolidOp::Union, children: vec![Child::Leaf(leaf)] });
-        }
-        return Child::Leaf(leaf);
-    }
-    let index = tree.nodes.len();
-    tree.nodes.push(Node { op: solid.op, children: Vec::new() });
-    for part in &solid.parts {
-        let child = match *part {
-            SolidPart::Shape(s) => {
-                let leaf = tree.leaves.len();
-                tree.leaves.push(Leaf::default());
-                if let Some(slot) = shape_leaf.get_mut(s as usize) {
-                    *slot = Some((tree_index, leaf));
-                }
-                Child::Leaf(leaf)
-            }
-            // The parser bounds the nesting; this bound only keeps a hand-made scene finite.
-            SolidPart::Solid(k) if depth < 1024 && (k as usize) < scene.solids.len() => {
-                add_node(scene, k as usize, tree, shape_leaf, tree_index, depth + 1)
-            }
-            SolidPart::Solid(_) => continue,
-        };
-        tree.nodes[index].children.push(child);
-    }
-    Child::Node(index)
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rib_parser::{LoadOptions, load_bytes};
+    use tessellate::{Tolerance, tessellate_scene};
 
-/// Every shape inside solid `id` (nested blocks included) as part of `at`.
-fn collect_shapes(
-    scene: &Scene,
-    id: usize,
-    at: (usize, usize),
-    shape_leaf: &mut [Option<(usize, usize)>],
-    depth: usize,
-) {
-    for part in &scene.solids[id].parts {
-        match *part {
-            SolidPart::Shape(s) => {
-                if let Some(slot) = shape_leaf.get_mut(s as usize) {
-                    *slot = Some(at);
-                }
+    /// A sphere minus a sphere, tessellated; the solids and the first shape's triangles.
+    fn difference() -> (Solids, Vec<DVec3>, Vec<[u32; 3]>) {
+        let rib = "WorldBegin\nSolidBegin \"difference\"\nSphere 1 -1 1 360\nTranslate 1 0 0\n\
+                   Sphere 0.8 -0.8 0.8 360\nSolidEnd\nWorldEnd\n";
+        let scene = load_bytes("csg.rib", rib.as_bytes().to_vec(), &LoadOptions::default())
+            .unwrap_or_else(|e| panic!("{}", e.render()))
+            .scene;
+        let meshes = tessellate_scene(&scene, &Tolerance::relative(1e-3));
+        let solids = Solids::new(&scene, &meshes).expect("a solid");
+        let first =
+            meshes.meshes.iter().find(|m| m.origin == MeshOrigin::Shape { index: 0 }).expect("sphere 0");
+        let positions = first.mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+        (solids, positions, first.mesh.indices.clone())
+    }
+
+    #[test]
+    fn the_hierarchy_gives_the_parity_of_every_triangle() {
+        let (solids, positions, _) = difference();
+        let leaf = &solids.trees[0].leaves[1];
+        assert!(leaf.mesh.triangle_count() > 1000);
+        let mut work = 0;
+        let mut inside = 0;
+        // The first sphere's vertices and points between them and the second sphere's centre.
+        for (i, &p) in positions.iter().enumerate() {
+            let q = p.lerp(DVec3::X, (i % 7) as f64 / 7.0);
+            for point in [p, q] {
+                let brute = (0..leaf.mesh.triangle_count())
+                    .filter(|&t| {
+                        let [a, b, c] = leaf.mesh.triangle_local(t);
+                        ray_crosses(point, a, b, c)
+                    })
+                    .count()
+                    % 2
+                    == 1;
+                assert_eq!(leaf.contains(point, &mut work), brute, "{point}");
+                inside += usize::from(brute);
             }
-            SolidPart::Solid(k) if depth < 1024 && (k as usize) < scene.solids.len() => {
-                collect_shapes(scene, k as usize, at, shape_leaf, depth + 1)
-            }
-            SolidPart::Solid(_) => {}
         }
+        assert!(inside > 100, "{inside} points inside the second sphere");
+        // A logarithmic search, not a brute force: far fewer tests than points times triangles.
+        let brute_work = 2 * positions.len() as u64 * leaf.mesh.triangle_count() as u64;
+        assert!(work < brute_work / 20, "{work} tests vs {brute_work}");
+    }
+
+    #[test]
+    fn a_solid_past_the_work_bound_is_refused_not_evaluated() {
+        let (mut solids, positions, triangles) = difference();
+        let clipped =
+            solids.clip(0, &positions, &triangles, None).expect("within the bound").expect("in a solid");
+        assert!(clipped.triangles.len() < triangles.len(), "the bite is cut away");
+        solids.budget = 1000;
+        assert!(matches!(solids.clip(0, &positions, &triangles, None), Err(CsgError::TooMuchWork)));
+        // The budget is the scene's: once spent, the other shapes are refused too.
+        assert!(solids.budget < 1000);
+        assert!(matches!(solids.clip(1, &positions, &triangles, None), Err(CsgError::TooMuchWork)));
+        assert!(matches!(solids.clip(7, &positions, &triangles, None), Ok(None)), "no shape 7");
     }
 }

@@ -7,7 +7,7 @@
 //! haptics disabled.
 
 use crate::clipping::{clip_mesh, world_clipping_planes};
-use crate::csg::{MAX_CSG_WORK, Solids};
+use crate::csg::Solids;
 use crate::geometry::{CollisionMesh, MaterialId};
 use crate::material::MaterialSpec;
 use glam::DVec3;
@@ -75,7 +75,7 @@ impl SceneGeometry {
 
 /// Tessellates every surface of `scene` (see [`tessellation_tolerance`]) into a collision mesh.
 pub fn scene_geometry(scene: &Scene, tolerance: &Tolerance) -> SceneGeometry {
-    geometry_from_meshes(scene, tessellate_scene(scene, tolerance))
+    scene_geometry_from_meshes(scene, &tessellate_scene(scene, tolerance))
 }
 
 /// The attribute state whose haptic material applies to a mesh: the shape's own, unless it
@@ -90,7 +90,9 @@ fn material_of(scene: &Scene, mesh: &WorldMesh) -> AttributesId {
     }
 }
 
-fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
+/// The collision mesh of `scene` from its tessellation `meshes` (`tessellate_scene` at
+/// [`tessellation_tolerance`] or finer), for a caller that shares one tessellation.
+pub fn scene_geometry_from_meshes(scene: &Scene, meshes: &SceneMeshes) -> SceneGeometry {
     let materials = material_specs(scene);
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -111,8 +113,7 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
     // What the ray tracer clips away is not touched either.
     let planes = world_clipping_planes(scene);
     // What CSG removes is not touched either; the solids' work is bounded per scene.
-    let solids = Solids::new(scene, &meshes);
-    let mut csg_work = 0u64;
+    let mut solids = Solids::new(scene, meshes);
     for skipped in &meshes.skipped {
         let what =
             if skipped.error.is_not_a_surface() { "has no surface to touch" } else { "cannot be touched" };
@@ -129,22 +130,17 @@ fn geometry_from_meshes(scene: &Scene, meshes: SceneMeshes) -> SceneGeometry {
         let normals: Option<Vec<DVec3>> =
             m.mesh.normals.as_ref().map(|n| n.iter().map(|v| v.as_dvec3()).collect());
         let mut csg_triangles = None;
-        let (positions, normals) = match (&solids, m.origin) {
+        let (positions, normals) = match (&mut solids, m.origin) {
             (Some(solids), MeshOrigin::Shape { index }) => {
-                csg_work = csg_work.saturating_add(solids.work(index, positions.len()));
-                if csg_work > MAX_CSG_WORK {
-                    warnings.push(format!(
-                        "{}: warning: touched as part of a union: its solid's CSG would take more than {MAX_CSG_WORK} point-triangle tests",
-                        m.loc
-                    ));
-                    (positions, normals)
-                } else {
-                    match solids.clip(index, &positions, &m.mesh.indices, normals.as_deref()) {
-                        Some(clipped) => {
-                            csg_triangles = Some(clipped.triangles);
-                            (clipped.positions, clipped.normals)
-                        }
-                        None => (positions, normals),
+                match solids.clip(index, &positions, &m.mesh.indices, normals.as_deref()) {
+                    Ok(Some(clipped)) => {
+                        csg_triangles = Some(clipped.triangles);
+                        (clipped.positions, clipped.normals)
+                    }
+                    Ok(None) => (positions, normals),
+                    Err(e) => {
+                        warnings.push(format!("{}: warning: touched as part of a union: {e}", m.loc));
+                        (positions, normals)
                     }
                 }
             }

@@ -18,7 +18,7 @@ use crate::args::{HapticSettings, Settings};
 use crate::run::{self, Failure, HEADLESS_FRAME_RATE, Prepared};
 use glam::{DMat3, DVec3};
 use haptics::device::ManualInputWriter;
-use haptics::scene::{scene_geometry, tessellation_tolerance};
+use haptics::scene::{scene_geometry_from_meshes, tessellation_tolerance};
 use haptics::session::{DeviceChoice, ReplayOutcome, Session, SessionConfig};
 use haptics::thread::ThreadStatus;
 use haptics::{HapticError, HapticThread, ThreadConfig, Trajectory, WorkspaceMapping};
@@ -56,7 +56,11 @@ pub fn run(settings: &Settings, haptic: &HapticSettings, mut prepared: Prepared)
         None => None,
     };
     let radius = cursor_radius(settings, &prepared);
-    let geometry = scene_geometry(&prepared.rib, &tessellation_tolerance(Some(radius)));
+    // One tessellation for the haptics and the viewer's shadow rays, at the haptics' tolerance:
+    // the viewer's (1e-3 of each shape's size) further bounded by the proxy's radius.
+    let meshes = prepared.tessellate_scene(&tessellation_tolerance(Some(radius)), settings.stats);
+    let geometry = scene_geometry_from_meshes(&prepared.rib, &meshes);
+    drop(meshes);
     let mut device = haptic.device.clone();
     if let DeviceChoice::SpaceMouse { settings: s, .. } = &mut device {
         // Push the cap away and the cursor goes into the screen, whatever the scene's axes.

@@ -39,10 +39,17 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = run::prepare(&settings).and_then(|prepared| match &settings.haptics {
+    let result = run::prepare(&settings).and_then(|mut prepared| match &settings.haptics {
+        // The haptics tessellate the scene for themselves and the viewer's shadow rays.
         Some(haptics) => haptic::run(&settings, haptics, prepared),
-        None if settings.headless => run::headless(&settings, prepared, None),
-        None => run::windowed(&settings, prepared, None),
+        None => {
+            prepared.tessellate_scene(&scene_occluders::viewer_tolerance(), settings.stats);
+            if settings.headless {
+                run::headless(&settings, prepared, None)
+            } else {
+                run::windowed(&settings, prepared, None)
+            }
+        }
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

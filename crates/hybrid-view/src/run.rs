@@ -37,6 +37,20 @@ pub struct Prepared {
     pub rib: rib_parser::scene::Scene,
 }
 
+impl Prepared {
+    /// Tessellates the RIB scene once at `tolerance` and binds its triangles as the scene's own
+    /// shadows on live objects (shadow rays); returns the meshes for the haptics to share.
+    pub fn tessellate_scene(
+        &mut self,
+        tolerance: &tessellate::Tolerance,
+        stats: bool,
+    ) -> tessellate::SceneMeshes {
+        let meshes = crate::scene_occluders::tessellate_once(&self.rib, tolerance, stats);
+        self.scene.set_occluders(crate::scene_occluders::scene_occluders(&meshes));
+        meshes
+    }
+}
+
 /// Reads the RIB, the image and the depth table and checks they belong together.
 pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let loaded = rib_parser::load_scene(&settings.scene, &rib_parser::LoadOptions::default())
@@ -80,8 +94,6 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     let pixel_filter = convert::pixel_filter(&rib, &mut skipped);
     let mut scene = ViewerScene::with_backdrop(camera, image, depth, lights, tone)?;
     scene.set_pixel_filter(pixel_filter);
-    // The scene's own shadows on live objects: its surfaces as triangles for shadow rays.
-    scene.set_occluders(crate::scene_occluders::scene_occluders(&rib));
     if settings.shadows.is_some() {
         attach_light_layers(settings, &mut scene, &sourced, rib.lights.len())?;
     }

@@ -43,6 +43,7 @@ pub mod basis;
 pub mod blobby;
 pub mod builder;
 pub mod conditional;
+pub mod csg;
 pub mod deformation;
 pub mod diagnostics;
 pub mod generated;

@@ -3,6 +3,12 @@
 //! on the pre-rendered scene).
 
 use glam::{DMat4, DVec3, Vec3};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::builder::build_bvh2;
+use obvhs::bvh2::node::Bvh2Node;
+use std::time::Duration;
 
 /// The scene's triangles in world space, as blockers of the RIB lights' light on live objects.
 #[derive(Clone, Debug, Default)]
@@ -19,83 +25,80 @@ pub const MAX_SCENE_OCCLUDER_TRIANGLES: usize = 1 << 20;
 /// beyond are left out, with a note).
 pub const MAX_LIVE_OCCLUDER_TRIANGLES: usize = 1 << 16;
 
-/// Triangles per leaf of the hierarchy.
+/// Most triangles per leaf of the hierarchy.
 const LEAF_TRIANGLES: usize = 4;
 
-/// Depth below which the hierarchy splits by median: from there at most log2(2^20 / 4) = 18
-/// more levels, within the shaders' stack of 40 (`scene_visibility.wgsl` OCCLUDER_STACK).
-const SAH_DEPTH: u32 = 20;
+/// Depth from which a subtree of obvhs' hierarchy higher than `MEDIAN_HEIGHT` is rebuilt by
+/// median splits: from there at most log2(2^20 / 4) = 18 more levels, so the hierarchy fits
+/// the shaders' stack of 40 (`scene_visibility.wgsl` OCCLUDER_STACK) whatever obvhs builds.
+const OBVHS_DEPTH: u32 = 20;
 
-/// Bins per axis of the surface area heuristic.
-const SAH_BINS: usize = 12;
+/// Levels a subtree at `OBVHS_DEPTH` may have below it.
+const MEDIAN_HEIGHT: u32 = 18;
 
-/// Half the surface area of a box (the heuristic's measure).
-fn half_area(lo: Vec3, hi: Vec3) -> f32 {
-    let d = (hi - lo).max(Vec3::ZERO);
-    d.x * d.y + d.y * d.z + d.z * d.x
+/// What a node of the flat hierarchy stands for while it is built.
+enum Part {
+    /// A node of obvhs' hierarchy.
+    Tree(usize),
+    /// Triangles (indices) to split by median.
+    Triangles(Vec<u32>),
 }
 
-/// Splits `range` (triangle indices) at the binned surface-area-heuristic's cheapest plane and
-/// returns the count on the left, or `None` when no plane separates the centroids.
-fn sah_split(
-    range: &mut [u32],
-    tris: &[[Vec3; 3]],
-    centroids: &[Vec3],
-    clo: Vec3,
-    extent: Vec3,
-) -> Option<usize> {
-    let bin_of = |k: u32, axis: usize| {
-        let f = (centroids[k as usize][axis] - clo[axis]) / extent[axis];
-        ((f * SAH_BINS as f32) as usize).min(SAH_BINS - 1)
-    };
-    let mut best: Option<(f32, usize, usize)> = None;
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        let mut counts = [0usize; SAH_BINS];
-        let mut boxes = [(Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)); SAH_BINS];
-        for &k in range.iter() {
-            let b = bin_of(k, axis);
-            counts[b] += 1;
-            for p in tris[k as usize] {
-                boxes[b].0 = boxes[b].0.min(p);
-                boxes[b].1 = boxes[b].1.max(p);
-            }
-        }
-        // Costs of the planes after bins 0..SAH_BINS-1: areas and counts swept from the right.
-        let mut right_cost = [0.0f32; SAH_BINS];
-        let (mut rlo, mut rhi, mut rn) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY), 0usize);
-        for b in (1..SAH_BINS).rev() {
-            rlo = rlo.min(boxes[b].0);
-            rhi = rhi.max(boxes[b].1);
-            rn += counts[b];
-            right_cost[b] = if rn > 0 { half_area(rlo, rhi) * rn as f32 } else { 0.0 };
-        }
-        let (mut llo, mut lhi, mut ln) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY), 0usize);
-        for b in 0..SAH_BINS - 1 {
-            llo = llo.min(boxes[b].0);
-            lhi = lhi.max(boxes[b].1);
-            ln += counts[b];
-            if ln == 0 || ln == range.len() {
-                continue;
-            }
-            let cost = half_area(llo, lhi) * ln as f32 + right_cost[b + 1];
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, b));
-            }
+/// Levels below each node of obvhs' hierarchy (0 for a leaf).
+fn subtree_heights(nodes: &[Bvh2Node]) -> Vec<u32> {
+    let mut preorder = Vec::with_capacity(nodes.len());
+    let mut stack = vec![0usize];
+    while let Some(k) = stack.pop() {
+        preorder.push(k);
+        if !nodes[k].is_leaf() {
+            let first = nodes[k].first_index as usize;
+            stack.extend([first, first + 1]);
         }
     }
-    let (_, axis, split) = best?;
-    // Partition: bins up to `split` first.
-    let mut left = 0;
-    for i in 0..range.len() {
-        if bin_of(range[i], axis) <= split {
-            range.swap(i, left);
-            left += 1;
+    let mut heights = vec![0u32; nodes.len()];
+    for &k in preorder.iter().rev() {
+        if !nodes[k].is_leaf() {
+            let first = nodes[k].first_index as usize;
+            heights[k] = 1 + heights[first].max(heights[first + 1]);
         }
     }
-    (left > 0 && left < range.len()).then_some(left)
+    heights
+}
+
+/// The triangles under node `k` of obvhs' hierarchy.
+fn subtree_primitives(tree: &Bvh2, k: usize) -> Vec<u32> {
+    let mut ids = Vec::new();
+    let mut stack = vec![k];
+    while let Some(k) = stack.pop() {
+        let n = &tree.nodes[k];
+        let first = n.first_index as usize;
+        if n.is_leaf() {
+            ids.extend_from_slice(&tree.primitive_indices[first..first + n.prim_count as usize]);
+        } else {
+            stack.extend([first, first + 1]);
+        }
+    }
+    ids
+}
+
+fn centroid(t: &[Vec3; 3]) -> Vec3 {
+    (t[0] + t[1] + t[2]) / 3.0
+}
+
+/// The bounds of triangles `ids` and the extent of their centroids.
+fn bounds(tris: &[[Vec3; 3]], ids: &[u32]) -> (Vec3, Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let (mut clo, mut chi) = (lo, hi);
+    for &k in ids {
+        let t = &tris[k as usize];
+        for p in t {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        clo = clo.min(centroid(t));
+        chi = chi.max(centroid(t));
+    }
+    (lo, hi, chi - clo)
 }
 
 impl SceneOccluders {
@@ -129,66 +132,92 @@ pub struct FlatBvh {
 }
 
 impl FlatBvh {
-    /// Builds the hierarchy by the surface area heuristic over 12 bins of the centroids per
-    /// axis (big triangles, such as a floor's two, end in leaves of their own instead of
-    /// widening every box around small ones); below depth `SAH_DEPTH`, median splits keep the
-    /// hierarchy within the shaders' traversal stack. Triangles with a non-finite corner are
+    /// Builds the hierarchy with obvhs (PLOC, reinsertion, leaves of at most four triangles
+    /// collapsed by its surface area heuristic: `BvhBuildParams::fast_build`) and flattens it
+    /// to the shaders' layout, which is obvhs' own (two adjacent children, a leaf's triangles
+    /// contiguous in its primitive order). A subtree that starts at depth `OBVHS_DEPTH` and is
+    /// more than `MEDIAN_HEIGHT` levels high is rebuilt by median splits, so the hierarchy
+    /// always fits the shaders' traversal stack of 40. Triangles with a non-finite corner are
     /// dropped.
     pub fn build(triangles: &[[Vec3; 3]]) -> FlatBvh {
         let tris: Vec<[Vec3; 3]> =
             triangles.iter().filter(|t| t.iter().all(|p| p.is_finite())).copied().collect();
-        let mut order: Vec<u32> = (0..tris.len() as u32).collect();
-        let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-        let mut bvh = FlatBvh::default();
+        let mut flat = FlatBvh::default();
         if tris.is_empty() {
-            return bvh;
+            return flat;
         }
-        bvh.nodes.push([0.0; 8]);
-        // (node index, first, end, depth) of ranges still to place.
-        let mut todo = vec![(0usize, 0usize, order.len(), 0u32)];
-        while let Some((node, first, end, depth)) = todo.pop() {
-            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            let (mut clo, mut chi) = (lo, hi);
-            for &k in &order[first..end] {
-                for p in tris[k as usize] {
-                    lo = lo.min(p);
-                    hi = hi.max(p);
+        let aabbs: Vec<Aabb> =
+            tris.iter().map(|&[a, b, c]| Aabb::from_points(&[a.into(), b.into(), c.into()])).collect();
+        // PLOC needs two primitives to make an interior root; one triangle is one leaf.
+        let tree = (tris.len() > 1).then(|| {
+            let mut params = BvhBuildParams::fast_build();
+            params.max_prims_per_leaf = LEAF_TRIANGLES as u32;
+            let mut core_build_time = Duration::ZERO;
+            build_bvh2(&aabbs, params, &mut core_build_time)
+        });
+        let heights = tree.as_ref().map(|t| subtree_heights(&t.nodes)).unwrap_or_default();
+        flat.nodes.push([0.0; 8]);
+        let root = match &tree {
+            Some(_) => Part::Tree(0),
+            None => Part::Triangles(vec![0]),
+        };
+        // (flat node index, what goes there, its depth) still to place.
+        let mut todo = vec![(0usize, root, 0u32)];
+        while let Some((at, part, depth)) = todo.pop() {
+            let part = match (part, &tree) {
+                (Part::Tree(k), Some(t)) if depth >= OBVHS_DEPTH && heights[k] > MEDIAN_HEIGHT => {
+                    Part::Triangles(subtree_primitives(t, k))
                 }
-                clo = clo.min(centroids[k as usize]);
-                chi = chi.max(centroids[k as usize]);
-            }
-            let extent = chi - clo;
-            let count = end - first;
-            if count <= LEAF_TRIANGLES || extent.max_element() <= 0.0 {
-                let at = bvh.triangles.len() as u32;
-                for &k in &order[first..end] {
-                    let [a, b, c] = tris[k as usize];
-                    let (e1, e2) = (b - a, c - a);
-                    bvh.triangles.push([a.x, a.y, a.z, 0.0, e1.x, e1.y, e1.z, 0.0, e2.x, e2.y, e2.z, 0.0]);
+                (part, _) => part,
+            };
+            let children = match part {
+                Part::Tree(k) => {
+                    let Some(t) = &tree else { continue };
+                    let n = &t.nodes[k];
+                    let (lo, hi) = (Vec3::from(n.aabb.min), Vec3::from(n.aabb.max));
+                    if n.is_leaf() {
+                        let (first, count) = (n.first_index as usize, n.prim_count as usize);
+                        flat.nodes[at] = flat.leaf(lo, hi, &tris, &t.primitive_indices[first..first + count]);
+                        continue;
+                    }
+                    let first = n.first_index as usize;
+                    flat.nodes[at] = node_of(lo, hi, flat.nodes.len() as u32, 0);
+                    [Part::Tree(first), Part::Tree(first + 1)]
                 }
-                bvh.nodes[node] = node_of(lo, hi, at, count as u32);
-                continue;
-            }
-            let range = &mut order[first..end];
-            let sah = if depth < SAH_DEPTH { sah_split(range, &tris, &centroids, clo, extent) } else { None };
-            let mid = match sah {
-                Some(m) => first + m,
-                None => {
+                Part::Triangles(mut ids) => {
+                    let (lo, hi, extent) = bounds(&tris, &ids);
+                    if ids.len() <= LEAF_TRIANGLES || extent.max_element() <= 0.0 {
+                        flat.nodes[at] = flat.leaf(lo, hi, &tris, &ids);
+                        continue;
+                    }
                     let axis = extent.max_position();
-                    range.select_nth_unstable_by(count / 2, |&a, &b| {
-                        centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+                    let half = ids.len() / 2;
+                    ids.select_nth_unstable_by(half, |&a, &b| {
+                        centroid(&tris[a as usize])[axis].total_cmp(&centroid(&tris[b as usize])[axis])
                     });
-                    first + count / 2
+                    let right = ids.split_off(half);
+                    flat.nodes[at] = node_of(lo, hi, flat.nodes.len() as u32, 0);
+                    [Part::Triangles(ids), Part::Triangles(right)]
                 }
             };
-            let left = bvh.nodes.len();
-            bvh.nodes.push([0.0; 8]);
-            bvh.nodes.push([0.0; 8]);
-            bvh.nodes[node] = node_of(lo, hi, left as u32, 0);
-            todo.push((left + 1, mid, end, depth + 1));
-            todo.push((left, first, mid, depth + 1));
+            let left = flat.nodes.len();
+            flat.nodes.extend([[0.0; 8]; 2]);
+            let [l, r] = children;
+            todo.push((left + 1, r, depth + 1));
+            todo.push((left, l, depth + 1));
         }
-        bvh
+        flat
+    }
+
+    /// A leaf node over triangles `ids` of `tris`, appended to the triangle list.
+    fn leaf(&mut self, lo: Vec3, hi: Vec3, tris: &[[Vec3; 3]], ids: &[u32]) -> [f32; 8] {
+        let at = self.triangles.len() as u32;
+        for &k in ids {
+            let [a, b, c] = tris[k as usize];
+            let (e1, e2) = (b - a, c - a);
+            self.triangles.push([a.x, a.y, a.z, 0.0, e1.x, e1.y, e1.z, 0.0, e2.x, e2.y, e2.z, 0.0]);
+        }
+        node_of(lo, hi, at, ids.len() as u32)
     }
 
     /// Whether a triangle blocks the segment from `origin` along unit `dir` between `t_min`
@@ -317,12 +346,64 @@ mod tests {
         let nan = [[Vec3::NAN, Vec3::X, Vec3::Y]];
         let bvh = FlatBvh::build(&nan);
         assert!(bvh.nodes.is_empty());
-        // Many triangles at one centroid end in one leaf, without endless splitting.
+        // Many triangles at one place make a small hierarchy, without endless splitting.
         let same = vec![[Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(0.0, 2.0, 1.0)]; 9];
         let bvh = FlatBvh::build(&same);
-        assert_eq!(bvh.nodes.len(), 1);
+        assert_eq!(bvh.triangles.len(), 9);
+        assert!(bvh.nodes.len() < 2 * 9);
         assert!(bvh.blocks(Vec3::ZERO, Vec3::Z, 0.0, 2.0));
         assert!(!bvh.blocks(Vec3::ZERO, Vec3::Z, 0.0, 0.5));
+    }
+
+    /// Levels from the root to the deepest leaf.
+    fn levels(bvh: &FlatBvh) -> u32 {
+        let mut deepest = 0;
+        let mut stack = vec![(0u32, 1u32)];
+        while let Some((k, d)) = stack.pop() {
+            let n = &bvh.nodes[k as usize];
+            deepest = deepest.max(d);
+            if n[7].to_bits() == 0 {
+                let first = n[3].to_bits();
+                stack.extend([(first, d + 1), (first + 1, d + 1)]);
+            }
+        }
+        deepest
+    }
+
+    #[test]
+    fn a_chain_of_ever_larger_gaps_still_fits_the_shaders_stack() {
+        // Triangles in z = 0 along x, gaps and sizes growing by a quarter each time: an
+        // agglomerative builder pairs the nearest first and makes a chain as deep as the input.
+        let mut x = 0.0f32;
+        let tris: Vec<[Vec3; 3]> = (0..160)
+            .map(|i| {
+                let size = 0.25 * 1.25f32.powi(i);
+                x += 4.0 * size;
+                [Vec3::new(x, 0.0, 0.0), Vec3::new(x + size, 0.0, 0.0), Vec3::new(x, size, 0.0)]
+            })
+            .collect();
+        let mut params = BvhBuildParams::fast_build();
+        params.max_prims_per_leaf = LEAF_TRIANGLES as u32;
+        let raw = build_bvh2(
+            &tris
+                .iter()
+                .map(|&[a, b, c]| Aabb::from_points(&[a.into(), b.into(), c.into()]))
+                .collect::<Vec<_>>(),
+            params,
+            &mut Duration::default(),
+        );
+        assert!(subtree_heights(&raw.nodes)[0] >= 40, "obvhs alone makes a deep chain here");
+        let bvh = FlatBvh::build(&tris);
+        assert_eq!(bvh.triangles.len(), 160);
+        // The shaders' stack holds 40 entries, one per level at most.
+        assert!(levels(&bvh) < 40, "{} levels", levels(&bvh));
+        // Every triangle is still found, by a ray along -z through its inside.
+        for t in &tris {
+            let size = t[1].x - t[0].x;
+            let origin = t[0] + Vec3::new(0.2 * size, 0.2 * size, 1.0);
+            assert!(bvh.blocks(origin, -Vec3::Z, 0.0, 2.0), "{t:?}");
+            assert!(!bvh.blocks(origin - Vec3::new(size, 0.0, 0.0), -Vec3::Z, 0.0, 2.0), "{t:?}");
+        }
     }
 
     #[test]

@@ -47,25 +47,15 @@ fn a_point_light_layer_is_removed_exactly_where_the_sphere_hides_the_light() {
     c.render(&sphere(centre, radius)).unwrap();
     let linear = c.read_back_linear().unwrap();
     let frame = c.read_back().unwrap();
-    let camera = s.camera();
     let (mut shadowed, mut wrong) = (0, 0);
-    for j in 0..512u32 {
-        for i in 0..512u32 {
-            let k = (j * 512 + i) as usize;
-            let r = s.depth().get(i, j).unwrap();
-            // Pixels next to the live object's mask hold part of its antialiased edge.
-            if next_to_mask(&frame.mask, 512, k) || !r.is_finite() {
-                continue;
-            }
-            let ray = camera.pixel_centre_ray(i, j);
-            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-            let expected = if hits(p, light, centre, radius) { 0.0 } else { LEVEL };
-            shadowed += usize::from(expected == 0.0);
-            if (linear.rgba[4 * k] - expected).abs() > 1e-6 {
-                wrong += 1;
-            }
+    // Pixels next to the live object's mask hold part of its antialiased edge.
+    for_each_backdrop_point(&s, &frame.mask, 1, Skip::NearMask, |_, _, k, p| {
+        let expected = if hits(p, light, centre, radius) { 0.0 } else { LEVEL };
+        shadowed += usize::from(expected == 0.0);
+        if (linear.rgba[4 * k] - expected).abs() > 1e-6 {
+            wrong += 1;
         }
-    }
+    });
     assert!(shadowed > 2000, "shadowed {shadowed}");
     // Only pixels whose ray grazes the silhouette may fall on the other side in f32.
     assert!(wrong * 200 <= shadowed, "{wrong} of {shadowed} shadow pixels wrong");
@@ -84,32 +74,22 @@ fn indirect_light_is_occluded_near_contact() {
     c.render(&sphere(centre, radius)).unwrap();
     let linear = c.read_back_linear().unwrap();
     let frame = c.read_back().unwrap();
-    let camera = s.camera();
     let mut checked = 0;
-    for j in (0..512u32).step_by(3) {
-        for i in (0..512u32).step_by(3) {
-            let k = (j * 512 + i) as usize;
-            let r = s.depth().get(i, j).unwrap();
-            if frame.mask[k] == 255 || !r.is_finite() {
-                continue;
-            }
-            let ray = camera.pixel_centre_ray(i, j);
-            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-            if (p.y + 1.0).abs() > 1e-3 {
-                continue; // Floor pixels only: their normal is the layer's.
-            }
-            let to = centre - p;
-            let d = to.length();
-            let ao = if d > 6.0 * radius { 0.0 } else { (to.y / d).max(0.0) * (radius / d).powi(2) };
-            if d > 6.0 * radius && d < 8.0 * radius {
-                continue; // The fade.
-            }
-            let expected = LEVEL as f64 * (1.0 - ao);
-            let got = f64::from(linear.rgba[4 * k]);
-            assert!((got - expected).abs() < 2e-3, "pixel ({i}, {j}) at d = {d:.3}: {got} vs {expected}");
-            checked += 1;
+    for_each_backdrop_point(&s, &frame.mask, 3, Skip::Covered, |i, j, k, p| {
+        if (p.y + 1.0).abs() > 1e-3 {
+            return; // Floor pixels only: their normal is the layer's.
         }
-    }
+        let to = centre - p;
+        let d = to.length();
+        let ao = if d > 6.0 * radius { 0.0 } else { (to.y / d).max(0.0) * (radius / d).powi(2) };
+        if d > 6.0 * radius && d < 8.0 * radius {
+            return; // The fade.
+        }
+        let expected = LEVEL as f64 * (1.0 - ao);
+        let got = f64::from(linear.rgba[4 * k]);
+        assert!((got - expected).abs() < 2e-3, "pixel ({i}, {j}) at d = {d:.3}: {got} vs {expected}");
+        checked += 1;
+    });
     assert!(checked > 1000, "checked {checked}");
 }
 
@@ -178,43 +158,22 @@ fn an_area_light_layer_loses_the_occluded_share_of_the_emitter() {
     c.render(&sphere(centre, radius)).unwrap();
     let linear = c.read_back_linear().unwrap();
     let frame = c.read_back().unwrap();
-    let camera = s.camera();
     let (mut penumbra, mut checked, mut off) = (0, 0, 0);
-    for j in (0..h).step_by(2) {
-        for i in (0..w).step_by(2) {
-            let k = (j * w + i) as usize;
-            let r = s.depth().get(i, j).unwrap();
-            if frame.mask[k] == 255 || !r.is_finite() {
-                continue;
-            }
-            let ray = camera.pixel_centre_ray(i, j);
-            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-            if (p.y + 1.0).abs() > 1e-3 {
-                continue; // Floor pixels: their normal is the layer's.
-            }
-            let (mut total, mut hidden) = (0.0, 0.0);
-            for sample in &samples {
-                let v = sample.position - p;
-                let d2 = v.length_squared();
-                let dir = v / d2.sqrt();
-                let g = sample.area * sample.normal.dot(-dir).max(0.0) * dir.y.max(0.0) / d2;
-                total += g;
-                if hits(p, sample.position, centre, radius) {
-                    hidden += g;
-                }
-            }
-            let share = hidden / total;
-            // The ambient-occlusion term of the (empty) indirect layer is zero.
-            let expected = f64::from(LEVEL) * (1.0 - share);
-            let got = f64::from(linear.rgba[4 * k]);
-            penumbra += usize::from(share > 0.05 && share < 0.95);
-            // One sample of 64 tested the other way at the sphere's silhouette moves the share
-            // by about 1/64 of the light; anything else is an error.
-            assert!((got - expected).abs() < 0.02, "pixel ({i}, {j}): {got} vs {expected} (share {share})");
-            off += usize::from((got - expected).abs() > 1e-4);
-            checked += 1;
+    for_each_backdrop_point(&s, &frame.mask, 2, Skip::Covered, |i, j, k, p| {
+        if (p.y + 1.0).abs() > 1e-3 {
+            return; // Floor pixels: their normal is the layer's.
         }
-    }
+        let share = hidden_share(p, &samples, |p, to| hits(p, to, centre, radius));
+        // The ambient-occlusion term of the (empty) indirect layer is zero.
+        let expected = f64::from(LEVEL) * (1.0 - share);
+        let got = f64::from(linear.rgba[4 * k]);
+        penumbra += usize::from(share > 0.05 && share < 0.95);
+        // One sample of 64 tested the other way at the sphere's silhouette moves the share
+        // by about 1/64 of the light; anything else is an error.
+        assert!((got - expected).abs() < 0.02, "pixel ({i}, {j}): {got} vs {expected} (share {share})");
+        off += usize::from((got - expected).abs() > 1e-4);
+        checked += 1;
+    });
     assert!(checked > 5000 && penumbra > 100, "checked {checked}, penumbra {penumbra}");
     assert!(off * 100 <= checked, "{off} of {checked} pixels off by more than 1e-4");
 }

@@ -70,24 +70,14 @@ fn a_point_light_layer_is_removed_exactly_where_a_live_mesh_hides_the_light() {
     c.render(&LiveObjects { sphere: None, meshes: vec![instance] }).unwrap();
     let linear = c.read_back_linear().unwrap();
     let frame = c.read_back().unwrap();
-    let camera = s.camera();
     let (mut shadowed, mut wrong) = (0, 0);
-    for j in 0..512u32 {
-        for i in 0..512u32 {
-            let k = (j * 512 + i) as usize;
-            let r = s.depth().get(i, j).unwrap();
-            if next_to_mask(&frame.mask, 512, k) || !r.is_finite() {
-                continue;
-            }
-            let ray = camera.pixel_centre_ray(i, j);
-            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-            let expected = if blocked(p, light, &tris) { 0.0 } else { LEVEL };
-            shadowed += usize::from(expected == 0.0);
-            if (linear.rgba[4 * k] - expected).abs() > 1e-6 {
-                wrong += 1;
-            }
+    for_each_backdrop_point(&s, &frame.mask, 1, Skip::NearMask, |_, _, k, p| {
+        let expected = if blocked(p, light, &tris) { 0.0 } else { LEVEL };
+        shadowed += usize::from(expected == 0.0);
+        if (linear.rgba[4 * k] - expected).abs() > 1e-6 {
+            wrong += 1;
         }
-    }
+    });
     assert!(shadowed > 2000, "shadowed {shadowed}");
     // Only pixels whose ray grazes an edge may fall on the other side in f32.
     assert!(wrong * 200 <= shadowed, "{wrong} of {shadowed} shadow pixels wrong");
@@ -106,43 +96,19 @@ fn an_area_light_layer_loses_the_share_of_the_emitter_a_live_mesh_hides() {
     c.render(&LiveObjects { sphere: None, meshes: vec![instance] }).unwrap();
     let linear = c.read_back_linear().unwrap();
     let frame = c.read_back().unwrap();
-    let camera = s.camera();
     let (mut penumbra, mut checked) = (0, 0);
-    for j in (0..512u32).step_by(2) {
-        for i in (0..512u32).step_by(2) {
-            let k = (j * 512 + i) as usize;
-            let r = s.depth().get(i, j).unwrap();
-            if next_to_mask(&frame.mask, 512, k) || !r.is_finite() {
-                continue;
-            }
-            let ray = camera.pixel_centre_ray(i, j);
-            let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-            if (p.y + 1.0).abs() > 1e-3 {
-                continue; // Floor pixels: their normal is the layer's.
-            }
-            let (mut total, mut hidden) = (0.0, 0.0);
-            for sample in &samples {
-                let v = sample.position - p;
-                let d2 = v.length_squared();
-                let dir = v / d2.sqrt();
-                let g = sample.area * sample.normal.dot(-dir).max(0.0) * dir.y.max(0.0) / d2;
-                total += g;
-                if blocked(p, sample.position, &tris) {
-                    hidden += g;
-                }
-            }
-            let share = if total > 0.0 { hidden / total } else { 0.0 };
-            penumbra += usize::from(share > 0.05 && share < 0.95);
-            let expected = f64::from(LEVEL) * (1.0 - share);
-            let got = f64::from(linear.rgba[4 * k]);
-            // One sample's share flipping on a grazing ray is the most a pixel may be off.
-            assert!(
-                (got - expected).abs() < 0.04 * f64::from(LEVEL),
-                "pixel ({i}, {j}): {got} vs {expected}"
-            );
-            checked += 1;
+    for_each_backdrop_point(&s, &frame.mask, 2, Skip::NearMask, |i, j, k, p| {
+        if (p.y + 1.0).abs() > 1e-3 {
+            return; // Floor pixels: their normal is the layer's.
         }
-    }
+        let share = hidden_share(p, &samples, |p, to| blocked(p, to, &tris));
+        penumbra += usize::from(share > 0.05 && share < 0.95);
+        let expected = f64::from(LEVEL) * (1.0 - share);
+        let got = f64::from(linear.rgba[4 * k]);
+        // One sample's share flipping on a grazing ray is the most a pixel may be off.
+        assert!((got - expected).abs() < 0.04 * f64::from(LEVEL), "pixel ({i}, {j}): {got} vs {expected}");
+        checked += 1;
+    });
     assert!(checked > 5000 && penumbra > 150, "checked {checked}, penumbra {penumbra}");
 }
 

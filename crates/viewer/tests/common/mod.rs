@@ -258,3 +258,60 @@ pub fn uniform_probe(l: [f32; 3]) -> sidecar::ProbeGrid {
         emitters_seen: false,
     }
 }
+
+/// Which backdrop pixels a per-pixel check leaves out because of the live objects' mask.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Skip {
+    /// Pixels a live object covers.
+    Covered,
+    /// Pixels a live object covers and their neighbours (its antialiased edge).
+    NearMask,
+}
+
+/// Calls `check(i, j, k, p)` for every `step`-th pixel in each direction (`k` its index) whose
+/// depth is finite and which `skip` keeps, `p` being the world point the depth table measured
+/// along the pixel's centre ray.
+pub fn for_each_backdrop_point(
+    scene: &ViewerScene,
+    mask: &[u8],
+    step: usize,
+    skip: Skip,
+    mut check: impl FnMut(u32, u32, usize, DVec3),
+) {
+    let (w, h) = scene.size();
+    let camera = scene.camera();
+    for j in (0..h).step_by(step) {
+        for i in (0..w).step_by(step) {
+            let k = (j * w + i) as usize;
+            let covered = match skip {
+                Skip::Covered => mask[k] == 255,
+                Skip::NearMask => next_to_mask(mask, w as usize, k),
+            };
+            let Some(r) = scene.depth().get(i, j).filter(|r| r.is_finite() && !covered) else { continue };
+            let ray = camera.pixel_centre_ray(i, j);
+            check(
+                i,
+                j,
+                k,
+                camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r)),
+            );
+        }
+    }
+}
+
+/// The share of an area light's direct light on a floor point `p` (normal up) that `blocked(p,
+/// sample)` hides, summed over the emitter's samples as `area cos_l cos_s / d^2`.
+pub fn hidden_share(p: DVec3, samples: &[viewer::AreaSample], blocked: impl Fn(DVec3, DVec3) -> bool) -> f64 {
+    let (mut total, mut hidden) = (0.0, 0.0);
+    for sample in samples {
+        let v = sample.position - p;
+        let d2 = v.length_squared();
+        let dir = v / d2.sqrt();
+        let g = sample.area * sample.normal.dot(-dir).max(0.0) * dir.y.max(0.0) / d2;
+        total += g;
+        if blocked(p, sample.position) {
+            hidden += g;
+        }
+    }
+    if total > 0.0 { hidden / total } else { 0.0 }
+}
