@@ -251,8 +251,9 @@ impl Bvh {
     }
 
     /// Closest-hit traversal. `intersect(ray, slot)` tests BVH slot `slot` against `ray` (whose
-    /// `t_max` is the closest hit so far) and returns a closer `t` when it hits.
-    #[inline]
+    /// `t_max` is the closest hit so far) and returns a closer `t` when it hits. Always inlined,
+    /// so that a caller compiled with more target features compiles the traversal with them.
+    #[inline(always)]
     pub fn closest(
         &self,
         ray: &mut TraversalRay,
@@ -277,8 +278,8 @@ impl Bvh {
     }
 
     /// Visits every primitive whose box the ray crosses until `visit` returns `true` (stop).
-    /// Returns whether it stopped.
-    #[inline]
+    /// Returns whether it stopped. Always inlined, as [`Bvh::closest`].
+    #[inline(always)]
     pub fn any(&self, ray: &TraversalRay, mut visit: impl FnMut(&TraversalRay, u32) -> bool) -> bool {
         let mut ray = *ray;
         self.walk(

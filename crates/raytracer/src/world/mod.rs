@@ -250,6 +250,28 @@ pub struct World {
     /// The camera's pixel footprint, for texture filter widths (pbrt-v4's approximation: the
     /// footprint of a camera ray at the hit's distance from the eye, on every path vertex).
     footprint: PixelFootprint,
+    /// Whether the ray queries run their copies compiled for x86-64-v3 ([`cpu_has_x86_64_v3`]).
+    x86_64_v3: bool,
+}
+
+/// True when this CPU has x86-64-v3's instruction set (AVX2, FMA, BMI, LZCNT, POPCNT: the
+/// features the ray queries' second copies are compiled with), so that the traversal and the triangle
+/// and node tests may run compiled for it. Results do not change: the same IEEE operations in
+/// the same order (Rust never fuses a multiply and an add by itself), only other encodings.
+fn cpu_has_x86_64_v3() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("popcnt")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 impl World {
@@ -419,6 +441,37 @@ impl World {
     }
 
     fn intersect_instance(
+        &self,
+        instance: u32,
+        inst: &Instance,
+        query: &mut RayQuery,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.x86_64_v3 {
+            // SAFETY: the CPU has these features (`cpu_has_x86_64_v3`, when the world was built).
+            return unsafe { self.intersect_instance_v3(instance, inst, query, t_max, best) };
+        }
+        self.intersect_instance_inlined(instance, inst, query, t_max, best)
+    }
+
+    /// [`World::intersect_instance`] compiled for x86-64-v3.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn intersect_instance_v3(
+        &self,
+        instance: u32,
+        inst: &Instance,
+        query: &mut RayQuery,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+    ) {
+        self.intersect_instance_inlined(instance, inst, query, t_max, best)
+    }
+
+    #[inline(always)]
+    fn intersect_instance_inlined(
         &self,
         instance: u32,
         inst: &Instance,
