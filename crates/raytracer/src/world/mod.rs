@@ -24,7 +24,7 @@ pub use placement::{
     MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
 };
 
-use crate::accel::{Bvh, TraversalRay};
+use crate::accel::{Baseline, Bvh, NodeLanes, TraversalRay, X86_64V3};
 use crate::lights::{Light, LightSet};
 use crate::materials::Material;
 use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
@@ -250,28 +250,10 @@ pub struct World {
     /// The camera's pixel footprint, for texture filter widths (pbrt-v4's approximation: the
     /// footprint of a camera ray at the hit's distance from the eye, on every path vertex).
     footprint: PixelFootprint,
-    /// Whether the ray queries run their copies compiled for x86-64-v3 ([`cpu_has_x86_64_v3`]).
-    x86_64_v3: bool,
-}
-
-/// True when this CPU has x86-64-v3's instruction set (AVX2, FMA, BMI, LZCNT, POPCNT: the
-/// features the ray queries' second copies are compiled with), so that the traversal and the triangle
-/// and node tests may run compiled for it. Results do not change: the same IEEE operations in
-/// the same order (Rust never fuses a multiply and an add by itself), only other encodings.
-fn cpu_has_x86_64_v3() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-            && std::arch::is_x86_feature_detected!("lzcnt")
-            && std::arch::is_x86_feature_detected!("popcnt")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    /// Present when this CPU has x86-64-v3's instruction set: the ray queries then run their
+    /// copies compiled for it, with eight-lane node tests. The results do not change (the same
+    /// IEEE operations in the same order; Rust never fuses a multiply and an add by itself).
+    x86_64_v3: Option<X86_64V3>,
 }
 
 impl World {
@@ -449,11 +431,11 @@ impl World {
         best: &mut Option<Hit>,
     ) {
         #[cfg(target_arch = "x86_64")]
-        if self.x86_64_v3 {
-            // SAFETY: the CPU has these features (`cpu_has_x86_64_v3`, when the world was built).
-            return unsafe { self.intersect_instance_v3(instance, inst, query, t_max, best) };
+        if let Some(v3) = self.x86_64_v3 {
+            // SAFETY: the token exists only on a CPU with these features.
+            return unsafe { self.intersect_instance_v3(v3, instance, inst, query, t_max, best) };
         }
-        self.intersect_instance_inlined(instance, inst, query, t_max, best)
+        self.intersect_instance_inlined(Baseline, instance, inst, query, t_max, best)
     }
 
     /// [`World::intersect_instance`] compiled for x86-64-v3.
@@ -461,18 +443,20 @@ impl World {
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn intersect_instance_v3(
         &self,
+        v3: X86_64V3,
         instance: u32,
         inst: &Instance,
         query: &mut RayQuery,
         t_max: &mut f32,
         best: &mut Option<Hit>,
     ) {
-        self.intersect_instance_inlined(instance, inst, query, t_max, best)
+        self.intersect_instance_inlined(v3, instance, inst, query, t_max, best)
     }
 
     #[inline(always)]
     fn intersect_instance_inlined(
         &self,
+        lanes: impl NodeLanes,
         instance: u32,
         inst: &Instance,
         query: &mut RayQuery,
@@ -499,7 +483,8 @@ impl World {
         // into the traversal loop (a call per primitive costs more than the test's setup).
         // In a BLAS of triangles alone, slot `k` holds triangle `k` (`BlasBuilder::finish`).
         let triangles_only = blas.quadrics.is_empty();
-        blas.bvh.closest(
+        blas.bvh.closest_with(
+            lanes,
             &mut tray,
             #[inline(always)]
             |r, slot| {

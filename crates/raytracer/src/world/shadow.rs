@@ -2,7 +2,7 @@
 //! that blocks it (any-hit traversal).
 
 use super::{Blas, HitDetail, Instance, Prim, QuadricPrim, Ray, RayQuery, World, clipping, csg};
-use crate::accel::TraversalRay;
+use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
 use crate::shapes::{hits_front, intersect_triangle};
 use glam::Vec3;
 use rib_parser::scene::AttributesId;
@@ -51,22 +51,28 @@ impl World {
 
     fn transmittance_instance(&self, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
         #[cfg(target_arch = "x86_64")]
-        if self.x86_64_v3 {
-            // SAFETY: the CPU has these features (`cpu_has_x86_64_v3`, when the world was built).
-            return unsafe { self.transmittance_instance_v3(inst, query, tr) };
+        if let Some(v3) = self.x86_64_v3 {
+            // SAFETY: the token exists only on a CPU with these features.
+            return unsafe { self.transmittance_instance_v3(v3, inst, query, tr) };
         }
-        self.transmittance_instance_inlined(inst, query, tr)
+        self.transmittance_instance_inlined(Baseline, inst, query, tr)
     }
 
     /// [`World::transmittance_instance`] compiled for x86-64-v3.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn transmittance_instance_v3(&self, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
-        self.transmittance_instance_inlined(inst, query, tr)
+    fn transmittance_instance_v3(&self, v3: X86_64V3, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
+        self.transmittance_instance_inlined(v3, inst, query, tr)
     }
 
     #[inline(always)]
-    fn transmittance_instance_inlined(&self, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
+    fn transmittance_instance_inlined(
+        &self,
+        lanes: impl NodeLanes,
+        inst: &Instance,
+        query: &mut RayQuery,
+        tr: &mut Vec3,
+    ) {
         let blas = &self.blases[inst.blas as usize];
         let ray = query.ray;
         if let Some(csg) = &blas.csg {
@@ -96,7 +102,8 @@ impl World {
         // traversal loop, as in `intersect_instance`.
         // In a BLAS of triangles alone, slot `k` holds triangle `k` (`BlasBuilder::finish`).
         let triangles_only = blas.quadrics.is_empty();
-        blas.bvh.any(
+        blas.bvh.any_with(
+            lanes,
             &tray,
             #[inline(always)]
             |_, slot| match if triangles_only { Prim::Triangle(slot) } else { blas.prims[slot as usize] } {
@@ -192,10 +199,10 @@ mod tests {
     /// and segments.
     #[test]
     fn x86_64_v3_queries_match_the_baseline() {
-        if !super::super::cpu_has_x86_64_v3() {
+        let Some(v3) = crate::accel::X86_64V3::detect() else {
             eprintln!("skipped: this CPU lacks x86-64-v3");
             return;
-        }
+        };
         let mut rib = String::from("WorldBegin\nAttributeBegin\nOpacity [0.5 0.6 0.7]\n");
         for i in 0..60 {
             let (x, z) = ((i % 8) as f32 - 4.0, (i / 8) as f32 - 4.0);
@@ -239,7 +246,7 @@ mod tests {
             }
             let ray = Ray::new(origin, direction);
             let segment = Ray { t_max: 0.2 + 4.0 * rng.uniform(), ..ray };
-            let results = [true, false].map(|v3| {
+            let results = [Some(v3), None].map(|v3| {
                 world.x86_64_v3 = v3;
                 let hit = world.intersect(&ray).map(|h| format!("{h:?}"));
                 (hit, world.transmittance(&segment).to_array().map(f32::to_bits))
