@@ -8,7 +8,10 @@
 //! by a relative `2^-20`, both far above the rounding error of the test and far below anything
 //! that costs time, so a primitive the exact primitive test would hit is never culled.
 
+mod node_lanes;
 mod walk;
+
+pub(crate) use node_lanes::{Baseline, NodeLanes, X86_64V3};
 
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
@@ -80,42 +83,12 @@ impl TraversalRay {
     }
 }
 
-/// One quantised plane of a node's eight children (`child_min_x` and so on) as two groups of
-/// four floats. Exact: every byte is a small integer. On x86-64 the bytes are widened with
-/// SSE2 unpacks (six instructions instead of eight scalar conversions and inserts).
-#[inline(always)]
-fn child_planes(q: &[u8; 8]) -> [Vec4; 2] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{
-            _mm_cvtepi32_ps, _mm_cvtsi64_si128, _mm_setzero_si128, _mm_unpackhi_epi16, _mm_unpacklo_epi8,
-            _mm_unpacklo_epi16,
-        };
-        // SAFETY: SSE2 is part of the x86-64 baseline, and these intrinsics touch no memory.
-        unsafe {
-            let zero = _mm_setzero_si128();
-            let words = _mm_unpacklo_epi8(_mm_cvtsi64_si128(i64::from_le_bytes(*q)), zero);
-            [
-                Vec4::from(_mm_cvtepi32_ps(_mm_unpacklo_epi16(words, zero))),
-                Vec4::from(_mm_cvtepi32_ps(_mm_unpackhi_epi16(words, zero))),
-            ]
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let group = |i: usize| {
-            Vec4::new(f32::from(q[i]), f32::from(q[i + 1]), f32::from(q[i + 2]), f32::from(q[i + 3]))
-        };
-        [group(0), group(4)]
-    }
-}
-
 /// What the node test needs of a ray beyond [`TraversalRay`], made once per query: per axis,
 /// which of a node's planes is near (1, the maximum, when the reciprocal direction is negative)
 /// and the widening added to the near and the far plane (`-CHILD_PAD` and `+CHILD_PAD` for a
 /// positive direction, the opposite for a negative one).
 #[derive(Clone, Copy)]
-struct NodeTest {
+pub(crate) struct NodeTest {
     near: [usize; 3],
     near_pad: [Vec4; 3],
     far_pad: [Vec4; 3],
@@ -138,31 +111,13 @@ impl NodeTest {
 /// once per query, without a branch per node (the same `f32` operations, so the same mask, as
 /// choosing per node).
 #[inline(always)]
-fn intersect_node(node: &CwBvhNode, ray: &TraversalRay, test: &NodeTest) -> u32 {
+fn intersect_node(node: &CwBvhNode, ray: &TraversalRay, test: &NodeTest, lanes: impl NodeLanes) -> u32 {
     let extent = node.compute_extent();
     let adj_inv = extent * ray.inv_direction;
     let adj_origin = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(ray.oct_inv4);
     let t_limit = ray.t_max * EXIT_PAD;
-    let planes = node_planes(node);
-    // Entry and exit distances of the eight children along one axis, as two groups of four.
-    let axis = |a: usize, scale: f32, offset: f32| {
-        let near = child_planes(&planes[2 * a + (test.near[a] & 1)]);
-        let far = child_planes(&planes[2 * a + ((test.near[a] & 1) ^ 1)]);
-        let (scale, offset) = (Vec4::splat(scale), Vec4::splat(offset));
-        [0, 1].map(|g| {
-            ((near[g] + test.near_pad[a]) * scale + offset, (far[g] + test.far_pad[a]) * scale + offset)
-        })
-    };
-    let x = axis(0, adj_inv.x, adj_origin.x);
-    let y = axis(1, adj_inv.y, adj_origin.y);
-    let z = axis(2, adj_inv.z, adj_origin.z);
-    let mut mask = 0u32;
-    for g in 0..2 {
-        let t_near = x[g].0.max(y[g].0).max(z[g].0).max(Vec4::splat(ray.t_min));
-        let t_far = (x[g].1.min(y[g].1).min(z[g].1) * EXIT_PAD).min(Vec4::splat(t_limit));
-        mask |= t_near.cmple(t_far).bitmask() << (4 * g);
-    }
+    let mut mask = lanes.child_mask(node_planes(node), test, adj_inv, adj_origin, (ray.t_min, t_limit));
     let mut hit_mask = 0u32;
     while mask != 0 {
         let child = mask.trailing_zeros() as usize;
@@ -256,10 +211,23 @@ impl Bvh {
     pub fn closest(
         &self,
         ray: &mut TraversalRay,
+        intersect: impl FnMut(&TraversalRay, u32) -> Option<f32>,
+    ) -> bool {
+        self.closest_with(Baseline, ray, intersect)
+    }
+
+    /// [`Bvh::closest`] with the node tests run by `lanes`. Always inlined, so that a caller
+    /// compiled with more target features compiles the traversal with them.
+    #[inline(always)]
+    pub(crate) fn closest_with(
+        &self,
+        lanes: impl NodeLanes,
+        ray: &mut TraversalRay,
         mut intersect: impl FnMut(&TraversalRay, u32) -> Option<f32>,
     ) -> bool {
         let mut hit = false;
         self.walk(
+            lanes,
             ray,
             || {},
             #[inline(always)]
@@ -279,9 +247,22 @@ impl Bvh {
     /// Visits every primitive whose box the ray crosses until `visit` returns `true` (stop).
     /// Returns whether it stopped.
     #[inline]
-    pub fn any(&self, ray: &TraversalRay, mut visit: impl FnMut(&TraversalRay, u32) -> bool) -> bool {
+    pub fn any(&self, ray: &TraversalRay, visit: impl FnMut(&TraversalRay, u32) -> bool) -> bool {
+        self.any_with(Baseline, ray, visit)
+    }
+
+    /// [`Bvh::any`] with the node tests run by `lanes`, always inlined as
+    /// [`Bvh::closest_with`].
+    #[inline(always)]
+    pub(crate) fn any_with(
+        &self,
+        lanes: impl NodeLanes,
+        ray: &TraversalRay,
+        mut visit: impl FnMut(&TraversalRay, u32) -> bool,
+    ) -> bool {
         let mut ray = *ray;
         self.walk(
+            lanes,
             &mut ray,
             || {},
             #[inline(always)]
@@ -326,6 +307,7 @@ impl Bvh {
     ) -> (u32, u32) {
         let (mut nodes, mut prims) = (0u32, 0u32);
         self.walk(
+            Baseline,
             ray,
             || nodes += 1,
             |ray, slot| {
@@ -418,7 +400,7 @@ mod tests {
     fn child_planes_are_the_bytes() {
         for b in 0..=255u8 {
             let q: [u8; 8] = std::array::from_fn(|i| b.wrapping_add(37u8.wrapping_mul(i as u8)));
-            let [a, c] = child_planes(&q);
+            let [a, c] = node_lanes::child_planes(&q);
             let got = [a.x, a.y, a.z, a.w, c.x, c.y, c.z, c.w];
             assert_eq!(got, q.map(f32::from));
         }

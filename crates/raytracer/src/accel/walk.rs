@@ -2,7 +2,7 @@
 //! of node and primitive visits) with our node test, the primitive tests inlined, and a stack
 //! that is neither allocated nor cleared per query.
 
-use super::{Bvh, NodeTest, TraversalRay, intersect_node};
+use super::{Bvh, NodeLanes, NodeTest, TraversalRay, intersect_node};
 use obvhs::cwbvh::CwBvh;
 use std::mem::MaybeUninit;
 
@@ -11,10 +11,11 @@ impl Bvh {
     /// and primitive visits) with our node test, and a stack that is neither allocated nor
     /// cleared per query. `node` is called on each node visit, `primitive(ray, slot)` on each
     /// primitive (the duplicate of a one-primitive tree skipped); it may change `ray.t_max`
-    /// and returns `true` to stop. Returns whether it stopped.
+    /// and returns `true` to stop. Returns whether it stopped. `lanes` runs the node tests.
     #[inline(always)]
     pub(super) fn walk(
         &self,
+        lanes: impl NodeLanes,
         ray: &mut TraversalRay,
         node: impl FnMut(),
         primitive: impl FnMut(&mut TraversalRay, u32) -> bool,
@@ -26,15 +27,16 @@ impl Bvh {
             // The storage is a separate local: built inside `ArrayStack` next to `len: 0`, LLVM
             // merges the two stores into one `memset` of the whole array.
             let mut storage = MaybeUninit::uninit();
-            self.walk_with(&mut ArrayStack::new(&mut storage), ray, node, primitive)
+            self.walk_with(lanes, &mut ArrayStack::new(&mut storage), ray, node, primitive)
         } else {
-            self.walk_with(&mut Vec::with_capacity(self.depth), ray, node, primitive)
+            self.walk_with(lanes, &mut Vec::with_capacity(self.depth), ray, node, primitive)
         }
     }
 
     #[inline(always)]
     fn walk_with(
         &self,
+        lanes: impl NodeLanes,
         stack: &mut impl GroupStack,
         ray: &mut TraversalRay,
         mut on_node: impl FnMut(),
@@ -71,7 +73,7 @@ impl Bvh {
                 let relative = u32::from(POPCOUNT8[(hits & !(u32::MAX << slot_index) & 0xff) as usize]);
                 let child = &nodes[(group_base + relative) as usize];
                 on_node();
-                let hit_mask = intersect_node(child, ray, &test);
+                let hit_mask = intersect_node(child, ray, &test, lanes);
                 group_base = child.child_base_idx;
                 group_bits = (hit_mask & 0xff00_0000) | u32::from(child.imask);
                 prim_base = child.primitive_base_idx;
@@ -182,6 +184,7 @@ pub(super) fn tree_depth(cw: &CwBvh) -> usize {
 mod tests {
     use super::*;
     use crate::accel::tests::random_boxes;
+    use crate::accel::{Baseline, X86_64V3};
     use crate::sampling::Rng;
     use glam::{Vec3, Vec3A};
 
@@ -205,24 +208,31 @@ mod tests {
             state.oct_inv4 = ray.oct_inv4;
             let mut node;
             let dummy = self.dummy_slot.unwrap_or(u32::MAX);
-            obvhs::traverse!(self.cw, node, state, intersect_node(node, ray, &NodeTest::new(ray)), {
-                if state.primitive_id == dummy {
-                    continue;
-                }
-                out.push((state.primitive_id, ray.t_max));
-                if let Some(t) = test(state.primitive_id)
-                    && closest
-                    && t < ray.t_max
+            obvhs::traverse!(
+                self.cw,
+                node,
+                state,
+                intersect_node(node, ray, &NodeTest::new(ray), Baseline),
                 {
-                    ray.t_max = t;
+                    if state.primitive_id == dummy {
+                        continue;
+                    }
+                    out.push((state.primitive_id, ray.t_max));
+                    if let Some(t) = test(state.primitive_id)
+                        && closest
+                        && t < ray.t_max
+                    {
+                        ray.t_max = t;
+                    }
                 }
-            });
+            );
             out
         }
 
         /// The same record from our loop, with the array stack or the growing one.
         fn visits_with_walk(
             &self,
+            lanes: impl NodeLanes,
             ray: &mut TraversalRay,
             heap: bool,
             test: &mut dyn FnMut(u32) -> Option<f32>,
@@ -238,9 +248,9 @@ mod tests {
                 false
             };
             if heap {
-                self.walk_with(&mut Vec::new(), ray, || {}, visit);
+                self.walk_with(lanes, &mut Vec::new(), ray, || {}, visit);
             } else {
-                self.walk_with(&mut ArrayStack::new(&mut MaybeUninit::uninit()), ray, || {}, visit);
+                self.walk_with(lanes, &mut ArrayStack::new(&mut MaybeUninit::uninit()), ray, || {}, visit);
             }
             out
         }
@@ -293,10 +303,16 @@ mod tests {
                     let (mut a, mut b, mut c) = (ray, ray, ray);
                     let expected = bvh.visits_with_obvhs_loop(&mut a, closest, &mut test);
                     let mut test_walk = |slot: u32| if closest { test(slot) } else { None };
-                    let got = bvh.visits_with_walk(&mut b, false, &mut test_walk);
-                    let got_heap = bvh.visits_with_walk(&mut c, true, &mut test_walk);
+                    let got = bvh.visits_with_walk(Baseline, &mut b, false, &mut test_walk);
+                    let got_heap = bvh.visits_with_walk(Baseline, &mut c, true, &mut test_walk);
                     assert_eq!(got, expected, "{n} triangles, ray {k}, closest {closest}");
                     assert_eq!(got_heap, expected);
+                    // The eight-lane node tests visit the same primitives with the same `t_max`.
+                    if let Some(v3) = X86_64V3::detect() {
+                        let mut d = ray;
+                        assert_eq!(bvh.visits_with_walk(v3, &mut d, false, &mut test_walk), expected);
+                        assert_eq!(d.t_max.to_bits(), b.t_max.to_bits());
+                    }
                     assert_eq!(a.t_max.to_bits(), b.t_max.to_bits());
                     hits += usize::from(closest && b.t_max < f32::INFINITY);
                 }
@@ -370,7 +386,7 @@ mod tests {
         let mut deepest = Deepest(Vec::new(), 0);
         for k in 0..200 {
             let mut ray = random_ray(&mut rng, k);
-            bvh.walk_with(&mut deepest, &mut ray, || {}, |_, _| false);
+            bvh.walk_with(Baseline, &mut deepest, &mut ray, || {}, |_, _| false);
         }
         assert!(deepest.1 > 0 && deepest.1 < bvh.depth, "stack {} for depth {}", deepest.1, bvh.depth);
     }

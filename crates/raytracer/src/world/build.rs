@@ -651,6 +651,7 @@ impl World {
             clipping_planes: render_clipping_planes(scene, &render_from_world),
             background: background(scene),
             footprint,
+            x86_64_v3: crate::accel::X86_64V3::detect(),
         })
     }
 }

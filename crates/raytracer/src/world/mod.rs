@@ -26,7 +26,7 @@ pub use placement::{
     MAX_WORLD_TRIANGLES, PixelFootprint, TESSELLATION_COARSEST, TESSELLATION_DEFAULT, TESSELLATION_FINEST,
 };
 
-use crate::accel::{Bvh, TraversalRay};
+use crate::accel::{Baseline, Bvh, NodeLanes, TraversalRay, X86_64V3};
 use crate::lights::{Light, LightSet};
 use crate::materials::Material;
 use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
@@ -252,6 +252,10 @@ pub struct World {
     /// The camera's pixel footprint, for texture filter widths (pbrt-v4's approximation: the
     /// footprint of a camera ray at the hit's distance from the eye, on every path vertex).
     footprint: PixelFootprint,
+    /// Present when this CPU has x86-64-v3's instruction set: the ray queries then run their
+    /// copies compiled for it, with eight-lane node tests. The results do not change (the same
+    /// IEEE operations in the same order; Rust never fuses a multiply and an add by itself).
+    x86_64_v3: Option<X86_64V3>,
 }
 
 impl World {
@@ -428,6 +432,39 @@ impl World {
         t_max: &mut f32,
         best: &mut Option<Hit>,
     ) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = self.x86_64_v3 {
+            // SAFETY: the token exists only on a CPU with these features.
+            return unsafe { self.intersect_instance_v3(v3, instance, inst, query, t_max, best) };
+        }
+        self.intersect_instance_inlined(Baseline, instance, inst, query, t_max, best)
+    }
+
+    /// [`World::intersect_instance`] compiled for x86-64-v3.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn intersect_instance_v3(
+        &self,
+        v3: X86_64V3,
+        instance: u32,
+        inst: &Instance,
+        query: &mut RayQuery,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+    ) {
+        self.intersect_instance_inlined(v3, instance, inst, query, t_max, best)
+    }
+
+    #[inline(always)]
+    fn intersect_instance_inlined(
+        &self,
+        lanes: impl NodeLanes,
+        instance: u32,
+        inst: &Instance,
+        query: &mut RayQuery,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+    ) {
         let blas = &self.blases[inst.blas as usize];
         let ray = query.ray;
         let t_min = ray.t_min;
@@ -448,7 +485,8 @@ impl World {
         // into the traversal loop (a call per primitive costs more than the test's setup).
         // In a BLAS of triangles alone, slot `k` holds triangle `k` (`BlasBuilder::finish`).
         let triangles_only = blas.quadrics.is_empty();
-        blas.bvh.closest(
+        blas.bvh.closest_with(
+            lanes,
             &mut tray,
             #[inline(always)]
             |r, slot| {

@@ -2,7 +2,7 @@
 //! that blocks it (any-hit traversal).
 
 use super::{Blas, HitDetail, Instance, Prim, QuadricPrim, Ray, RayQuery, World, clipping, csg};
-use crate::accel::TraversalRay;
+use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
 use crate::shapes::{hits_front, intersect_triangle};
 use glam::Vec3;
 use rib_parser::scene::AttributesId;
@@ -50,6 +50,29 @@ impl World {
     }
 
     fn transmittance_instance(&self, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = self.x86_64_v3 {
+            // SAFETY: the token exists only on a CPU with these features.
+            return unsafe { self.transmittance_instance_v3(v3, inst, query, tr) };
+        }
+        self.transmittance_instance_inlined(Baseline, inst, query, tr)
+    }
+
+    /// [`World::transmittance_instance`] compiled for x86-64-v3.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn transmittance_instance_v3(&self, v3: X86_64V3, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
+        self.transmittance_instance_inlined(v3, inst, query, tr)
+    }
+
+    #[inline(always)]
+    fn transmittance_instance_inlined(
+        &self,
+        lanes: impl NodeLanes,
+        inst: &Instance,
+        query: &mut RayQuery,
+        tr: &mut Vec3,
+    ) {
         let blas = &self.blases[inst.blas as usize];
         let ray = query.ray;
         if let Some(csg) = &blas.csg {
@@ -79,7 +102,8 @@ impl World {
         // traversal loop, as in `intersect_instance`.
         // In a BLAS of triangles alone, slot `k` holds triangle `k` (`BlasBuilder::finish`).
         let triangles_only = blas.quadrics.is_empty();
-        blas.bvh.any(
+        blas.bvh.any_with(
+            lanes,
             &tray,
             #[inline(always)]
             |_, slot| match if triangles_only { Prim::Triangle(slot) } else { blas.prims[slot as usize] } {
@@ -159,5 +183,79 @@ impl World {
             *tr = Vec3::ZERO;
         }
         *tr == Vec3::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::diagnostics::Diagnostics;
+    use crate::sampling::{Rng, sample_uniform_sphere};
+    use crate::world::{PixelFootprint, Ray, World};
+    use glam::{DVec3, Vec3};
+
+    /// The ray queries compiled for x86-64-v3 give the baseline copies' results bit for bit:
+    /// closest hits (triangles of the world's BLAS, instanced triangles and quadrics, one-sided
+    /// surfaces) and transmittance through semi-transparent and opaque surfaces, on random rays
+    /// and segments.
+    #[test]
+    fn x86_64_v3_queries_match_the_baseline() {
+        let Some(v3) = crate::accel::X86_64V3::detect() else {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        };
+        let mut rib = String::from("WorldBegin\nAttributeBegin\nOpacity [0.5 0.6 0.7]\n");
+        for i in 0..60 {
+            let (x, z) = ((i % 8) as f32 - 4.0, (i / 8) as f32 - 4.0);
+            rib += &format!("Polygon \"P\" [{x} -1 {z} {} -0.5 {z} {x} 1 {}]\n", x + 1.5, z + 0.7);
+            if i == 30 {
+                rib += "AttributeEnd\nAttributeBegin\nSides 1\n";
+            }
+        }
+        rib += "AttributeEnd\nObjectBegin 1\nSphere 0.7 -0.7 0.7 360\n\
+                Polygon \"P\" [0 0 0 1 0 0 0 1 0]\nObjectEnd\n\
+                ObjectBegin 2\nPolygon \"P\" [0 0 0 1 0 0 0 1 0]\nPolygon \"P\" [0 0 1 1 0 1 0 1 1]\nObjectEnd\n\
+                TransformBegin\nTranslate 1 2 0\nObjectInstance 1\nTransformEnd\n\
+                TransformBegin\nRotate 30 0 1 0\nObjectInstance 2\nTransformEnd\nWorldEnd\n";
+        let scene = rib_parser::load_bytes("v3.rib", rib.into_bytes(), &Default::default())
+            .unwrap_or_else(|e| panic!("{}", e.render()))
+            .scene;
+        let mut world = World::build(
+            &scene,
+            DVec3::new(0.3, 0.2, -7.0),
+            PixelFootprint::Unknown,
+            &mut Diagnostics::default(),
+        )
+        .expect("the world builds");
+        assert!(world.tlas.is_some(), "the scene should have a top-level BVH");
+        let mut rng = Rng::new(77, 1);
+        let (mut hits, mut partial) = (0, 0);
+        for k in 0..4000 {
+            // Render space has its origin at the eye.
+            let eye = Vec3::new(0.3, 0.2, -7.0);
+            let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 12.0 - 6.0 - eye;
+            // Half the rays aimed at a point among the surfaces, the others anywhere.
+            let target = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 8.0 - 4.0 - eye;
+            let scale = 0.01 + 3.0 * rng.uniform();
+            let mut direction = if k % 2 == 0 {
+                (target - origin).normalize_or(Vec3::X) * scale
+            } else {
+                sample_uniform_sphere(rng.uniform2()) * scale
+            };
+            if k % 7 == 0 {
+                direction[k % 3] = 0.0;
+            }
+            let ray = Ray::new(origin, direction);
+            let segment = Ray { t_max: 0.2 + 4.0 * rng.uniform(), ..ray };
+            let results = [Some(v3), None].map(|v3| {
+                world.x86_64_v3 = v3;
+                let hit = world.intersect(&ray).map(|h| format!("{h:?}"));
+                (hit, world.transmittance(&segment).to_array().map(f32::to_bits))
+            });
+            assert_eq!(results[0], results[1], "ray {k}");
+            hits += usize::from(results[0].0.is_some());
+            let tr = results[0].1.map(f32::from_bits);
+            partial += usize::from(tr != [0.0; 3] && tr != [1.0; 3]);
+        }
+        assert!(hits > 500 && partial > 50, "{hits} hits, {partial} partly shadowed segments");
     }
 }
