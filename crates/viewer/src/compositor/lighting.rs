@@ -91,6 +91,9 @@ pub(super) struct FrameUniform {
     pub(super) scene_occluders: [u32; 4],
     pub(super) live_occluders: [u32; 4],
     pub(super) live_occluder_bound: [f32; 4],
+    /// The light live spheres reflect onto the scene (`bounce.rs`): 1 when on, the albedo
+    /// layer's slice.
+    pub(super) bounce: [u32; 4],
 }
 
 #[repr(C)]
@@ -258,6 +261,12 @@ impl Compositor {
             scene_occluders: self.occluders.scene,
             live_occluders: if layered { self.occluders.live } else { [0; 4] },
             live_occluder_bound: self.occluders.live_bound,
+            bounce: match self.layers.albedo_slice {
+                Some(slice) if self.settings.bounce_light && shadow_on == 1 && sphere_count > 0 => {
+                    [1, slice, 0, 0]
+                }
+                _ => [0; 4],
+            },
         }
     }
 }

@@ -94,6 +94,9 @@ pub struct CompositorSettings {
     /// (`compositor/loss_map.rs`); `false` gathers it per fragment (the reference the maps are
     /// tested against).
     pub own_shadow_maps: bool,
+    /// With light layers that hold the diffuse albedo, live spheres add the light they reflect
+    /// onto the pre-rendered scene (`compositor/bounce.rs`); `false` leaves it out.
+    pub bounce_light: bool,
 }
 
 impl Default for CompositorSettings {
@@ -105,6 +108,7 @@ impl Default for CompositorSettings {
             shadows: Some(ShadowSettings::default()),
             antialias: true,
             own_shadow_maps: true,
+            bounce_light: true,
         }
     }
 }
