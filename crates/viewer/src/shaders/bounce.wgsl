@@ -80,7 +80,8 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
 
 // The light the shadow-casting spheres reflect onto the surface at p (camera space) with unit
 // normal n, per unit diffuse albedo times pi: the sum over spheres of the integral of their
-// outgoing radiance times cos_p over their visible caps, in radiance units. Faded out between
+// outgoing radiance times cos_p over the parts of their caps the scene lets p see, in radiance
+// units. Faded out between
 // 6 and 8 radii as their occlusion of indirect light is, so that a sphere as bright as what it
 // hides changes nothing at any distance.
 fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
@@ -105,6 +106,10 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(axis.x) > 0.9);
         let tangent = normalize(cross(helper, axis));
         let bitangent = cross(axis, tangent);
+        // The scene may hide part of the cap (the room's furniture, the Cornell light's panel
+        // a centimetre below the ceiling): one cone traversal finds how much of every segment
+        // to the sphere is free, and each direction's ray tests only the rest.
+        let clear = scene_clear_toward(p, n, sphere.xyz, r);
         var cap = vec3<f32>(0.0);
         for (var k = 0u; k < BOUNCE_RINGS * BOUNCE_SECTORS; k = k + 1u) {
             // The midpoint of cell k: rings uniform in solid angle, sectors uniform in angle.
@@ -121,6 +126,9 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             // The sphere's nearer hit along w, and its normal there.
             let b = dot(to_sphere, w);
             let t = b - sqrt(max(r * r - (d * d - b * b), 0.0));
+            if !scene_lets_light(p, n, w, t, clear) {
+                continue;
+            }
             let m = normalize(p + t * w - sphere.xyz);
             cap += radiosity_lookup(i, m) * cos_p;
         }
