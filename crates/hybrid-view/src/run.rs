@@ -100,6 +100,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         antialias: settings.antialias,
         own_shadow_maps: true,
         bounce_light: settings.bounce_light,
+        occlusion_from_behind: settings.occlusion_from_behind,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }

@@ -111,18 +111,21 @@ fn segment_blocked(p: DVec3, q: DVec3, triangles: &[[DVec3; 3]]) -> bool {
 /// between part of the floor and the sphere: every floor pixel within the sphere's reach
 /// (before the fade) gains `albedo / pi` times the integral, over the part of the sphere's cap
 /// the shelf lets it see, of the sphere's radiance `I cos / (pi d^2)` times `cos_p` (64 x 256
-/// cells in f64). The compositor's 32 directions reading a 32x32 map must come within 2 % of the
-/// largest gain without the shelf and 0.2 % on average (1.2 % and 0.09 % on 2026-11-26; 16
-/// directions gave 2.8 % and 0.15 % without the shelf), and within 8 of the 32 directions' worth
-/// where the shelf's edge cuts the cap. Beyond the reach, and with no albedo layer, nothing
-/// changes.
+/// cells in f64). The compositor's directions (32 within 2 radii of the centre, 8 within 4, 4
+/// beyond) reading a 32x32 map must come within 3 % of the largest gain without the shelf and
+/// 0.5 % on average (2.8 % and 0.35 % on 2026-11-26; 32 directions everywhere gave 1.2 % and
+/// 0.13 %, 16 everywhere 2.8 % and 0.15 % without the shelf), and within 60 % of the unhidden
+/// gain where the shelf's edge cuts the cap (a few directions resolve the cut coarsely). Beyond
+/// the reach, and with no albedo layer, nothing changes.
 #[test]
 fn a_matte_sphere_reflects_a_point_light_onto_the_floor() {
     let (light, intensity) = (DVec3::new(0.3, -0.6, 0.3), 3.0);
     let (centre, radius) = (DVec3::new(-0.5, -0.75, 0.3), 0.15);
     let lights = vec![LiveLight::Point { position: light, colour: Vec3::splat(intensity as f32) }];
     let live = white_matte(centre, radius);
-    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+    // The layers hold no indirect light: what the sphere hides is taken as the surface's
+    // average, nothing (the correction from behind is tested on its own below).
+    let settings = CompositorSettings { occlusion_from_behind: false, ..Default::default() };
     // Below the sphere and above the floor, over x in [-0.4, 0.1] (toward the light): it hides
     // the sphere's lit side from the floor under it, not the light from the sphere.
     let shelf = {
@@ -175,9 +178,10 @@ fn a_matte_sphere_reflects_a_point_light_onto_the_floor() {
             scale = scale.max(unhidden);
             errors.push((got - expected).abs());
             if expected > 0.02 * unhidden && expected < 0.98 * unhidden {
-                // The shelf's edge cuts the cap: 32 directions resolve the cut to a few of them.
+                // The shelf's edge cuts the cap: 32 directions within 2 radii and 8 or 4 beyond
+                // resolve the cut coarsely.
                 assert!(
-                    (got - expected).abs() <= 0.25 * unhidden,
+                    (got - expected).abs() <= 0.6 * unhidden,
                     "pixel ({i}, {j}) in the shelf's penumbra: gained {got}, expected {expected} of {unhidden}"
                 );
                 penumbra += 1;
@@ -195,8 +199,8 @@ fn a_matte_sphere_reflects_a_point_light_onto_the_floor() {
     assert!(checked > 1000 && far > 500 && hidden > 100, "checked {checked}, far {far}, hidden {hidden}");
     // Without the bounce every checked pixel would be off by its gain, up to `largest`.
     assert!(largest > 0.02, "largest expected gain {largest}");
-    assert!(worst <= 0.02 * scale, "worst error {worst} of a largest gain {scale}");
-    assert!(mean <= 0.002 * scale, "mean error {mean} of a largest gain {scale}");
+    assert!(worst <= 0.03 * scale, "worst error {worst} of a largest gain {scale}");
+    assert!(mean <= 0.005 * scale, "mean error {mean} of a largest gain {scale}");
     // No albedo layer: nothing to reflect the light with, the floor keeps its level.
     let (bare, _) = render(&scene(lights, false), &live, settings);
     for (k, m) in mask.iter().enumerate() {
@@ -219,7 +223,9 @@ fn a_sphere_lit_by_a_uniform_probe_field_sends_its_form_factor() {
     let (centre, radius) = (DVec3::new(0.2, -0.6, -0.1), 0.25);
     let mut s = scene(vec![], true);
     s.set_probes(uniform_probe([l; 3]));
-    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+    // The layers hold no indirect light: what the sphere hides is taken as the surface's
+    // average, nothing (the correction from behind is tested on its own below).
+    let settings = CompositorSettings { occlusion_from_behind: false, ..Default::default() };
     let (linear, mask) = render(&s, &white_matte(centre, radius), settings);
     let (mut checked, mut largest) = (0, 0.0f64);
     for j in (0..512u32).step_by(2) {
@@ -265,4 +271,64 @@ fn the_bounce_is_the_same_in_both_modes_and_after_a_move() {
     assert!(empty.chunks(4).all(|c| c[..3] == [LEVEL; 3]), "the input changed with no live object");
     c.render(&live).unwrap();
     assert!(c.read_back_linear().unwrap().rgba == full, "a frame after a move differs from a fresh one");
+}
+
+/// The spheres' occlusion of indirect light takes what lies behind them: with the whole
+/// backdrop at `LEVEL` in the indirect layer and an albedo of `ALBEDO` (so a surface's average
+/// incoming radiance is `LEVEL / ALBEDO`), a black sphere over the floor hides radiance `LEVEL`
+/// (the image behind it), so a floor pixel keeps `LEVEL - w ALBEDO LEVEL`, `w = cos (r / d)^2`,
+/// where the march through the sphere meets the image, and `LEVEL - w LEVEL` (the average) where
+/// it does not (it leaves the image or passes behind a surface); over 2000 of the checked
+/// pixels find it.
+#[test]
+fn the_light_a_sphere_hides_is_the_light_behind_it() {
+    let (w, h) = (512u32, 512u32);
+    let n = (w * h) as usize;
+    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
+    let mut s =
+        ViewerScene::with_backdrop(cornell_camera(), backdrop, cornell_depth(), vec![], ToneMap::default())
+            .unwrap();
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
+    layers.normal.iter_mut().for_each(|v| *v = [0.0, 1.0, 0.0]);
+    layers.albedo.iter_mut().for_each(|v| *v = [ALBEDO; 3]);
+    layers.indirect.iter_mut().for_each(|v| *v = [LEVEL; 3]);
+    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
+    let (centre, radius) = (DVec3::new(0.1, -0.6, 0.0), 0.25);
+    let live = LiveObjects {
+        sphere: Some(Sphere { centre, radius, material: Material::unlit(Vec3::ZERO) }),
+        meshes: Vec::new(),
+    };
+    let (linear, mask) = render(&s, &live, CompositorSettings::default());
+    let (without, _) =
+        render(&s, &live, CompositorSettings { occlusion_from_behind: false, ..Default::default() });
+    let (mut behind, mut average) = (0, 0);
+    for j in (0..512u32).step_by(2) {
+        for i in (0..512u32).step_by(2) {
+            let k = (j * 512 + i) as usize;
+            let Some(p) = floor_point(&s, i, j) else { continue };
+            let to = centre - p;
+            let d = to.length();
+            if next_to_mask(&mask, 512, k) || d > 0.75 * REACH * radius || to.y / d < 0.05 {
+                continue;
+            }
+            let weight = (to.y / d) * (radius / d).powi(2);
+            let level = f64::from(LEVEL);
+            let (got, plain) = (f64::from(linear[4 * k]), f64::from(without[4 * k]));
+            assert!(
+                (plain - (level - weight * level)).abs() < 2e-3,
+                "pixel ({i}, {j}): {plain} without the correction"
+            );
+            if (got - (level - weight * f64::from(ALBEDO) * level)).abs() < 2e-3 {
+                behind += 1;
+            } else {
+                assert!(
+                    (got - plain).abs() < 1e-6,
+                    "pixel ({i}, {j}): {got}, neither from behind nor the average"
+                );
+                average += 1;
+            }
+        }
+    }
+    assert!(behind > 2000, "{behind} pixels from behind, {average} from the average");
 }

@@ -92,7 +92,8 @@ pub(super) struct FrameUniform {
     pub(super) live_occluders: [u32; 4],
     pub(super) live_occluder_bound: [f32; 4],
     /// The light live spheres reflect onto the scene (`bounce.rs`): 1 when on, the albedo
-    /// layer's slice.
+    /// layer's slice, the visible surfaces' bounding diagonal (f32 bits), 1 when the spheres'
+    /// occlusion of indirect light is corrected with the light from behind them.
     pub(super) bounce: [u32; 4],
 }
 
@@ -263,7 +264,8 @@ impl Compositor {
             live_occluder_bound: self.occluders.live_bound,
             bounce: match self.layers.albedo_slice {
                 Some(slice) if self.settings.bounce_light && shadow_on == 1 && sphere_count > 0 => {
-                    [1, slice, 0, 0]
+                    let diagonal = self.surface_bounds.map_or(0.0, |(lo, hi)| (hi - lo).length() as f32);
+                    [1, slice, diagonal.to_bits(), u32::from(self.settings.occlusion_from_behind)]
                 }
                 _ => [0; 4],
             },

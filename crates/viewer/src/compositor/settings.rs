@@ -97,6 +97,10 @@ pub struct CompositorSettings {
     /// With light layers that hold the diffuse albedo, live spheres add the light they reflect
     /// onto the pre-rendered scene (`compositor/bounce.rs`); `false` leaves it out.
     pub bounce_light: bool,
+    /// With the bounce light, the spheres' occlusion of indirect light takes the light from
+    /// behind them (the image where a march through each sphere meets the scene) instead of
+    /// the surface's average indirect light (`shaders/bounce.wgsl`, `occlusion_correction`).
+    pub occlusion_from_behind: bool,
 }
 
 impl Default for CompositorSettings {
@@ -109,6 +113,7 @@ impl Default for CompositorSettings {
             antialias: true,
             own_shadow_maps: true,
             bounce_light: true,
+            occlusion_from_behind: true,
         }
     }
 }

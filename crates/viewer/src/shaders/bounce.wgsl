@@ -13,7 +13,8 @@
 const RADIOSITY_MAP_TEXELS: u32 = 32u;
 // Directions over a sphere's cap: rings of equal solid angle, each with evenly spaced sectors
 // (every other ring turned by half a sector), so that a radiance linear in the direction, and
-// so the cosine of an uncut cap, is integrated exactly.
+// so the cosine of an uncut cap, is integrated exactly. Up to 4 rings of 8 sectors near the
+// sphere; fewer where the sphere is small in the surface's view (see bounce_irradiance).
 const BOUNCE_RINGS: u32 = 4u;
 const BOUNCE_SECTORS: u32 = 8u;
 
@@ -106,18 +107,26 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(axis.x) > 0.9);
         let tangent = normalize(cross(helper, axis));
         let bitangent = cross(axis, tangent);
-        // The scene may hide part of the cap (the room's furniture, the Cornell light's panel
-        // a centimetre below the ceiling): one cone traversal finds how much of every segment
-        // to the sphere is free, and each direction's ray tests only the rest.
-        let clear = scene_clear_toward(p, n, sphere.xyz, r);
+        // The gain falls as (r / d)^2 and so does the error of a coarser estimate: 32
+        // directions within 2 radii of the centre, 8 within 4, 4 beyond (a sixteenth of the
+        // sphere's radiance at most), where most pixels of the reach lie.
+        var rings = BOUNCE_RINGS;
+        var sectors = BOUNCE_SECTORS;
+        if sin_a < 0.25 {
+            rings = 1u;
+            sectors = 4u;
+        } else if sin_a < 0.5 {
+            rings = 2u;
+            sectors = 4u;
+        }
         var cap = vec3<f32>(0.0);
-        for (var k = 0u; k < BOUNCE_RINGS * BOUNCE_SECTORS; k = k + 1u) {
+        for (var k = 0u; k < rings * sectors; k = k + 1u) {
             // The midpoint of cell k: rings uniform in solid angle, sectors uniform in angle.
-            let ring = k / BOUNCE_SECTORS;
-            let u = (f32(ring) + 0.5) / f32(BOUNCE_RINGS);
+            let ring = k / sectors;
+            let u = (f32(ring) + 0.5) / f32(rings);
             let cos_t = 1.0 - u * one_minus_cos;
             let sin_t = sqrt(u * one_minus_cos * (1.0 + cos_t));
-            let phi = (f32(k % BOUNCE_SECTORS) + 0.5 * f32(ring % 2u)) * (2.0 * PI / f32(BOUNCE_SECTORS));
+            let phi = (f32(k % sectors) + 0.5 * f32(ring % 2u)) * (2.0 * PI / f32(sectors));
             let w = tangent * (sin_t * cos(phi)) + bitangent * (sin_t * sin(phi)) + axis * cos_t;
             let cos_p = dot(n, w);
             if cos_p <= 0.0 {
@@ -126,7 +135,11 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             // The sphere's nearer hit along w, and its normal there.
             let b = dot(to_sphere, w);
             let t = b - sqrt(max(r * r - (d * d - b * b), 0.0));
-            if !scene_lets_light(p, n, w, t, clear) {
+            // The scene may hide part of the cap (the room's furniture, the Cornell light's
+            // panel a centimetre below the ceiling). (A cone traversal as the live objects'
+            // area lights use cannot skip these rays here: the receiver's own triangle always
+            // meets the cone at its apex.)
+            if !scene_lets_light(p, n, w, t, 0.0) {
                 continue;
             }
             let m = normalize(p + t * w - sphere.xyz);
@@ -134,14 +147,59 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         }
         let solid_angle = 2.0 * PI * one_minus_cos;
         let fade = 1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d);
-        sum += cap * (solid_angle / f32(BOUNCE_RINGS * BOUNCE_SECTORS) * fade);
+        sum += cap * (solid_angle / f32(rings * sectors) * fade);
     }
     return sum;
 }
 
-// The backdrop after shadows plus what the live spheres reflect onto it: albedo / pi times the
-// irradiance they send (the sidecar's albedo and normal layers), in the image's units. Pixels
-// that gain nothing are discarded and keep their value bit for bit.
+// What the shadow pass's occlusion of indirect light (shadows.wgsl, indirect_occlusion) got
+// wrong at pixel `pixel` (surface point p, unit normal n, diffuse albedo `albedo`), in the
+// image's units: it removes each sphere's weight `cos (r / d)^2` times the pixel's indirect
+// light, as if the light hidden behind the sphere were the average light the surface receives
+// (its indirect layer over its albedo). The light hidden is what the surface behind the sphere
+// reflected, the image's radiance less emission where a march from p through the sphere's
+// centre meets the pre-rendered scene (a Lambertian surface sends p what it sends the eye; an
+// emitter's own light hidden is its light layer's share, already removed): the correction adds
+// back `weight (indirect - albedo L_behind)` per sphere whose march finds that surface, nothing
+// for the others.
+fn occlusion_correction(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+    // As far as any visible surface can be (the bounds of the visible surfaces' diagonal).
+    let far = bitcast<f32>(frame.bounce.z);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < min(frame.layer_info.w, 8u); i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let to_sphere = sphere.xyz - p;
+        let d = length(to_sphere);
+        let r = sphere.w;
+        if d <= r || d >= AO_REACH * r {
+            continue;
+        }
+        let axis = to_sphere / d;
+        let cos_s = dot(n, axis);
+        if cos_s <= 0.0 || d + r >= far {
+            continue;
+        }
+        let at = march_to_surface(p, axis, d + r, far);
+        if at.x < 0 {
+            continue;
+        }
+        // What that surface reflects, without what it emits (the light layers and the
+        // indirect layer): an emitter's light hidden by the sphere is its light layer's share.
+        var behind = vec3<f32>(0.0);
+        for (var slice = 0u; slice <= frame.layer_info.y; slice = slice + 1u) {
+            behind += textureLoad(light_layers, at, i32(slice), 0).rgb;
+        }
+        let weight = cos_s * (r / d) * (r / d) * (1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d));
+        sum += weight * (indirect - albedo * behind);
+    }
+    return sum;
+}
+
+// The backdrop after shadows plus what the live spheres reflect onto it (albedo / pi times the
+// irradiance they send, from the sidecar's albedo and normal layers) and the correction of what
+// they hide (occlusion_correction), in the image's units, never below zero. Pixels that change
+// by nothing are discarded and keep their value bit for bit.
 @fragment
 fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
@@ -154,10 +212,14 @@ fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     if centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
         discard;
     }
-    let added = albedo / PI * bounce_irradiance(centre.xyz, normalize(n_raw)) * frame.tone.x;
-    if all(added <= vec3<f32>(0.0)) {
+    let n = normalize(n_raw);
+    var added = albedo / PI * bounce_irradiance(centre.xyz, n) * frame.tone.x;
+    if frame.bounce.w == 1u {
+        added += occlusion_correction(pixel, centre.xyz, n, albedo);
+    }
+    if all(added == vec3<f32>(0.0)) {
         discard;
     }
     let before = textureLoad(backdrop_shadowed, pixel, 0);
-    return vec4<f32>(before.rgb + added, before.a);
+    return vec4<f32>(max(before.rgb + added, vec3<f32>(0.0)), before.a);
 }

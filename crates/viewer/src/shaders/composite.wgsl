@@ -81,7 +81,8 @@ struct Frame {
     live_occluders: vec4<u32>,
     live_occluder_bound: vec4<f32>,
     // The light live spheres reflect onto the scene (bounce.wgsl): 1 when on, the albedo
-    // layer's slice.
+    // layer's slice, the visible surfaces' bounding diagonal (f32 bits), 1 when the occlusion
+    // of indirect light is corrected with what lies behind the spheres.
     bounce: vec4<u32>,
 }
 
