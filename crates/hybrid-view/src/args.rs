@@ -62,10 +62,10 @@ pub struct Args {
     /// Do not add the light live spheres reflect onto the pre-rendered scene.
     #[arg(long)]
     pub no_bounce_light: bool,
-    /// Take the light a live sphere hides from a surface as that surface's average indirect
-    /// light, not the light of what lies behind the sphere.
+    /// Take the light a live sphere hides from a surface as the light of what lies behind the
+    /// sphere, not that surface's average indirect light.
     #[arg(long)]
-    pub no_occlusion_from_behind: bool,
+    pub occlusion_from_behind: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -192,7 +192,7 @@ pub struct Settings {
     pub antialias: bool,
     /// The light live spheres reflect onto the scene (`--no-bounce-light` clears it).
     pub bounce_light: bool,
-    /// The light a live sphere hides taken from behind it (`--no-occlusion-from-behind`).
+    /// The light a live sphere hides taken from behind it (`--occlusion-from-behind`).
     pub occlusion_from_behind: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
@@ -255,7 +255,7 @@ impl Args {
             shadows: (!self.no_shadows).then_some(self.shadow_strength),
             antialias: !self.no_antialias,
             bounce_light: !self.no_bounce_light,
-            occlusion_from_behind: !self.no_occlusion_from_behind,
+            occlusion_from_behind: self.occlusion_from_behind,
             depth_settings,
             backends,
             stats: self.stats,

@@ -124,8 +124,8 @@ fn a_matte_sphere_reflects_a_point_light_onto_the_floor() {
     let lights = vec![LiveLight::Point { position: light, colour: Vec3::splat(intensity as f32) }];
     let live = white_matte(centre, radius);
     // The layers hold no indirect light: what the sphere hides is taken as the surface's
-    // average, nothing (the correction from behind is tested on its own below).
-    let settings = CompositorSettings { occlusion_from_behind: false, ..Default::default() };
+    // average, nothing (the correction from behind, off by default, is tested on its own).
+    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
     // Below the sphere and above the floor, over x in [-0.4, 0.1] (toward the light): it hides
     // the sphere's lit side from the floor under it, not the light from the sphere.
     let shelf = {
@@ -224,8 +224,8 @@ fn a_sphere_lit_by_a_uniform_probe_field_sends_its_form_factor() {
     let mut s = scene(vec![], true);
     s.set_probes(uniform_probe([l; 3]));
     // The layers hold no indirect light: what the sphere hides is taken as the surface's
-    // average, nothing (the correction from behind is tested on its own below).
-    let settings = CompositorSettings { occlusion_from_behind: false, ..Default::default() };
+    // average, nothing (the correction from behind, off by default, is tested on its own).
+    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
     let (linear, mask) = render(&s, &white_matte(centre, radius), settings);
     let (mut checked, mut largest) = (0, 0.0f64);
     for j in (0..512u32).step_by(2) {
@@ -259,7 +259,7 @@ fn the_bounce_is_the_same_in_both_modes_and_after_a_move() {
     let lights = vec![LiveLight::Point { position: DVec3::new(0.0, 0.9, 0.0), colour: Vec3::splat(3.0) }];
     let s = scene(lights, true);
     let live = white_matte(DVec3::new(-0.1, -0.55, 0.1), 0.3);
-    let settings = |mode| CompositorSettings { mode, ..Default::default() };
+    let settings = |mode| CompositorSettings { mode, occlusion_from_behind: true, ..Default::default() };
     let (full, _) = render(&s, &live, settings(CompositeMode::Fullscreen));
     let (points, _) = render(&s, &live, settings(CompositeMode::Points));
     assert!(full == points, "the two compositing paths differ");
@@ -278,8 +278,8 @@ fn the_bounce_is_the_same_in_both_modes_and_after_a_move() {
 /// incoming radiance is `LEVEL / ALBEDO`), a black sphere over the floor hides radiance `LEVEL`
 /// (the image behind it), so a floor pixel keeps `LEVEL - w ALBEDO LEVEL`, `w = cos (r / d)^2`,
 /// where the march through the sphere meets the image, and `LEVEL - w LEVEL` (the average) where
-/// it does not (it leaves the image or passes behind a surface); over 2000 of the checked
-/// pixels find it.
+/// it does not (it leaves the image or passes behind a surface): 193 of the 846 pixels where the
+/// two differ by more than the tolerance found it on 2026-11-26, over 100 must.
 #[test]
 fn the_light_a_sphere_hides_is_the_light_behind_it() {
     let (w, h) = (512u32, 512u32);
@@ -299,9 +299,9 @@ fn the_light_a_sphere_hides_is_the_light_behind_it() {
         sphere: Some(Sphere { centre, radius, material: Material::unlit(Vec3::ZERO) }),
         meshes: Vec::new(),
     };
-    let (linear, mask) = render(&s, &live, CompositorSettings::default());
-    let (without, _) =
-        render(&s, &live, CompositorSettings { occlusion_from_behind: false, ..Default::default() });
+    let (linear, mask) =
+        render(&s, &live, CompositorSettings { occlusion_from_behind: true, ..Default::default() });
+    let (without, _) = render(&s, &live, CompositorSettings::default());
     let (mut behind, mut average) = (0, 0);
     for j in (0..512u32).step_by(2) {
         for i in (0..512u32).step_by(2) {
@@ -313,6 +313,10 @@ fn the_light_a_sphere_hides_is_the_light_behind_it() {
                 continue;
             }
             let weight = (to.y / d) * (radius / d).powi(2);
+            // Where the two answers differ by less than the tolerance, neither can be told.
+            if (1.0 - f64::from(ALBEDO)) * weight * f64::from(LEVEL) < 5e-3 {
+                continue;
+            }
             let level = f64::from(LEVEL);
             let (got, plain) = (f64::from(linear[4 * k]), f64::from(without[4 * k]));
             assert!(
@@ -330,5 +334,5 @@ fn the_light_a_sphere_hides_is_the_light_behind_it() {
             }
         }
     }
-    assert!(behind > 2000, "{behind} pixels from behind, {average} from the average");
+    assert!(behind > 100, "{behind} pixels from behind, {average} from the average");
 }

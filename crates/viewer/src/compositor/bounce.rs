@@ -8,11 +8,13 @@
 //! maps are, `loss_map.rs`), redrawn only when what it depends on changed (the frame's uniform or
 //! a live mesh's). Then a full-screen pass, scissored to where the spheres' occlusion of
 //! indirect light is counted, adds to each pre-rendered pixel `albedo / pi` times the integral of
-//! that radiance times `cos` over the sphere's visible cap (32 directions: 4 rings of equal solid
-//! angle times 8 sectors, reading the map), from the sidecar's `albedo` and `normal` layers. Pixels that gain nothing
-//! are discarded and keep their value bit for bit. The pass writes the frame after shadows and
-//! then copies what it touched into the backdrop after shadows, which the live objects' edges
-//! blend with.
+//! that radiance times `cos` over the part of the sphere's cap the scene lets it see (4 to 32
+//! directions by the sphere's size in view, rings of equal solid angle times sectors, each
+//! reading the map and tracing a shadow ray), from the sidecar's `albedo` and `normal` layers;
+//! optionally the light the sphere hides is taken from behind it (`occlusion_from_behind`).
+//! Pixels that change by nothing are discarded and keep their value bit for bit. The pass
+//! writes the frame after shadows and then copies what it touched into the backdrop after
+//! shadows, which the live objects' edges blend with.
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
@@ -164,8 +166,12 @@ impl Compositor {
             "off (no light layers: their albedo and normals are needed)"
         } else if self.layers.albedo_slice.is_none() {
             "off (the light layers hold no diffuse albedo)"
+        } else if self.settings.occlusion_from_behind {
+            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays; \
+             the light they hide taken from behind them (live meshes add none)"
         } else {
-            "live spheres' diffuse light, 32 directions over each sphere's cap (live meshes add none)"
+            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays \
+             (live meshes add none)"
         }
     }
 

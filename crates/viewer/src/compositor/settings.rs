@@ -100,6 +100,8 @@ pub struct CompositorSettings {
     /// With the bounce light, the spheres' occlusion of indirect light takes the light from
     /// behind them (the image where a march through each sphere meets the scene) instead of
     /// the surface's average indirect light (`shaders/bounce.wgsl`, `occlusion_correction`).
+    /// Off by default: in `cargo xtask illusion` it helped some rows as much as it hurt others
+    /// (docs/viewer.md, "Live spheres light the scene").
     pub occlusion_from_behind: bool,
 }
 
@@ -113,7 +115,7 @@ impl Default for CompositorSettings {
             antialias: true,
             own_shadow_maps: true,
             bounce_light: true,
-            occlusion_from_behind: true,
+            occlusion_from_behind: false,
         }
     }
 }
