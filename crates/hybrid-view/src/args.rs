@@ -59,6 +59,13 @@ pub struct Args {
     /// image's pixel filter.
     #[arg(long)]
     pub no_antialias: bool,
+    /// Do not add the light live spheres reflect onto the pre-rendered scene.
+    #[arg(long)]
+    pub no_bounce_light: bool,
+    /// Take the light a live sphere hides from a surface as the light of what lies behind the
+    /// sphere, not that surface's average indirect light.
+    #[arg(long)]
+    pub occlusion_from_behind: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -183,6 +190,10 @@ pub struct Settings {
     pub shadows: Option<f32>,
     /// Live objects' edges filtered with the image's pixel filter (`--no-antialias` clears it).
     pub antialias: bool,
+    /// The light live spheres reflect onto the scene (`--no-bounce-light` clears it).
+    pub bounce_light: bool,
+    /// The light a live sphere hides taken from behind it (`--occlusion-from-behind`).
+    pub occlusion_from_behind: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
@@ -243,6 +254,8 @@ impl Args {
             unlit: self.unlit,
             shadows: (!self.no_shadows).then_some(self.shadow_strength),
             antialias: !self.no_antialias,
+            bounce_light: !self.no_bounce_light,
+            occlusion_from_behind: self.occlusion_from_behind,
             depth_settings,
             backends,
             stats: self.stats,

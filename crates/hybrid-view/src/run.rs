@@ -111,6 +111,8 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
         antialias: settings.antialias,
         own_shadow_maps: true,
+        bounce_light: settings.bounce_light,
+        occlusion_from_behind: settings.occlusion_from_behind,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
@@ -128,7 +130,7 @@ fn attach_light_layers(
     let Some(path) = candidates.iter().map(|c| &c.layers).find(|p| p.exists()) else {
         let looked: Vec<String> = candidates.iter().map(|c| c.layers.display().to_string()).collect();
         eprintln!(
-            "note: no light layers ({}): live objects' shadows darken a fixed share of one light's pixels (--shadow-strength) and leave indirect light as it is",
+            "note: no light layers ({}): live objects' shadows darken a fixed share of one light's pixels (--shadow-strength) and leave indirect light as it is, and they reflect no light onto the scene",
             looked.join(", ")
         );
         return Ok(());
@@ -361,6 +363,7 @@ fn print_stats(
         (None, _, _) => eprintln!("shadows: skipped (no light that casts shadows)"),
     }
     eprintln!("scene shadows on live objects: {}", compositor.scene_shadows_summary());
+    eprintln!("bounce light onto the scene: {}", compositor.bounce_light_summary());
     if let Some(note) = compositor.live_shadows_note() {
         eprintln!("live meshes' shadows: {note}");
     }

@@ -1,7 +1,7 @@
 //! The layout of the frame bind group every compositing pass reads: the frame uniform, the
 //! backdrop's colour and depths, the light layers and their area samples, the reflection
-//! probes with their sampler, the irradiance probes, the backdrop after shadows, and the
-//! shadow-ray hierarchies' nodes and triangles.
+//! probes with their sampler, the irradiance probes, the backdrop after shadows, the
+//! shadow-ray hierarchies' nodes and triangles, the own-shadow loss maps and the radiosity maps.
 
 /// A layout entry for a float texture the shaders read.
 pub(super) fn texture_layout_entry(
@@ -93,6 +93,8 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 },
                 count: None,
             },
+            // The live spheres' radiosity maps (compositor/bounce.rs).
+            texture_entry(15, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }

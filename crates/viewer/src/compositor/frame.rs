@@ -82,6 +82,12 @@ impl Compositor {
                 wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
             );
             self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            // The light the spheres reflect onto the scene, from their radiosity maps, which
+            // read the loss maps (bounce.rs).
+            if let Some(rect) = self.bounce_scissor(&uniform) {
+                self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+                self.record_bounce(&mut encoder, rect);
+            }
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
             self.record_live(&mut pass, &draws, sphere);
         }
@@ -95,7 +101,7 @@ impl Compositor {
 
     /// Begins a pass over the frame's colour, mask and depth targets (colour into `view`),
     /// clearing them or keeping what an earlier pass drew.
-    fn begin_frame_pass<'e>(
+    pub(super) fn begin_frame_pass<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         view: &wgpu::TextureView,

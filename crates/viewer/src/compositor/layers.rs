@@ -1,5 +1,6 @@
 //! The light layers on the GPU: one half-float texture array (the light layers of the kept
-//! lights, then `indirect`, then the camera-space shading normal) and a uniform block of
+//! lights, then `indirect`, then the camera-space shading normal, then the diffuse albedo when
+//! the layers hold one) and a uniform block of
 //! area-light samples in camera space, with each kept light's slice and samples.
 
 use super::lighting::vec4;
@@ -30,6 +31,10 @@ pub(super) struct GpuLayers {
     pub(super) light_slots: Vec<[u32; 4]>,
     /// `[1 if layers are bound, indirect slice, normal slice, 0]`.
     pub(super) info: [u32; 4],
+    /// The diffuse albedo's slice (the slice after the normal's), `None` when the layers hold
+    /// no albedo anywhere (older files, or no diffuse surface): the bounce light then has nothing
+    /// to reflect it with.
+    pub(super) albedo_slice: Option<u32>,
     /// Whether two kept lights share a layer (the shaders then weigh them).
     pub(super) shared: bool,
     /// Per kept light, the world-space emitter samples the shaders integrate it over (each
@@ -59,6 +64,7 @@ pub(super) fn upload(
     let mut slices: Vec<Vec<[f32; 3]>> = Vec::new();
     let mut info = [0u32; 4];
     let mut world_samples = vec![Vec::new(); kept.len()];
+    let mut albedo_slice = None;
     if let Some(bound) = layers {
         let mut slice_of_layer = vec![None; bound.layers.light.len()];
         let area_lights = kept.iter().filter(|&&k| !bound.area_samples[k].is_empty()).count().max(1);
@@ -109,6 +115,10 @@ pub(super) fn upload(
                 })
                 .collect(),
         );
+        if bound.layers.albedo.iter().any(|a| a.iter().any(|&v| v > 0.0)) {
+            albedo_slice = Some(slices.len() as u32);
+            slices.push(bound.layers.albedo.clone());
+        }
     }
     let (w, h) = if layers.is_some() { (width, height) } else { (1, 1) };
     let count = slices.len().max(2) as u32;
@@ -160,5 +170,5 @@ pub(super) fn upload(
         slices.dedup();
         slices.len() != n
     };
-    GpuLayers { view, samples: buffer, light_slots, info, shared, world_samples }
+    GpuLayers { view, samples: buffer, light_slots, info, albedo_slice, shared, world_samples }
 }

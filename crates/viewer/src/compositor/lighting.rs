@@ -91,6 +91,10 @@ pub(super) struct FrameUniform {
     pub(super) scene_occluders: [u32; 4],
     pub(super) live_occluders: [u32; 4],
     pub(super) live_occluder_bound: [f32; 4],
+    /// The light live spheres reflect onto the scene (`bounce.rs`): 1 when on, the albedo
+    /// layer's slice, the visible surfaces' bounding diagonal (f32 bits), 1 when the spheres'
+    /// occlusion of indirect light is corrected with the light from behind them.
+    pub(super) bounce: [u32; 4],
 }
 
 #[repr(C)]
@@ -258,6 +262,13 @@ impl Compositor {
             scene_occluders: self.occluders.scene,
             live_occluders: if layered { self.occluders.live } else { [0; 4] },
             live_occluder_bound: self.occluders.live_bound,
+            bounce: match self.layers.albedo_slice {
+                Some(slice) if self.settings.bounce_light && shadow_on == 1 && sphere_count > 0 => {
+                    let diagonal = self.surface_bounds.map_or(0.0, |(lo, hi)| (hi - lo).length() as f32);
+                    [1, slice, diagonal.to_bits(), u32::from(self.settings.occlusion_from_behind)]
+                }
+                _ => [0; 4],
+            },
         }
     }
 }

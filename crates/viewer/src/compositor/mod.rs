@@ -4,6 +4,7 @@
 mod antialias;
 mod backdrop_points;
 mod bindings;
+mod bounce;
 mod encode;
 mod frame;
 mod irradiance;
@@ -93,6 +94,9 @@ pub struct Compositor {
     shadowed_texture: wgpu::Texture,
     /// The live spheres' own-shadow loss maps (binding 14).
     loss_maps: loss_map::LossMaps,
+    /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
+    /// the pass that adds it.
+    bounce: bounce::Bounce,
     /// Live objects' edges at four samples per pixel, filtered (`None`: off, for the reason
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
@@ -105,6 +109,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/shadow_loss.wgsl"),
     include_str!("../shaders/shadows.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
+    include_str!("../shaders/bounce.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -275,6 +280,7 @@ impl Compositor {
         );
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let loss_map_textures = loss_map::LossMapTextures::new(device);
+        let radiosity_map_textures = bounce::RadiosityMapTextures::new(device);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -321,6 +327,10 @@ impl Compositor {
                     binding: 14,
                     resource: wgpu::BindingResource::TextureView(&loss_map_textures.read_view),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 15,
+                    resource: wgpu::BindingResource::TextureView(&radiosity_map_textures.read_view),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -359,6 +369,18 @@ impl Compositor {
             immediate_size: 0,
         });
         let loss_maps = loss_map::LossMaps::new(device, loss_map_textures, &module, &with_mesh);
+        let bounce = bounce::Bounce::new(
+            device,
+            radiosity_map_textures,
+            &bounce::BounceSetup {
+                module: &module,
+                frame_only: &frame_only,
+                with_mesh: &with_mesh,
+                linear_format,
+                mask_format: MASK_FORMAT,
+                depth_format,
+            },
+        );
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
@@ -590,6 +612,7 @@ impl Compositor {
             depth_storage,
             shadowed_texture,
             loss_maps,
+            bounce,
             antialias,
             antialias_off,
         })

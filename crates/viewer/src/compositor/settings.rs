@@ -94,6 +94,15 @@ pub struct CompositorSettings {
     /// (`compositor/loss_map.rs`); `false` gathers it per fragment (the reference the maps are
     /// tested against).
     pub own_shadow_maps: bool,
+    /// With light layers that hold the diffuse albedo, live spheres add the light they reflect
+    /// onto the pre-rendered scene (`compositor/bounce.rs`); `false` leaves it out.
+    pub bounce_light: bool,
+    /// With the bounce light, the spheres' occlusion of indirect light takes the light from
+    /// behind them (the image where a march through each sphere meets the scene) instead of
+    /// the surface's average indirect light (`shaders/bounce.wgsl`, `occlusion_correction`).
+    /// Off by default: in `cargo xtask illusion` it helped some rows as much as it hurt others
+    /// (docs/viewer.md, "Live spheres light the scene").
+    pub occlusion_from_behind: bool,
 }
 
 impl Default for CompositorSettings {
@@ -105,6 +114,8 @@ impl Default for CompositorSettings {
             shadows: Some(ShadowSettings::default()),
             antialias: true,
             own_shadow_maps: true,
+            bounce_light: true,
+            occlusion_from_behind: false,
         }
     }
 }

@@ -1,5 +1,5 @@
 // Compositing of the pre-rendered image with live objects. shadow_loss.wgsl and shadows.wgsl
-// are appended to this file (compositor/mod.rs COMPOSITE_WGSL).
+// are appended to this file (compositor/mod.rs COMPOSITE_WGSL), and bounce.wgsl.
 //
 // Spaces: raster (pixels, origin top-left, y down; a fragment's position.xy is its pixel
 // centre), camera (RenderMan's left-handed camera space, +z forward) and wgpu clip space. All
@@ -80,6 +80,10 @@ struct Frame {
     scene_occluders: vec4<u32>,
     live_occluders: vec4<u32>,
     live_occluder_bound: vec4<f32>,
+    // The light live spheres reflect onto the scene (bounce.wgsl): 1 when on, the albedo
+    // layer's slice, the visible surfaces' bounding diagonal (f32 bits), 1 when the occlusion
+    // of indirect light is corrected with what lies behind the spheres.
+    bounce: vec4<u32>,
 }
 
 const NO_LAYER: u32 = 0xffffffffu;
@@ -450,20 +454,16 @@ fn blinn_lobe_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, exponent: f32) -> f3
     return d * g / (4.0 * cos_o);
 }
 
-fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
-    if material.colour.w > 0.5 {
-        return material.colour.rgb;
-    }
-    // Two-sided: the normal facing the viewer.
-    let v = -view_dir;
-    let n = select(n_in, -n_in, dot(n_in, v) < 0.0);
-    let ka = material.coefficients.x;
-    let kd = material.coefficients.y;
-    let ks = material.coefficients.z;
-    let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
-    // The reflection probes hold the scene's radiance without the lights' emission (the bake
-    // leaves the emitters it sees directly out): every light's glossy reflection is added here.
-    let reflections = frame.reflection_origin.w > 0.5 && ks != 0.0;
+// The lights' direct light at p (normal n, facing v): ambient, the irradiance the diffuse lobe
+// integrates (with the scene's shadows) and the Blinn lobe's (`exponent`) radiance per unit Ks,
+// the latter only `with_specular`.
+struct DirectLight {
+    ambient: vec3<f32>,
+    diffuse: vec3<f32>,
+    specular: vec3<f32>,
+}
+
+fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_specular: bool) -> DirectLight {
     var ambient = vec3<f32>(0.0);
     var diffuse = vec3<f32>(0.0);
     var specular = vec3<f32>(0.0);
@@ -497,7 +497,9 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
                 }
                 let e = radiance * (sample.w * cos_e / dist2);
                 diffuse += e * n_dot_l;
-                specular += e * blinn_lobe_cos(n, v, l, exponent);
+                if with_specular {
+                    specular += e * blinn_lobe_cos(n, v, l, exponent);
+                }
             }
             continue;
         }
@@ -532,8 +534,57 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             continue;
         }
         diffuse += e * n_dot_l;
-        specular += e * blinn_lobe_cos(n, v, l, exponent);
+        if with_specular {
+            specular += e * blinn_lobe_cos(n, v, l, exponent);
+        }
     }
+    return DirectLight(ambient, diffuse, specular);
+}
+
+// The probes' indirect irradiance at camera-space p with unit normal n (zero without probes),
+// less what the live objects' shadows took from it (`loss`, radiance units).
+fn probe_irradiance(p: vec3<f32>, n: vec3<f32>, loss: vec3<f32>) -> vec3<f32> {
+    if frame.counts.w != 1u {
+        return vec3<f32>(0.0);
+    }
+    let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
+    let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
+    return max(field_irradiance(p_world, n_world) - loss, vec3<f32>(0.0));
+}
+
+// The radiance a Lambertian live surface at p with unit normal n sends in every direction: the
+// diffuse and ambient terms of `shade`, without the view-dependent normal flip (compositor's
+// bounce light reads it on the sphere's far side too).
+fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    if material.colour.w > 0.5 {
+        return material.colour.rgb;
+    }
+    let lit = direct_light(p, n, n, 1.0, false);
+    var loss = vec3<f32>(0.0);
+    if frame.counts.y == 1u && frame.counts.w == 1u {
+        loss = own_shadow_loss(p, n, n, 1.0).irradiance / max(frame.tone.x, 1e-30);
+    }
+    let diffuse = lit.diffuse + probe_irradiance(p, n, loss);
+    return material.colour.rgb * (material.coefficients.x * lit.ambient + material.coefficients.y / PI * diffuse);
+}
+
+fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    if material.colour.w > 0.5 {
+        return material.colour.rgb;
+    }
+    // Two-sided: the normal facing the viewer.
+    let v = -view_dir;
+    let n = select(n_in, -n_in, dot(n_in, v) < 0.0);
+    let ka = material.coefficients.x;
+    let kd = material.coefficients.y;
+    let ks = material.coefficients.z;
+    let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
+    // The reflection probes hold the scene's radiance without the lights' emission (the bake
+    // leaves the emitters it sees directly out): every light's glossy reflection is added here.
+    let reflections = frame.reflection_origin.w > 0.5 && ks != 0.0;
+    let lit = direct_light(p, n, v, exponent, true);
+    var diffuse = lit.diffuse;
+    var specular = lit.specular;
     // The probes saw the scene before the live objects' shadows took light from it.
     var loss = ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
     if frame.counts.y == 1u && (frame.counts.w == 1u || reflections) {
@@ -543,11 +594,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
     }
     // With the renderer's irradiance probes, the scene's indirect light at this fragment
     // (compositor/irradiance.rs) joins the lights', less what the shadows took.
-    if frame.counts.w == 1u {
-        let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
-        let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
-        diffuse += max(field_irradiance(p_world, n_world) - loss.irradiance, vec3<f32>(0.0));
-    }
+    diffuse += probe_irradiance(p, n, loss.irradiance);
     // With the reflection probes, the scene's prefiltered radiance in the reflected direction
     // times the lobe's albedo (the split sum), less what the shadows took.
     if reflections {
@@ -559,7 +606,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
         specular += max(reflected - loss.glossy, vec3<f32>(0.0));
     }
     let cs = material.colour.rgb;
-    return cs * (ka * ambient + kd / PI * diffuse) + material.specular_colour.rgb * ks * specular;
+    return cs * (ka * lit.ambient + kd / PI * diffuse) + material.specular_colour.rgb * ks * specular;
 }
 
 // Radiance in the image's own units, into the linear frame (the encode pass displays it).

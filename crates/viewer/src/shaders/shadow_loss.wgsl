@@ -55,18 +55,17 @@ fn probe_depth(y: vec3<f32>) -> DepthProbe {
     return DepthProbe(pixel, distance, surface);
 }
 
-// The radiance the shadows took from the first pre-rendered surface along p + t w (t up to
-// `reach`), in the image's units; zero when the march leaves the image, passes behind a
-// surface or finds none.
-fn shadow_loss_along(p: vec3<f32>, w: vec3<f32>, reach: f32) -> vec3<f32> {
-    var previous = p;
+// The pixel of the first pre-rendered surface along p + t w for t from t0 to t1 (x < 0 when the
+// march leaves the image, passes behind a surface or finds none). Steps grow with distance, so
+// near surfaces are found most closely.
+fn march_to_surface(p: vec3<f32>, w: vec3<f32>, t0: f32, t1: f32) -> vec2<i32> {
+    var previous = p + t0 * w;
     for (var j = 1u; j <= SHADOW_GATHER_STEPS; j = j + 1u) {
-        // Steps grow with distance: near surfaces matter most.
         let s = f32(j) / f32(SHADOW_GATHER_STEPS);
-        let y = p + (reach * s * s) * w;
+        let y = p + (t0 + (t1 - t0) * s * s) * w;
         var at = probe_depth(y);
         if at.pixel.x < 0 {
-            return vec3<f32>(0.0);
+            return vec2<i32>(-1);
         }
         if at.surface < 3.0e38 && at.distance >= at.surface {
             // Behind the surface: bisect the step for where it crossed, since at grazing views
@@ -91,15 +90,26 @@ fn shadow_loss_along(p: vec3<f32>, w: vec3<f32>, reach: f32) -> vec3<f32> {
             let step = behind - front;
             let along = clamp(dot(x - front, step) / max(dot(step, step), 1e-30), 0.0, 1.0);
             if length(x - (front + along * step)) > length(y - previous) {
-                return vec3<f32>(0.0);
+                return vec2<i32>(-1);
             }
-            let before = textureLoad(backdrop_colour, at.pixel, 0).rgb;
-            let after = textureLoad(backdrop_shadowed, at.pixel, 0).rgb;
-            return max(before - after, vec3<f32>(0.0));
+            return at.pixel;
         }
         previous = y;
     }
-    return vec3<f32>(0.0);
+    return vec2<i32>(-1);
+}
+
+// The radiance the shadows took from the first pre-rendered surface along p + t w (t up to
+// `reach`), in the image's units; zero when the march leaves the image, passes behind a
+// surface or finds none.
+fn shadow_loss_along(p: vec3<f32>, w: vec3<f32>, reach: f32) -> vec3<f32> {
+    let pixel = march_to_surface(p, w, 0.0, reach);
+    if pixel.x < 0 {
+        return vec3<f32>(0.0);
+    }
+    let before = textureLoad(backdrop_colour, pixel, 0).rgb;
+    let after = textureLoad(backdrop_shadowed, pixel, 0).rgb;
+    return max(before - after, vec3<f32>(0.0));
 }
 
 // What the live objects' shadows took from the light a fragment at p (normal n, camera space,

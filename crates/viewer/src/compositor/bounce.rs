@@ -1,0 +1,276 @@
+//! The light live spheres reflect onto the pre-rendered scene (differential rendering's added
+//! term; `shaders/bounce.wgsl`).
+//!
+//! A live sphere's diffuse outgoing radiance is what the viewer shades it with (its lights with
+//! the scene's shadows, the probes' indirect light less its own-shadow loss), a function of the
+//! point on it alone. It is computed once per texel of a [`RADIOSITY_MAP_TEXELS`]^2 octahedral
+//! map over the whole sphere, a row of an atlas per shadow-casting sphere (as the own-shadow loss
+//! maps are, `loss_map.rs`), redrawn only when what it depends on changed (the frame's uniform or
+//! a live mesh's). Then a full-screen pass, scissored to where the spheres' occlusion of
+//! indirect light is counted, adds to each pre-rendered pixel `albedo / pi` times the integral of
+//! that radiance times `cos` over the part of the sphere's cap the scene lets it see (4 to 32
+//! directions by the sphere's size in view, rings of equal solid angle times sectors, each
+//! reading the map and tracing a shadow ray), from the sidecar's `albedo` and `normal` layers;
+//! optionally the light the sphere hides is taken from behind it (`occlusion_from_behind`).
+//! Pixels that change by nothing are discarded and keep their value bit for bit. The pass
+//! writes the frame after shadows and then copies what it touched into the backdrop after
+//! shadows, which the live objects' edges blend with.
+
+use super::Compositor;
+use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use super::shadows::{AO_REACH, merge};
+use glam::DVec3;
+use std::cell::RefCell;
+
+/// Texels along each side of a sphere's map (`bounce.wgsl` RADIOSITY_MAP_TEXELS).
+pub(super) const RADIOSITY_MAP_TEXELS: u32 = 32;
+const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// The atlas's textures: the one drawn into and the copy the bounce pass reads (binding 15).
+#[derive(Debug)]
+pub(super) struct RadiosityMapTextures {
+    drawn: wgpu::Texture,
+    read: wgpu::Texture,
+    /// The view of `read`, for the frame bind group.
+    pub(super) read_view: wgpu::TextureView,
+}
+
+impl RadiosityMapTextures {
+    pub(super) fn new(device: &wgpu::Device) -> RadiosityMapTextures {
+        let texture = |label: &str, usage: wgpu::TextureUsages| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: atlas_size(),
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ATLAS_FORMAT,
+                usage,
+                view_formats: &[],
+            })
+        };
+        use wgpu::TextureUsages as U;
+        let drawn = texture("radiosity maps, drawn", U::RENDER_ATTACHMENT | U::COPY_SRC);
+        let read = texture("radiosity maps", U::TEXTURE_BINDING | U::COPY_DST);
+        let read_view = read.create_view(&wgpu::TextureViewDescriptor::default());
+        RadiosityMapTextures { drawn, read, read_view }
+    }
+}
+
+fn atlas_size() -> wgpu::Extent3d {
+    wgpu::Extent3d {
+        width: RADIOSITY_MAP_TEXELS,
+        height: RADIOSITY_MAP_TEXELS * MAX_SHADOW_SPHERES as u32,
+        depth_or_array_layers: 1,
+    }
+}
+
+/// The radiosity maps' pass, the bounce pass and what the maps were last drawn from.
+#[derive(Debug)]
+pub(super) struct Bounce {
+    textures: RadiosityMapTextures,
+    drawn_view: wgpu::TextureView,
+    map_pipeline: wgpu::RenderPipeline,
+    bounce_pipeline: wgpu::RenderPipeline,
+    /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
+    drawn_from: RefCell<Vec<u8>>,
+}
+
+/// What the bounce's pipelines are built from.
+pub(super) struct BounceSetup<'a> {
+    pub(super) module: &'a wgpu::ShaderModule,
+    /// The frame bind group alone (the bounce pass) and with a mesh's (the maps: a row's material).
+    pub(super) frame_only: &'a wgpu::PipelineLayout,
+    pub(super) with_mesh: &'a wgpu::PipelineLayout,
+    pub(super) linear_format: wgpu::TextureFormat,
+    pub(super) mask_format: wgpu::TextureFormat,
+    pub(super) depth_format: wgpu::TextureFormat,
+}
+
+impl Bounce {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        textures: RadiosityMapTextures,
+        setup: &BounceSetup<'_>,
+    ) -> Bounce {
+        let fragment = |entry: &'static str, targets| wgpu::FragmentState {
+            module: setup.module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            targets,
+        };
+        let vertex = wgpu::VertexState {
+            module: setup.module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        };
+        let map_targets = [Some(wgpu::ColorTargetState {
+            format: ATLAS_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let map_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("radiosity maps"),
+            layout: Some(setup.with_mesh),
+            vertex: vertex.clone(),
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(fragment("fs_radiosity_map", &map_targets)),
+            multiview_mask: None,
+            cache: None,
+        });
+        // Into the frame's colour target (the mask and depth stay as the backdrop left them).
+        let frame_targets = [
+            Some(wgpu::ColorTargetState {
+                format: setup.linear_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::COLOR,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: setup.mask_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::empty(),
+            }),
+        ];
+        let bounce_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("bounce light"),
+            layout: Some(setup.frame_only),
+            vertex,
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: setup.depth_format,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(fragment("fs_bounce", &frame_targets)),
+            multiview_mask: None,
+            cache: None,
+        });
+        let drawn_view = textures.drawn.create_view(&wgpu::TextureViewDescriptor::default());
+        Bounce { textures, drawn_view, map_pipeline, bounce_pipeline, drawn_from: RefCell::new(Vec::new()) }
+    }
+}
+
+impl Compositor {
+    /// The light live spheres reflect onto the scene in words (for `--stats`): whether it is
+    /// added, and why not.
+    pub fn bounce_light_summary(&self) -> &'static str {
+        if !self.settings.bounce_light {
+            "off (turned off)"
+        } else if self.layers.info[0] != 1 {
+            "off (no light layers: their albedo and normals are needed)"
+        } else if self.layers.albedo_slice.is_none() {
+            "off (the light layers hold no diffuse albedo)"
+        } else if self.settings.occlusion_from_behind {
+            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays; \
+             the light they hide taken from behind them (live meshes add none)"
+        } else {
+            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays \
+             (live meshes add none)"
+        }
+    }
+
+    /// The pixels the spheres' bounce light can reach: where their occlusion of indirect light
+    /// is counted (`AO_REACH` radii), `None` when the bounce is off.
+    pub(super) fn bounce_scissor(&self, uniform: &FrameUniform) -> Option<[u32; 4]> {
+        if uniform.bounce[0] != 1 {
+            return None;
+        }
+        let spheres = &uniform.shadow_spheres[..(uniform.layer_info[3] as usize).min(MAX_SHADOW_SPHERES)];
+        spheres.iter().fold(None, |union, s| {
+            let centre = DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2]));
+            merge(union, self.box_scissor(centre, f64::from(s[3]) * AO_REACH))
+        })
+    }
+
+    /// Draws the spheres' radiosity maps when the bounce is on and they are not already drawn
+    /// from the same `uniform` and mesh uniforms (`mesh_bytes`). `rows`: each mesh slot's row
+    /// (`loss_map::mesh_rows`). Runs after the own-shadow loss maps, which it reads.
+    pub(super) fn record_radiosity_maps(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        rows: &[i32],
+        mesh_bytes: &[u8],
+    ) {
+        let maps = &self.bounce;
+        if uniform.bounce[0] != 1 || uniform.layer_info[3] == 0 {
+            return;
+        }
+        let mut key = bytemuck::bytes_of(uniform).to_vec();
+        key.extend_from_slice(mesh_bytes);
+        if *maps.drawn_from.borrow() == key {
+            return;
+        }
+        *maps.drawn_from.borrow_mut() = key;
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("radiosity maps"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &maps.drawn_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&maps.map_pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            for row in 0..uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32) {
+                // The row's material: the cursor sphere's (row 0 when drawn, from the frame
+                // uniform) or its mesh's, bound at the mesh's slot.
+                let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
+                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+                pass.set_scissor_rect(
+                    0,
+                    row * RADIOSITY_MAP_TEXELS,
+                    RADIOSITY_MAP_TEXELS,
+                    RADIOSITY_MAP_TEXELS,
+                );
+                pass.draw(0..3, 0..1);
+            }
+        }
+        encoder.copy_texture_to_texture(
+            maps.textures.drawn.as_image_copy(),
+            maps.textures.read.as_image_copy(),
+            atlas_size(),
+        );
+    }
+
+    /// Adds the spheres' bounce light to the frame after shadows within `rect`
+    /// ([`Compositor::bounce_scissor`]), then copies that rectangle into the backdrop after
+    /// shadows, so that the live objects' edges blend with the lit backdrop.
+    pub(super) fn record_bounce(&self, encoder: &mut wgpu::CommandEncoder, [x, y, w, h]: [u32; 4]) {
+        {
+            let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+            pass.set_scissor_rect(x, y, w, h);
+            pass.set_pipeline(&self.bounce.bounce_pipeline);
+            pass.draw(0..3, 0..1);
+        }
+        let origin = wgpu::Origin3d { x, y, z: 0 };
+        encoder.copy_texture_to_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.linear_texture,
+                mip_level: 0,
+                origin,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.shadowed_texture,
+                mip_level: 0,
+                origin,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+    }
+}

@@ -1,0 +1,225 @@
+// The light live spheres reflect onto the pre-rendered scene (appended to composite.wgsl:
+// compositor/mod.rs COMPOSITE_WGSL; the bindings and helpers are composite.wgsl's).
+//
+// Differential rendering adds to each pre-rendered surface the light an inserted object sends
+// it. A live sphere is diffuse toward the scene with the radiance the viewer itself shades it
+// with (its lights with the scene's shadows, the probes' indirect light less what its own
+// shadows took), which on a sphere is a function of the normal alone. So it is computed once
+// per texel of a RADIOSITY_MAP_TEXELS^2 octahedral map over the whole sphere (row k of an atlas
+// for the k-th shadow-casting sphere: compositor/bounce.rs), and each pixel near a sphere
+// integrates the sphere's visible cap over BOUNCE_RINGS x BOUNCE_SECTORS directions reading that
+// map: `albedo / pi * sum L cos_p * solid angle / N` (the sidecar's albedo and normal layers).
+
+const RADIOSITY_MAP_TEXELS: u32 = 32u;
+// Directions over a sphere's cap: rings of equal solid angle, each with evenly spaced sectors
+// (every other ring turned by half a sector), so that a radiance linear in the direction, and
+// so the cosine of an uncut cap, is integrated exactly. Up to 4 rings of 8 sectors near the
+// sphere; fewer where the sphere is small in the surface's view (see bounce_irradiance).
+const BOUNCE_RINGS: u32 = 4u;
+const BOUNCE_SECTORS: u32 = 8u;
+
+// Per texel: the sphere's outgoing diffuse radiance (rgb, radiance units) at the texel's normal.
+@group(0) @binding(15) var radiosity_maps: texture_2d<f32>;
+
+// The unit direction of octahedral coordinates `uv` in [0, 1]^2 (the inverse of octahedral_uv).
+fn octahedral_direction(uv: vec2<f32>) -> vec3<f32> {
+    let xy = uv * 2.0 - vec2<f32>(1.0);
+    let z = 1.0 - abs(xy.x) - abs(xy.y);
+    var d = vec3<f32>(xy, z);
+    if z < 0.0 {
+        d = vec3<f32>(
+            (1.0 - abs(xy.y)) * select(-1.0, 1.0, xy.x >= 0.0),
+            (1.0 - abs(xy.x)) * select(-1.0, 1.0, xy.y >= 0.0),
+            z,
+        );
+    }
+    return normalize(d);
+}
+
+// The outgoing diffuse radiance of the sphere of row `row` at camera-space unit normal `m`,
+// bilinear in its map (clamped at the map's edges, where the octahedral fold meets itself).
+fn radiosity_lookup(row: u32, m: vec3<f32>) -> vec3<f32> {
+    let size = f32(RADIOSITY_MAP_TEXELS);
+    let texel = octahedral_uv(m) * size - 0.5;
+    let base = clamp(floor(texel), vec2<f32>(0.0), vec2<f32>(size - 2.0));
+    let f = clamp(texel - base, vec2<f32>(0.0), vec2<f32>(1.0));
+    let at = vec2<i32>(base) + vec2<i32>(0, i32(row * RADIOSITY_MAP_TEXELS));
+    let l00 = textureLoad(radiosity_maps, at, 0).rgb;
+    let l10 = textureLoad(radiosity_maps, at + vec2<i32>(1, 0), 0).rgb;
+    let l01 = textureLoad(radiosity_maps, at + vec2<i32>(0, 1), 0).rgb;
+    let l11 = textureLoad(radiosity_maps, at + vec2<i32>(1, 1), 0).rgb;
+    return mix(mix(l00, l10, f.x), mix(l01, l11, f.x), f.y);
+}
+
+// One texel of the atlas: the diffuse radiance the sphere of its row sends out at the texel's
+// normal, with its material (the cursor sphere's, or the mesh bound in group 1).
+@fragment
+fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let texel = vec2<u32>(position.xy);
+    let row = texel.y / RADIOSITY_MAP_TEXELS;
+    if frame.layer_info.x != 1u || row >= min(frame.layer_info.w, 8u) {
+        return vec4<f32>(0.0);
+    }
+    let s = frame.shadow_spheres[row];
+    let uv = (vec2<f32>(texel % vec2<u32>(RADIOSITY_MAP_TEXELS)) + vec2<f32>(0.5)) / f32(RADIOSITY_MAP_TEXELS);
+    let n = octahedral_direction(uv);
+    let p = s.xyz + s.w * n;
+    // The cursor sphere is the first row when it is drawn; the others are live meshes.
+    var material = mesh.material;
+    if row == 0u && frame.counts.z == 1u {
+        material = frame.sphere_material;
+    }
+    // The own-shadow loss from the sphere's loss map on the half the map covers (as the
+    // sphere's shading reads it), gathered here on the half turned from the eye.
+    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
+    if frame.raster.w > 0.5 {
+        toward_eye = -normalize(s.xyz);
+    }
+    loss_map_row = select(-1, i32(row), dot(n, toward_eye) >= 0.0);
+    return vec4<f32>(diffuse_radiance(material, p, n), 1.0);
+}
+
+// The light the shadow-casting spheres reflect onto the surface at p (camera space) with unit
+// normal n, per unit diffuse albedo times pi: the sum over spheres of the integral of their
+// outgoing radiance times cos_p over the parts of their caps the scene lets p see, in radiance
+// units. Faded out between
+// 6 and 8 radii as their occlusion of indirect light is, so that a sphere as bright as what it
+// hides changes nothing at any distance.
+fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < min(frame.layer_info.w, 8u); i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let to_sphere = sphere.xyz - p;
+        let d = length(to_sphere);
+        let r = sphere.w;
+        if d <= r * 1.0001 || d >= AO_REACH * r {
+            continue;
+        }
+        let axis = to_sphere / d;
+        let sin_a = r / d;
+        // The cap lies wholly below the surface's horizon.
+        if dot(n, axis) <= -sin_a {
+            continue;
+        }
+        let cos_a = sqrt(max(1.0 - sin_a * sin_a, 0.0));
+        // 1 - cos_a without cancellation for small caps.
+        let one_minus_cos = sin_a * sin_a / (1.0 + cos_a);
+        let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(axis.x) > 0.9);
+        let tangent = normalize(cross(helper, axis));
+        let bitangent = cross(axis, tangent);
+        // The gain falls as (r / d)^2 and so does the error of a coarser estimate: 32
+        // directions within 2 radii of the centre, 8 within 4, 4 beyond (a sixteenth of the
+        // sphere's radiance at most), where most pixels of the reach lie.
+        var rings = BOUNCE_RINGS;
+        var sectors = BOUNCE_SECTORS;
+        if sin_a < 0.25 {
+            rings = 1u;
+            sectors = 4u;
+        } else if sin_a < 0.5 {
+            rings = 2u;
+            sectors = 4u;
+        }
+        var cap = vec3<f32>(0.0);
+        for (var k = 0u; k < rings * sectors; k = k + 1u) {
+            // The midpoint of cell k: rings uniform in solid angle, sectors uniform in angle.
+            let ring = k / sectors;
+            let u = (f32(ring) + 0.5) / f32(rings);
+            let cos_t = 1.0 - u * one_minus_cos;
+            let sin_t = sqrt(u * one_minus_cos * (1.0 + cos_t));
+            let phi = (f32(k % sectors) + 0.5 * f32(ring % 2u)) * (2.0 * PI / f32(sectors));
+            let w = tangent * (sin_t * cos(phi)) + bitangent * (sin_t * sin(phi)) + axis * cos_t;
+            let cos_p = dot(n, w);
+            if cos_p <= 0.0 {
+                continue;
+            }
+            // The sphere's nearer hit along w, and its normal there.
+            let b = dot(to_sphere, w);
+            let t = b - sqrt(max(r * r - (d * d - b * b), 0.0));
+            // The scene may hide part of the cap (the room's furniture, the Cornell light's
+            // panel a centimetre below the ceiling). (A cone traversal as the live objects'
+            // area lights use cannot skip these rays here: the receiver's own triangle always
+            // meets the cone at its apex.)
+            if !scene_lets_light(p, n, w, t, 0.0) {
+                continue;
+            }
+            let m = normalize(p + t * w - sphere.xyz);
+            cap += radiosity_lookup(i, m) * cos_p;
+        }
+        let solid_angle = 2.0 * PI * one_minus_cos;
+        let fade = 1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d);
+        sum += cap * (solid_angle / f32(rings * sectors) * fade);
+    }
+    return sum;
+}
+
+// What the shadow pass's occlusion of indirect light (shadows.wgsl, indirect_occlusion) got
+// wrong at pixel `pixel` (surface point p, unit normal n, diffuse albedo `albedo`), in the
+// image's units: it removes each sphere's weight `cos (r / d)^2` times the pixel's indirect
+// light, as if the light hidden behind the sphere were the average light the surface receives
+// (its indirect layer over its albedo). The light hidden is what the surface behind the sphere
+// reflected, the image's radiance less emission where a march from p through the sphere's
+// centre meets the pre-rendered scene (a Lambertian surface sends p what it sends the eye; an
+// emitter's own light hidden is its light layer's share, already removed): the correction adds
+// back `weight (indirect - albedo L_behind)` per sphere whose march finds that surface, nothing
+// for the others.
+fn occlusion_correction(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+    // As far as any visible surface can be (the bounds of the visible surfaces' diagonal).
+    let far = bitcast<f32>(frame.bounce.z);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < min(frame.layer_info.w, 8u); i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let to_sphere = sphere.xyz - p;
+        let d = length(to_sphere);
+        let r = sphere.w;
+        if d <= r || d >= AO_REACH * r {
+            continue;
+        }
+        let axis = to_sphere / d;
+        let cos_s = dot(n, axis);
+        if cos_s <= 0.0 || d + r >= far {
+            continue;
+        }
+        let at = march_to_surface(p, axis, d + r, far);
+        if at.x < 0 {
+            continue;
+        }
+        // What that surface reflects, without what it emits (the light layers and the
+        // indirect layer): an emitter's light hidden by the sphere is its light layer's share.
+        var behind = vec3<f32>(0.0);
+        for (var slice = 0u; slice <= frame.layer_info.y; slice = slice + 1u) {
+            behind += textureLoad(light_layers, at, i32(slice), 0).rgb;
+        }
+        let weight = cos_s * (r / d) * (r / d) * (1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d));
+        sum += weight * (indirect - albedo * behind);
+    }
+    return sum;
+}
+
+// The backdrop after shadows plus what the live spheres reflect onto it (albedo / pi times the
+// irradiance they send, from the sidecar's albedo and normal layers) and the correction of what
+// they hide (occlusion_correction), in the image's units, never below zero. Pixels that change
+// by nothing are discarded and keep their value bit for bit.
+@fragment
+fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let albedo = textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb;
+    if all(albedo <= vec3<f32>(0.0)) {
+        discard;
+    }
+    let centre = surface_point(pixel);
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    if centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
+        discard;
+    }
+    let n = normalize(n_raw);
+    var added = albedo / PI * bounce_irradiance(centre.xyz, n) * frame.tone.x;
+    if frame.bounce.w == 1u {
+        added += occlusion_correction(pixel, centre.xyz, n, albedo);
+    }
+    if all(added == vec3<f32>(0.0)) {
+        discard;
+    }
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + added, vec3<f32>(0.0)), before.a);
+}
