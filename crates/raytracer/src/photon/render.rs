@@ -58,7 +58,7 @@ enum VisibleMap {
 
 /// Per-camera-ray scratch space and counts.
 struct Scratch {
-    heap: KnnHeap,
+    nearest: estimate::Nearest,
     guide_heap: KnnHeap,
     guide_dirs: Vec<Vec3>,
     gather_rays: u64,
@@ -96,7 +96,7 @@ impl PhotonMapper {
         counters: &mut RayCounters,
     ) -> Radiance {
         let mut scratch = Scratch {
-            heap: KnnHeap::new(self.settings.n_used as usize),
+            nearest: estimate::Nearest::new(self.settings.n_used as usize),
             guide_heap: KnnHeap::new(GUIDE_PHOTONS),
             guide_dirs: Vec::new(),
             gather_rays: 0,
@@ -421,7 +421,7 @@ impl PhotonMapper {
         };
         scratch.lookups += 1;
         let q = Query { p: si.p, n, max_d2: self.max_d2 };
-        Some(estimate::radiance(map, &q, bsdf, si.wo, filter, &mut scratch.heap))
+        Some(estimate::radiance(map, &q, bsdf, si.wo, filter, &mut scratch.nearest))
     }
 
     /// Radiance leaving a gather ray's surface toward its origin, from the photons.
@@ -444,7 +444,7 @@ impl PhotonMapper {
         let q = Query { p: si.p, n, max_d2: self.max_d2 };
         let mut l = Vec3::ZERO;
         for map in [&self.direct, &self.indirect, &self.caustic].into_iter().flatten() {
-            l += estimate::radiance(map, &q, bsdf, si.wo, self.settings.filter, &mut scratch.heap);
+            l += estimate::radiance(map, &q, bsdf, si.wo, self.settings.filter, &mut scratch.nearest);
         }
         l
     }
