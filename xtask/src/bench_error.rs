@@ -92,7 +92,8 @@ pub fn image_error(args: &[String]) -> Result<(), String> {
 /// One render of the ladder.
 #[derive(Clone, Debug)]
 struct Rung {
-    /// The line of the plot this point belongs to (e.g. `photonmap 200k`).
+    /// The line of the plot this point belongs to (e.g. `photonmap 200k fg8`: one photon count
+    /// and gather count, with pixel samples along the line).
     series: String,
     /// A unique label (e.g. `photonmap 200k spp4 fg8`).
     label: String,
@@ -123,7 +124,7 @@ fn photon_rung(photons: u32, spp: u32, gather: u32, extra: &str) -> Rung {
     let k = if photons >= 1000 { format!("{}k", photons / 1000) } else { photons.to_string() };
     let suffix = if extra.is_empty() { String::new() } else { format!(" {}", extra.replace('"', "")) };
     Rung {
-        series: format!("photonmap {k}{suffix}"),
+        series: format!("photonmap {k} fg{gather}{suffix}"),
         label: format!("photonmap {k} spp{spp} fg{gather}{suffix}"),
         spp,
         integrator: format!(
@@ -662,7 +663,8 @@ fn svg_plot(scene: &str, rows: &[&Row]) -> String {
         let c = colours[i % colours.len()];
         let mut pts: Vec<&&Row> = finite.iter().copied().filter(|r| r.series == *name).collect();
         pts.sort_by(|a, b| a.cpu_s.total_cmp(&b.cpu_s));
-        let path: Vec<String> = pts.iter().map(|r| format!("{:.1},{:.1}", px(r.cpu_s), py(r.relmse))).collect();
+        let path: Vec<String> =
+            pts.iter().map(|r| format!("{:.1},{:.1}", px(r.cpu_s), py(r.relmse))).collect();
         let _ = writeln!(
             s,
             "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"1.5\"/>",
