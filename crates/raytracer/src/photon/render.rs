@@ -350,8 +350,9 @@ impl PhotonMapper {
     /// Radiance arriving along a gather ray, without emission and direct light (sampled at the
     /// gather's origin) and without caustics there (the caustic map has them): the photon
     /// estimate at the first non-specular surface, following specular surfaces on the way.
-    /// A gather ray shorter than the photon search radius (`maxdist`) gathers once more at its
-    /// hit instead of reading the photons there ([`Self::secondary_gather`]).
+    /// Outside progressive passes, a gather ray shorter than the photon search radius
+    /// (`maxdist`) gathers once more at its hit instead of reading the photons there
+    /// ([`Self::secondary_gather`]).
     fn gathered(
         &self,
         world: &World,
@@ -394,8 +395,12 @@ impl PhotonMapper {
                 // so a corner's fall-off (at the short box's base, lit only by other surfaces)
                 // read as the brighter light around it. A short ray gathers once more instead;
                 // in a gap thinner than `maxdist` the chain ends dark after a few levels rather
-                // than reading light that leaks in from outside the gap.
-                let short = first_segment && (si.p - ray.origin).length_squared() < self.max_d2;
+                // than reading light that leaks in from outside the gap. Progressive passes
+                // (`fixed`) do not: their radius shrinks below the corner's scale, and secondary
+                // gathers measured only noisier there (docs/photon-mapping.md).
+                let short = first_segment
+                    && self.fixed.is_none()
+                    && (si.p - ray.origin).length_squared() < self.max_d2;
                 if !short {
                     l += beta * self.exitant(&si, &bsdf, scratch);
                 } else if levels > 0 {
