@@ -13,7 +13,7 @@
 //! `target/bench-error/references/` and made on first use (or again with `--references`).
 //!
 //! Output: `target/bench-error/results.csv` (one row per render), `error-vs-time-<scene>.svg`
-//! (relative MSE against wall time, log-log, one line per integrator setting) and
+//! (relative MSE against CPU time, user + system, log-log, one line per integrator setting) and
 //! `table.md` (the table that goes into `docs/performance.md`).
 //!
 //! Metrics over all pixels and RGB channels: `RMSE = sqrt(mean((x - ref)^2))` and
@@ -92,7 +92,8 @@ pub fn image_error(args: &[String]) -> Result<(), String> {
 /// One render of the ladder.
 #[derive(Clone, Debug)]
 struct Rung {
-    /// The line of the plot this point belongs to (e.g. `photonmap 200k`).
+    /// The line of the plot this point belongs to (e.g. `photonmap 200k fg8`: one photon count
+    /// and gather count, with pixel samples along the line).
     series: String,
     /// A unique label (e.g. `photonmap 200k spp4 fg8`).
     label: String,
@@ -123,7 +124,7 @@ fn photon_rung(photons: u32, spp: u32, gather: u32, extra: &str) -> Rung {
     let k = if photons >= 1000 { format!("{}k", photons / 1000) } else { photons.to_string() };
     let suffix = if extra.is_empty() { String::new() } else { format!(" {}", extra.replace('"', "")) };
     Rung {
-        series: format!("photonmap {k}{suffix}"),
+        series: format!("photonmap {k} fg{gather}{suffix}"),
         label: format!("photonmap {k} spp{spp} fg{gather}{suffix}"),
         spp,
         integrator: format!(
@@ -184,6 +185,8 @@ fn scenes(root: &Path, quick: bool) -> Vec<BenchScene> {
         cornell.extend([4, 8, 16, 32, 64, 128, 256].map(path_rung));
         // The defaults (100k photons, 8 gather rays) and progressive photon mapping.
         cornell.extend(pm(&[100_000], &[(4, 8), (16, 8), (64, 8)]));
+        // Candidates for the defaults near relMSE 1e-3: gather rays against pixel samples.
+        cornell.extend(pm(&[100_000], &[(16, 4), (8, 16), (32, 4)]));
         for (photons, gather) in [(100_000, 4), (25_000, 4)] {
             cornell.extend([4, 16, 48].map(|passes| progressive_rung(photons, 1, passes, gather)));
         }
@@ -573,18 +576,19 @@ fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
     std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename to {}: {e}", path.display()))
 }
 
-/// A log-log plot of relative MSE against wall time, one polyline per series (points in
+/// A log-log plot of relative MSE against CPU time, one polyline per series (points in
 /// increasing time), with the relMSE 1e-2 bar drawn.
 fn svg_plot(scene: &str, rows: &[&Row]) -> String {
     let (w, h) = (960.0, 560.0);
     let (left, right, top, bottom) = (80.0, 300.0, 40.0, 60.0);
-    let finite: Vec<&&Row> = rows.iter().filter(|r| r.wall_s > 0.0 && r.relmse > 0.0).collect();
+    // CPU time, not wall time: on a shared machine wall time carries the other users' load.
+    let finite: Vec<&&Row> = rows.iter().filter(|r| r.cpu_s > 0.0 && r.relmse > 0.0).collect();
     let lx = |v: f64| v.log10();
     let (mut x0, mut x1, mut y0, mut y1) =
         (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for r in &finite {
-        x0 = x0.min(lx(r.wall_s));
-        x1 = x1.max(lx(r.wall_s));
+        x0 = x0.min(lx(r.cpu_s));
+        x1 = x1.max(lx(r.cpu_s));
         y0 = y0.min(lx(r.relmse));
         y1 = y1.max(lx(r.relmse));
     }
@@ -595,7 +599,7 @@ fn svg_plot(scene: &str, rows: &[&Row]) -> String {
     let px = |v: f64| left + (lx(v) - x0) / (x1 - x0) * (w - left - right);
     let py = |v: f64| top + (y1 - lx(v)) / (y1 - y0) * (h - top - bottom);
     let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{left}\" y=\"24\" font-size=\"16\">{scene}: relative MSE against wall time (log-log)</text>\n"
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{left}\" y=\"24\" font-size=\"16\">{scene}: relative MSE against CPU time (log-log)</text>\n"
     );
     // Grid and axes.
     for e in (x0 as i32)..=(x1 as i32) {
@@ -635,7 +639,7 @@ fn svg_plot(scene: &str, rows: &[&Row]) -> String {
     }
     let _ = writeln!(
         s,
-        "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">wall time (s)</text>",
+        "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">CPU time, user + system (s)</text>",
         (left + w - right) / 2.0,
         h - 16.0
     );
@@ -658,9 +662,9 @@ fn svg_plot(scene: &str, rows: &[&Row]) -> String {
     for (i, name) in series.iter().enumerate() {
         let c = colours[i % colours.len()];
         let mut pts: Vec<&&Row> = finite.iter().copied().filter(|r| r.series == *name).collect();
-        pts.sort_by(|a, b| a.wall_s.total_cmp(&b.wall_s));
+        pts.sort_by(|a, b| a.cpu_s.total_cmp(&b.cpu_s));
         let path: Vec<String> =
-            pts.iter().map(|r| format!("{:.1},{:.1}", px(r.wall_s), py(r.relmse))).collect();
+            pts.iter().map(|r| format!("{:.1},{:.1}", px(r.cpu_s), py(r.relmse))).collect();
         let _ = writeln!(
             s,
             "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"1.5\"/>",
@@ -669,11 +673,11 @@ fn svg_plot(scene: &str, rows: &[&Row]) -> String {
         for r in &pts {
             let _ = writeln!(
                 s,
-                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3\" fill=\"{c}\"><title>{} {:.2} s relMSE {:.3e}</title></circle>",
-                px(r.wall_s),
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3\" fill=\"{c}\"><title>{} {:.2} CPU s relMSE {:.3e}</title></circle>",
+                px(r.cpu_s),
                 py(r.relmse),
                 r.label,
-                r.wall_s,
+                r.cpu_s,
                 r.relmse
             );
         }

@@ -631,12 +631,12 @@ impl PhotonMapper {
                 .sites
                 .par_iter()
                 .map_init(
-                    || kdtree::KnnHeap::new(n_used),
-                    |heap, site| {
+                    || estimate::Nearest::new(n_used),
+                    |nearest, site| {
                         let q = estimate::Query { p: site.p, n: site.n, max_d2 };
                         let mut e = Vec3::ZERO;
                         for m in maps.iter().copied().flatten() {
-                            e += estimate::irradiance(m, &q, filter, heap);
+                            e += estimate::irradiance(m, &q, filter, nearest);
                         }
                         RadiancePhoton { p: site.p, n: pack_unit(site.n), irradiance: e }
                     },
