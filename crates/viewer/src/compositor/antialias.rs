@@ -473,19 +473,7 @@ impl Compositor {
             wgpu::TexelCopyTextureInfo { origin, ..aa.centre_texture.as_image_copy() },
             wgpu::Extent3d { width: sx1 - sx0, height: sy1 - sy0, depth_or_array_layers: 1 },
         );
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("resolve"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &self.linear_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = super::colour_pass(encoder, "resolve", &self.linear_view, wgpu::LoadOp::Load);
         pass.set_scissor_rect(x0, y0, x1 - x0, y1 - y0);
         pass.set_pipeline(&aa.resolve_pipeline);
         pass.set_bind_group(0, &aa.resolve_bind_group, &[]);

@@ -152,19 +152,8 @@ impl Compositor {
         }
         *maps.drawn_from.borrow_mut() = key;
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("own-shadow loss maps"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &maps.drawn_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass =
+                super::colour_pass(encoder, "own-shadow loss maps", &maps.drawn_view, wgpu::LoadOp::Load);
             pass.set_pipeline(&maps.pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             for row in 0..row_count.min(MAX_SHADOW_SPHERES as u32) {
