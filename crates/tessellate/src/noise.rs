@@ -58,9 +58,10 @@ pub fn perlin_noise(x: f64, y: f64, z: f64) -> f64 {
         return 0.0;
     }
     let (fx, fy, fz) = (x.floor(), y.floor(), z.floor());
-    // Lattice cells wrap every 256, so the cell index is taken modulo 256 in `hash`; the
-    // conversion saturates for huge coordinates, which stay finite and deterministic.
-    let (xi, yi, zi) = (fx as i64, fy as i64, fz as i64);
+    // Lattice cells wrap every 256, so each cell index is reduced modulo 256 before the hash
+    // sums (which `hash` reduces again): the sums stay small, so huge coordinates, whose
+    // conversion saturates, cannot overflow them.
+    let (xi, yi, zi) = ((fx as i64) & 255, (fy as i64) & 255, (fz as i64) & 255);
     let (x, y, z) = (x - fx, y - fy, z - fz);
     let (u, v, w) = (fade(x), fade(y), fade(z));
     let a = hash(xi) as i64 + yi;
@@ -94,6 +95,31 @@ pub fn renderman_noise(x: f64, y: f64, z: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn huge_coordinates_give_finite_noise_without_overflow() {
+        for c in [f64::MAX, -f64::MAX, 9.3e18, -9.3e18, 1e300] {
+            for (x, y, z) in [(c, 0.5, 0.5), (0.5, c, 0.5), (0.5, 0.5, c), (c, c, c)] {
+                let n = perlin_noise(x, y, z);
+                assert!(n.is_finite() && n.abs() <= 1.5, "{x} {y} {z}: {n}");
+            }
+        }
+    }
+
+    /// Reducing the cell indices modulo 256 before hashing keeps the lattice: noise repeats
+    /// every 256 cells, as Perlin's table makes it.
+    #[test]
+    fn noise_repeats_every_256_cells() {
+        for &(x, y, z) in &[(0.3, 1.7, -2.2), (-5.5, 7.25, 100.125), (12.5, -0.75, 3.0)] {
+            // The shifted coordinates' fractions differ in the last bits, hence the tolerance.
+            let n = perlin_noise(x, y, z);
+            for shifted in
+                [perlin_noise(x + 256.0, y, z), perlin_noise(x, y - 512.0, z), perlin_noise(x, y, z + 768.0)]
+            {
+                assert!((n - shifted).abs() < 1e-9, "{x} {y} {z}: {n} vs {shifted}");
+            }
+        }
+    }
 
     #[test]
     fn permutation_is_a_permutation_of_0_to_255() {
