@@ -19,57 +19,18 @@
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
 use super::shadows::{AO_REACH, merge};
+use super::sphere_atlas::SphereMapAtlas;
 use glam::DVec3;
 use std::cell::RefCell;
 
 /// Texels along each side of a sphere's map (`bounce.wgsl` RADIOSITY_MAP_TEXELS).
 pub(super) const RADIOSITY_MAP_TEXELS: u32 = 32;
-const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-
-/// The atlas's textures: the one drawn into and the copy the bounce pass reads (binding 15).
-#[derive(Debug)]
-pub(super) struct RadiosityMapTextures {
-    drawn: wgpu::Texture,
-    read: wgpu::Texture,
-    /// The view of `read`, for the frame bind group.
-    pub(super) read_view: wgpu::TextureView,
-}
-
-impl RadiosityMapTextures {
-    pub(super) fn new(device: &wgpu::Device) -> RadiosityMapTextures {
-        let texture = |label: &str, usage: wgpu::TextureUsages| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: atlas_size(),
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: ATLAS_FORMAT,
-                usage,
-                view_formats: &[],
-            })
-        };
-        use wgpu::TextureUsages as U;
-        let drawn = texture("radiosity maps, drawn", U::RENDER_ATTACHMENT | U::COPY_SRC);
-        let read = texture("radiosity maps", U::TEXTURE_BINDING | U::COPY_DST);
-        let read_view = read.create_view(&wgpu::TextureViewDescriptor::default());
-        RadiosityMapTextures { drawn, read, read_view }
-    }
-}
-
-fn atlas_size() -> wgpu::Extent3d {
-    wgpu::Extent3d {
-        width: RADIOSITY_MAP_TEXELS,
-        height: RADIOSITY_MAP_TEXELS * MAX_SHADOW_SPHERES as u32,
-        depth_or_array_layers: 1,
-    }
-}
+pub(super) const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// The radiosity maps' pass, the bounce pass and what the maps were last drawn from.
 #[derive(Debug)]
 pub(super) struct Bounce {
-    textures: RadiosityMapTextures,
-    drawn_view: wgpu::TextureView,
+    atlas: SphereMapAtlas,
     map_pipeline: wgpu::RenderPipeline,
     bounce_pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
@@ -88,11 +49,7 @@ pub(super) struct BounceSetup<'a> {
 }
 
 impl Bounce {
-    pub(super) fn new(
-        device: &wgpu::Device,
-        textures: RadiosityMapTextures,
-        setup: &BounceSetup<'_>,
-    ) -> Bounce {
+    pub(super) fn new(device: &wgpu::Device, atlas: SphereMapAtlas, setup: &BounceSetup<'_>) -> Bounce {
         let fragment = |entry: &'static str, targets| wgpu::FragmentState {
             module: setup.module,
             entry_point: Some(entry),
@@ -151,8 +108,7 @@ impl Bounce {
             multiview_mask: None,
             cache: None,
         });
-        let drawn_view = textures.drawn.create_view(&wgpu::TextureViewDescriptor::default());
-        Bounce { textures, drawn_view, map_pipeline, bounce_pipeline, drawn_from: RefCell::new(Vec::new()) }
+        Bounce { atlas, map_pipeline, bounce_pipeline, drawn_from: RefCell::new(Vec::new()) }
     }
 }
 
@@ -210,7 +166,7 @@ impl Compositor {
         *maps.drawn_from.borrow_mut() = key;
         {
             let mut pass =
-                super::colour_pass(encoder, "radiosity maps", &maps.drawn_view, wgpu::LoadOp::Load);
+                super::colour_pass(encoder, "radiosity maps", &maps.atlas.drawn_view, wgpu::LoadOp::Load);
             pass.set_pipeline(&maps.map_pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             for row in 0..uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32) {
@@ -228,11 +184,7 @@ impl Compositor {
                 pass.draw(0..3, 0..1);
             }
         }
-        encoder.copy_texture_to_texture(
-            maps.textures.drawn.as_image_copy(),
-            maps.textures.read.as_image_copy(),
-            atlas_size(),
-        );
+        maps.atlas.copy_drawn_to_read(encoder);
     }
 
     /// Adds the spheres' bounce light to the frame after shadows within `rect`

@@ -13,64 +13,29 @@
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use super::sphere_atlas::SphereMapAtlas;
 use crate::live::LiveObjects;
 use std::cell::RefCell;
 
 /// Texels along each side of a sphere's map (`shadow_loss.wgsl` LOSS_MAP_TEXELS).
 pub(super) const LOSS_MAP_TEXELS: u32 = 32;
 /// Six half floats per texel (irradiance and glossy loss), packed in 32-bit words.
-const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
-
-/// The atlas's textures: the one drawn into and the copy the shading passes read (binding 14).
-#[derive(Debug)]
-pub(super) struct LossMapTextures {
-    drawn: wgpu::Texture,
-    read: wgpu::Texture,
-    /// The view of `read`, for the frame bind group.
-    pub(super) read_view: wgpu::TextureView,
-}
-
-impl LossMapTextures {
-    pub(super) fn new(device: &wgpu::Device) -> LossMapTextures {
-        let texture = |label: &str, usage: wgpu::TextureUsages| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width: LOSS_MAP_TEXELS,
-                    height: LOSS_MAP_TEXELS * MAX_SHADOW_SPHERES as u32,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: ATLAS_FORMAT,
-                usage,
-                view_formats: &[],
-            })
-        };
-        use wgpu::TextureUsages as U;
-        let drawn = texture("own-shadow loss maps, drawn", U::RENDER_ATTACHMENT | U::COPY_SRC);
-        let read = texture("own-shadow loss maps", U::TEXTURE_BINDING | U::COPY_DST);
-        let read_view = read.create_view(&wgpu::TextureViewDescriptor::default());
-        LossMapTextures { drawn, read, read_view }
-    }
-}
+pub(super) const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
 /// The loss maps' pass and what it was last drawn from.
 #[derive(Debug)]
 pub(super) struct LossMaps {
-    textures: LossMapTextures,
-    drawn_view: wgpu::TextureView,
+    atlas: SphereMapAtlas,
     pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
     drawn_from: RefCell<Vec<u8>>,
 }
 
 impl LossMaps {
-    /// The pass over `textures`, with the compositing shaders' `module` and layouts.
+    /// The pass over `atlas`, with the compositing shaders' `module` and layouts.
     pub(super) fn new(
         device: &wgpu::Device,
-        textures: LossMapTextures,
+        atlas: SphereMapAtlas,
         module: &wgpu::ShaderModule,
         layout: &wgpu::PipelineLayout,
     ) -> LossMaps {
@@ -99,8 +64,7 @@ impl LossMaps {
             multiview_mask: None,
             cache: None,
         });
-        let drawn_view = textures.drawn.create_view(&wgpu::TextureViewDescriptor::default());
-        LossMaps { textures, drawn_view, pipeline, drawn_from: RefCell::new(Vec::new()) }
+        LossMaps { atlas, pipeline, drawn_from: RefCell::new(Vec::new()) }
     }
 }
 
@@ -152,8 +116,12 @@ impl Compositor {
         }
         *maps.drawn_from.borrow_mut() = key;
         {
-            let mut pass =
-                super::colour_pass(encoder, "own-shadow loss maps", &maps.drawn_view, wgpu::LoadOp::Load);
+            let mut pass = super::colour_pass(
+                encoder,
+                "own-shadow loss maps",
+                &maps.atlas.drawn_view,
+                wgpu::LoadOp::Load,
+            );
             pass.set_pipeline(&maps.pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             for row in 0..row_count.min(MAX_SHADOW_SPHERES as u32) {
@@ -166,14 +134,6 @@ impl Compositor {
                 pass.draw(0..3, 0..1);
             }
         }
-        encoder.copy_texture_to_texture(
-            maps.textures.drawn.as_image_copy(),
-            maps.textures.read.as_image_copy(),
-            wgpu::Extent3d {
-                width: LOSS_MAP_TEXELS,
-                height: LOSS_MAP_TEXELS * MAX_SHADOW_SPHERES as u32,
-                depth_or_array_layers: 1,
-            },
-        );
+        maps.atlas.copy_drawn_to_read(encoder);
     }
 }

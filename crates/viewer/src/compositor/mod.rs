@@ -17,6 +17,7 @@ mod reflections;
 mod scene_shadows;
 mod settings;
 mod shadows;
+mod sphere_atlas;
 
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
 pub use settings::{
@@ -279,8 +280,18 @@ impl Compositor {
             projection.camera().camera_from_world(),
         );
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-        let loss_map_textures = loss_map::LossMapTextures::new(device);
-        let radiosity_map_textures = bounce::RadiosityMapTextures::new(device);
+        let loss_map_textures = sphere_atlas::SphereMapAtlas::new(
+            device,
+            "own-shadow loss maps",
+            loss_map::ATLAS_FORMAT,
+            loss_map::LOSS_MAP_TEXELS,
+        );
+        let radiosity_map_textures = sphere_atlas::SphereMapAtlas::new(
+            device,
+            "radiosity maps",
+            bounce::ATLAS_FORMAT,
+            bounce::RADIOSITY_MAP_TEXELS,
+        );
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
