@@ -119,6 +119,11 @@ impl SceneOccluders {
     }
 }
 
+/// Largest occluder coordinate kept (2^40, about 1.1e12, as the ray tracer's BVH keeps). A
+/// corner far beyond it (a control point at 1e30) overflows the builder's f32 surface areas,
+/// which made the build take minutes; f32 shadow rays cannot resolve such a triangle anyway.
+pub const MAX_OCCLUDER_COORD: f32 = (1u64 << 40) as f32;
+
 /// A flattened hierarchy of triangles in one space, in the layout the shaders read
 /// (`scene_visibility.wgsl`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -137,11 +142,14 @@ impl FlatBvh {
     /// to the shaders' layout, which is obvhs' own (two adjacent children, a leaf's triangles
     /// contiguous in its primitive order). A subtree that starts at depth `OBVHS_DEPTH` and is
     /// more than `MEDIAN_HEIGHT` levels high is rebuilt by median splits, so the hierarchy
-    /// always fits the shaders' traversal stack of 40. Triangles with a non-finite corner are
-    /// dropped.
+    /// always fits the shaders' traversal stack of 40. Triangles with a non-finite corner, or a
+    /// corner beyond [`MAX_OCCLUDER_COORD`], are dropped.
     pub fn build(triangles: &[[Vec3; 3]]) -> FlatBvh {
-        let tris: Vec<[Vec3; 3]> =
-            triangles.iter().filter(|t| t.iter().all(|p| p.is_finite())).copied().collect();
+        let tris: Vec<[Vec3; 3]> = triangles
+            .iter()
+            .filter(|t| t.iter().all(|p| p.is_finite() && p.abs().max_element() <= MAX_OCCLUDER_COORD))
+            .copied()
+            .collect();
         let mut flat = FlatBvh::default();
         if tris.is_empty() {
             return flat;
@@ -355,6 +363,21 @@ mod tests {
         assert!(!bvh.blocks(Vec3::ZERO, Vec3::Z, 0.0, 0.5));
     }
 
+    /// Thousands of triangles reaching to 1e30 (a hostile patch) made obvhs' build take minutes
+    /// (its f32 surface areas overflow); they are dropped, and the rest still blocks as before.
+    #[test]
+    fn triangles_far_beyond_the_range_are_dropped_quickly() {
+        let mut tris = scattered(200);
+        for i in 0..20_000 {
+            let x = i as f32 * 1e-3;
+            tris.push([Vec3::new(x, 0.0, 1e30), Vec3::new(x, 1.0, 1e30), Vec3::new(x, 0.0, -1e30)]);
+        }
+        let bvh = FlatBvh::build(&tris);
+        assert_eq!(bvh.triangles.len(), 200);
+        let near = FlatBvh::build(&tris[..200]);
+        assert_eq!(bvh, near);
+    }
+
     /// Levels from the root to the deepest leaf.
     fn levels(bvh: &FlatBvh) -> u32 {
         let mut deepest = 0;
@@ -372,12 +395,13 @@ mod tests {
 
     #[test]
     fn a_chain_of_ever_larger_gaps_still_fits_the_shaders_stack() {
-        // Triangles in z = 0 along x, gaps and sizes growing by a quarter each time: an
-        // agglomerative builder pairs the nearest first and makes a chain as deep as the input.
+        // Triangles in z = 0 along x, gaps and sizes growing by 17% each time (to about 5e11,
+        // within MAX_OCCLUDER_COORD): an agglomerative builder pairs the nearest first and
+        // makes a chain as deep as the input.
         let mut x = 0.0f32;
         let tris: Vec<[Vec3; 3]> = (0..160)
             .map(|i| {
-                let size = 0.25 * 1.25f32.powi(i);
+                let size = 0.25 * 1.17f32.powi(i);
                 x += 4.0 * size;
                 [Vec3::new(x, 0.0, 0.0), Vec3::new(x + size, 0.0, 0.0), Vec3::new(x, size, 0.0)]
             })

@@ -24,6 +24,13 @@ use std::time::{Duration, Instant};
 /// a slab the ray does not cross is rejected, small enough that nothing overflows.
 const BIG: f32 = 1e20;
 
+/// Largest box coordinate the builder sees (2^40, about 1.1e12). obvhs' builder sums surface
+/// areas in f32, which overflow for boxes near 1e19 and then break the tree it converts (an
+/// out-of-bounds panic). Boxes are clamped to this range: a primitive reaching past it is
+/// still found by every ray that meets it within the range, and f32 hit points beyond it
+/// would carry errors larger than most scenes anyway.
+pub const MAX_BOX_COORD: f32 = (1u64 << 40) as f32;
+
 /// Widening of every quantised child box, in quantisation steps.
 const CHILD_PAD: f32 = 0.01;
 
@@ -160,12 +167,15 @@ pub struct Bvh {
 
 impl Bvh {
     /// Builds a BVH over boxes (`[min, max]`, finite, in one space). Each box is widened by a
-    /// relative `2^-20` of its coordinates so that rounding in the quantisation never shrinks it.
+    /// relative `2^-20` of its coordinates so that rounding in the quantisation never shrinks it,
+    /// and clamped to `±MAX_BOX_COORD`.
     pub fn build(boxes: &[(Vec3, Vec3)]) -> Bvh {
         let start = Instant::now();
+        let limit = Vec3::splat(MAX_BOX_COORD);
         let aabbs: Vec<Aabb> = boxes
             .iter()
             .map(|&(lo, hi)| {
+                let (lo, hi) = (lo.clamp(-limit, limit), hi.clamp(-limit, limit));
                 let pad =
                     lo.abs().max(hi.abs()) * (1.0 / (1u32 << 20) as f32) + Vec3::splat(f32::MIN_POSITIVE);
                 Aabb::new((lo - pad).into(), (hi + pad).into())
@@ -390,6 +400,34 @@ mod tests {
                 seen.sort_unstable();
                 expected.retain(|i| seen.binary_search(i).is_err());
                 assert!(expected.is_empty(), "missed boxes {expected:?} at scale {scale}");
+            }
+        }
+    }
+
+    /// Boxes reaching past `MAX_BOX_COORD` (a polygon with a vertex at 1e30, say) used to make
+    /// obvhs' conversion panic (surface areas overflow f32). They build, and every box is
+    /// still visited by rays that enter it within the clamped range.
+    #[test]
+    fn huge_boxes_build_and_are_visited() {
+        let mut rng = Rng::new(9, 9);
+        for huge in [1e20f32, 1e30, f32::MAX] {
+            let mut boxes = random_boxes(20, 1.0, Vec3::ZERO, &mut rng);
+            boxes.push((Vec3::new(-huge, -0.5, -huge), Vec3::new(huge, 0.5, 1.0)));
+            boxes.push((Vec3::splat(huge * 0.5), Vec3::splat(huge)));
+            let bvh = Bvh::build(&boxes);
+            for _ in 0..200 {
+                let o = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 1.2;
+                let d = crate::sampling::sample_uniform_sphere(rng.uniform2());
+                let ray = TraversalRay::new(o, d, 0.0, f32::INFINITY).unwrap();
+                let mut seen = Vec::new();
+                bvh.any(&ray, |_, slot| {
+                    seen.push(bvh.order()[slot as usize]);
+                    false
+                });
+                // The slab through the origin is entered by every ray that starts inside it.
+                if o.y.abs() < 0.5 && o.z < 1.0 {
+                    assert!(seen.contains(&20), "the huge slab was not visited at {huge}");
+                }
             }
         }
     }

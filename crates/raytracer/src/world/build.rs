@@ -27,6 +27,31 @@ use std::sync::Arc;
 use std::time::Instant;
 use tessellate::{SeamWelder, is_quadric, shape_kind};
 
+/// Adds `g` (the geometry of `entity`) to `builder`, warning at the shape when triangles beyond
+/// the BVH's coordinate range were left out.
+fn add_to_blas(
+    builder: &mut BlasBuilder,
+    g: &Geometry,
+    blas_from_object: &DMat4,
+    entity: &ShapeEntity,
+    scene: &Scene,
+    diagnostics: &mut Diagnostics,
+) -> Option<u32> {
+    let far_before = builder.far_triangles;
+    let added = builder.add(g, blas_from_object, entity.attributes, scene);
+    if builder.far_triangles > far_before {
+        diagnostics.warn_once(
+            Some(&entity.loc),
+            format!(
+                "{} triangles of this shape lie beyond {:.1e} scene units from the eye or its object origin: left out",
+                builder.far_triangles - far_before,
+                crate::accel::MAX_BOX_COORD
+            ),
+        );
+    }
+    added
+}
+
 /// The texture a shader names: the picture of the last `MakeTexture` (or lat-long environment)
 /// that made `name`, with its wrap modes, a cube-face environment's six pictures resampled to
 /// a lat-long map, or else the file `name` itself. Relative paths are
@@ -219,7 +244,8 @@ impl World {
                 return None;
             }
             let g = geometry(entity, &render_from_object, None, diagnostics)?;
-            let Some(shape_index) = builder.add(&g, &render_from_object, entity.attributes, scene) else {
+            let Some(shape_index) = add_to_blas(builder, &g, &render_from_object, entity, scene, diagnostics)
+            else {
                 diagnostics.skip("shapes (degenerate geometry)");
                 return None;
             };
@@ -338,7 +364,7 @@ impl World {
                 continue;
             };
             let mut builder = BlasBuilder::new();
-            if builder.add(&g, &object_from_object, entity.attributes, scene).is_none() {
+            if add_to_blas(&mut builder, &g, &object_from_object, entity, scene, diagnostics).is_none() {
                 diagnostics.skip("shapes (degenerate geometry)");
                 continue;
             }
@@ -428,7 +454,8 @@ impl World {
                         continue;
                     };
                     let mut builder = BlasBuilder::new();
-                    if builder.add(&g, &blas_from_object, entity.attributes, scene).is_none() {
+                    if add_to_blas(&mut builder, &g, &blas_from_object, entity, scene, diagnostics).is_none()
+                    {
                         diagnostics.skip("shapes (degenerate geometry)");
                         continue;
                     }
@@ -476,7 +503,9 @@ impl World {
                     {
                         seams.weld(m);
                     }
-                    if builder.add(&g, &entity.world_from_object, entity.attributes, scene).is_some() {
+                    if add_to_blas(&mut builder, &g, &entity.world_from_object, entity, scene, diagnostics)
+                        .is_some()
+                    {
                         let reverse = scene.attributes_of(entity.attributes).reverse_orientation;
                         placed.push((g, entity.world_from_object, reverse));
                     }

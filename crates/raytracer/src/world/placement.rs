@@ -14,6 +14,8 @@ pub(super) struct BlasBuilder {
     pub(super) quadrics: Vec<QuadricPrim>,
     shapes: Vec<BlasShape>,
     meshes: Vec<MeshShading>,
+    /// Triangles left out because a corner lies beyond `accel::MAX_BOX_COORD`.
+    pub(super) far_triangles: usize,
 }
 
 /// A placed shape: triangles already in BLAS space, or a quadric in its object space.
@@ -206,7 +208,13 @@ fn points_as_spheres(points: &rib_parser::scene::Points) -> Result<Geometry, Str
 
 impl BlasBuilder {
     pub(super) fn new() -> BlasBuilder {
-        BlasBuilder { triangles: Vec::new(), quadrics: Vec::new(), shapes: Vec::new(), meshes: Vec::new() }
+        BlasBuilder {
+            triangles: Vec::new(),
+            quadrics: Vec::new(),
+            shapes: Vec::new(),
+            meshes: Vec::new(),
+            far_triangles: 0,
+        }
     }
 
     /// Adds a placed shape (`blas_from_object` places quadrics; meshes are placed already);
@@ -233,6 +241,12 @@ impl BlasBuilder {
                     if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite())
                         || (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO
                     {
+                        continue;
+                    }
+                    // A corner past the BVH's coordinate range (a control point at 1e30, say)
+                    // would degrade the build; such a triangle is out of any f32 view anyway.
+                    if p.iter().any(|v| v.abs().max_element() > crate::accel::MAX_BOX_COORD) {
+                        self.far_triangles += 1;
                         continue;
                     }
                     self.triangles.push(TrianglePrim { p, shape: shape_index, index: i as u32 });
