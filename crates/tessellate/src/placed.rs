@@ -54,6 +54,8 @@ pub struct SceneMeshes {
     /// Shapes left out: `Points` and `Curves` ([`TessellateError::is_not_a_surface`]), invalid
     /// shapes, shapes over the triangle budget, shapes the filter excluded are not listed.
     pub skipped: Vec<SkippedShape>,
+    /// Textures `bumpy` names that could not be read (each once; they read 0).
+    pub unreadable_textures: Vec<String>,
 }
 
 impl SceneMeshes {
@@ -256,7 +258,8 @@ pub const SCENE_DICING: DicingRule = DicingRule::RelativeToSize(1.0 / 128.0);
 /// Tessellates every [`ShapeEntity`] of the scene and every shape of every object instance,
 /// in world space (see [`tessellate_placed`] for the transform and tolerance rules). Surfaces
 /// with a standard displacement shader are displaced (see [`crate::tessellate_displaced`]),
-/// diced by [`SCENE_DICING`]; `bumpy`'s texture is not read here (it reads 0).
+/// diced by [`SCENE_DICING`]; `bumpy` reads its texture as the ray tracer does
+/// ([`crate::DisplacementTextures`]), so the haptics touch the surface that is drawn.
 pub fn tessellate_scene(scene: &Scene, tol: &Tolerance) -> SceneMeshes {
     tessellate_scene_filtered(scene, tol, |_| true)
 }
@@ -273,6 +276,9 @@ pub fn tessellate_scene_filtered(
     // Separate patches that share an edge get bitwise-equal vertices along it.
     let mut seams = scene_bounds(scene).map(|(lo, hi)| SeamWelder::new(lo, hi));
     let attributes = |id: AttributesId| scene.attributes.get(id.0 as usize);
+    let textures = crate::DisplacementTextures::new(scene);
+    let texture = |name: &str, st: glam::Vec2| textures.value(name, st);
+    let mut unreadable_textures: Vec<String> = Vec::new();
     let mut visit = |origin: MeshOrigin,
                      entity: &ShapeEntity,
                      world_from_object: DMat4,
@@ -310,7 +316,7 @@ pub fn tessellate_scene_filtered(
                 let displaced = Displaced {
                     shader: &shader,
                     world_from_placed: DMat4::IDENTITY,
-                    texture: &|_, _| None,
+                    texture: &texture,
                     dicing: SCENE_DICING,
                 };
                 tessellate_displaced_with(
@@ -321,7 +327,14 @@ pub fn tessellate_scene_filtered(
                     &displaced,
                     options,
                 )
-                .map(|d| d.mesh)
+                .map(|d| {
+                    for name in d.unreadable_textures {
+                        if !unreadable_textures.contains(&name) {
+                            unreadable_textures.push(name);
+                        }
+                    }
+                    d.mesh
+                })
             }
             _ => place(&entity.shape, &world_from_object, reverse, &local, options),
         };
@@ -365,6 +378,7 @@ pub fn tessellate_scene_filtered(
             visit(origin, entity, m, resolved, Some(inst.attributes), inst.world_from_instance);
         }
     }
+    out.unreadable_textures = unreadable_textures;
     out
 }
 

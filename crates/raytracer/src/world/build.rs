@@ -4,9 +4,7 @@
 use super::clipping::render_clipping_planes;
 use super::csg::Csg;
 use super::deformation::{KeyDisplacement, deforming_blas, shutter_deformation};
-use super::displacement::{
-    DisplacementTextures, custom_shader_warning, displaced_geometry, displaced_keys, displacement_of,
-};
+use super::displacement::{custom_shader_warning, displaced_geometry, displaced_keys, displacement_of};
 use super::lighting::{self, area_light_params, background, emitter_shape};
 use super::motion::{camera_shutter_motion, motion_box, shutter_motion};
 use super::placement::{
@@ -18,14 +16,13 @@ use crate::accel::BvhStats;
 use crate::diagnostics::Diagnostics;
 use crate::lights::{EmitterShape, Light, LightSet};
 use crate::materials::{Material, MaterialNote};
-use crate::texture::{Texture, Wrap};
+use crate::texture::Texture;
 use rib_parser::deformation::Deformation;
-use rib_parser::scene::{MadeTextureKind, Scene, ShapeEntity};
+use rib_parser::scene::{Scene, ShapeEntity};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
-use tessellate::{SeamWelder, is_quadric, shape_kind};
+use tessellate::{DisplacementTextures, SeamWelder, is_quadric, shape_kind};
 
 /// Whether `m` has a projective bottom row (a `Perspective` in a shape's transform).
 fn is_projective(m: &DMat4) -> bool {
@@ -37,43 +34,9 @@ fn motion_is_projective(motion: &Option<Arc<TransformMotion>>) -> bool {
     motion.as_ref().is_some_and(|m| m.matrices().iter().any(is_projective))
 }
 
-/// The texture a shader names: the picture of the last `MakeTexture` (or lat-long environment)
-/// that made `name`, with its wrap modes, a cube-face environment's six pictures resampled to
-/// a lat-long map, or else the file `name` itself. Relative paths are
-/// tried from the working directory, then from the RIB file's directory.
+/// The texture a shader names (`tessellate::load_scene_texture`, shared with the haptics).
 pub(super) fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
-    let resolve = |file: &str| {
-        let direct = PathBuf::from(file);
-        if direct.is_absolute() || direct.exists() {
-            return direct;
-        }
-        match Path::new(scene.source.as_ref()).parent() {
-            Some(dir) if dir.join(file).exists() => dir.join(file),
-            _ => direct,
-        }
-    };
-    let made = scene.render.textures.iter().rev().find(|t| t.name == name);
-    match made.map(|t| &t.kind) {
-        Some(MadeTextureKind::Texture { picture, swrap, twrap }) => {
-            let wrap = |w: &str| Wrap::from_name(w).unwrap_or(Wrap::Periodic);
-            let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
-            Ok(Arc::new(texture.with_wrap(wrap(swrap), wrap(twrap))))
-        }
-        Some(MadeTextureKind::LatLong { picture }) => {
-            let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
-            Ok(Arc::new(texture.with_wrap(Wrap::Periodic, Wrap::Clamp)))
-        }
-        Some(MadeTextureKind::CubeFaces { faces, fov }) => {
-            let mut loaded = Vec::with_capacity(6);
-            for face in faces {
-                loaded.push(Texture::load(&resolve(face)).map_err(|e| format!("{face}: {e}"))?);
-            }
-            crate::texture::lat_long_from_cube_faces(std::array::from_fn(|i| &loaded[i]), *fov)
-                .map(Arc::new)
-                .ok_or_else(|| format!("cube-face field of view {fov} is not in (0, 180) degrees"))
-        }
-        None => Texture::load(&resolve(name)).map(Arc::new),
-    }
+    tessellate::load_scene_texture(scene, name)
 }
 
 /// Errors that stop a world from being built.
