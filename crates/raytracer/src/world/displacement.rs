@@ -101,7 +101,8 @@ pub(super) fn displaced_geometry(
                 loc,
                 format!(
                     "Displacement \"{name}\" moves {kind} by up to {:.4}, beyond its displacementbound of {bound:.4}: \
-                     drawn in full (RenderMan would clip it at the bound)",
+                     drawn in full (PRMan would show clipping or missing pieces where the surface leaves its bound; \
+                     a ray tracer needs no bound)",
                     out.largest_displacement
                 ),
             );
