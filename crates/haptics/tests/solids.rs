@@ -203,3 +203,23 @@ fn the_proxy_rests_on_a_bumpy_surface_at_its_textures_height() {
         assert!((rest.truncate() - glam::DVec2::new(s, 0.5)).length() < 1e-6, "{rest}");
     }
 }
+
+/// A hierarchical hole edit is not touched either: a subdivided unit cube whose top face's
+/// child 1 (the quarter at the top's vertex 1, (1, 0, 1)) is a hole lets a probe through
+/// there and holds one over the next quarter on the limit surface.
+#[test]
+fn a_hierarchical_hole_is_not_touched() {
+    let g = geometry(
+        "WorldBegin\nHierarchicalSubdivisionMesh \"catmull-clark\" [4 4 4 4 4 4] \
+         [0 3 2 1  4 5 6 7  0 1 5 4  1 2 6 5  2 3 7 6  3 0 4 7] [\"faceedit\"] [3 0 1] [2 1 1] [] [\"hole\"] \
+         \"P\" [0 0 0  1 0 0  1 1 0  0 1 0  0 0 1  1 0 1  1 1 1  0 1 1]\nWorldEnd\n",
+    );
+    let (through, _) = probe(&g, DVec3::new(0.7, 0.3, 2.0), DVec3::new(0.7, 0.3, 0.6));
+    assert!(!through, "the probe was held over the hole");
+    // Pressed just below the top's limit surface (about 0.87 there; 0.92 at the centre), so
+    // the frictionless proxy does not slide far down the rounded cube.
+    let (held, rest) = probe(&g, DVec3::new(0.3, 0.3, 2.0), DVec3::new(0.3, 0.3, 0.8));
+    assert!(held, "the probe passed through the top outside the hole");
+    assert!(rest.z > 0.8 && rest.z < 0.95, "{rest}");
+    assert!((rest.truncate() - glam::DVec2::new(0.3, 0.3)).length() < 0.05, "{rest}");
+}

@@ -232,3 +232,32 @@ fn perspective_90_draws_as_prmans_explicit_matrix() {
     let largest = both.map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
     assert!(largest < 1e-4, "depths differ by up to {largest}");
 }
+
+/// A moving shape under `Perspective` is drawn at shutter open, with a warning (moving BLASes
+/// map rays affinely): the ray along the z axis meets the sphere of the first key where the
+/// closed form of `a_sphere_under_perspective_is_drawn_through_the_projection` says,
+/// `1 - 1/s` with `s = 0.5` (world z = -1), not where the second key (0.5 further along x)
+/// would put it.
+#[test]
+fn a_moving_shape_under_perspective_is_drawn_at_shutter_open_with_a_warning() {
+    use raytracer::diagnostics::Diagnostics;
+    use raytracer::world::{PixelFootprint, Ray, World};
+    let rib = "Shutter 0 1\nWorldBegin\nPerspective 90\nMotionBegin [0 1]\nTranslate 0 0 1.5\nTranslate 0.5 0 1.5\n\
+               MotionEnd\nSphere 1 -1 1 360\nWorldEnd\n";
+    let scene =
+        rib_parser::load_bytes("moving.rib", rib.as_bytes().to_vec(), &Default::default()).unwrap().scene;
+    let eye = glam::DVec3::new(0.0, 0.0, -10.0);
+    let mut diagnostics = Diagnostics::default();
+    let footprint = PixelFootprint::Perspective { radians_per_pixel: 1e-3 };
+    let world = World::build(&scene, eye, footprint, &mut diagnostics).expect("the world builds");
+    let text = format!("{:?}", diagnostics.warnings);
+    assert!(text.contains("transformation is projective (Perspective) is drawn at shutter open"), "{text}");
+    for time in [0.0f32, 0.5, 1.0] {
+        let mut ray = Ray::new(glam::Vec3::ZERO, glam::Vec3::Z);
+        ray.time = time;
+        let hit = world.intersect(&ray).expect("the ray meets the sphere");
+        // From the eye at z = -10 to z = -1 (the tessellation's tolerance: half a milliradian
+        // pixel at that distance and 1e-2 of the size at most).
+        assert!((f64::from(hit.t) - 9.0).abs() < 1e-2, "t = {} at time {time}", hit.t);
+    }
+}
