@@ -83,6 +83,11 @@ fn hierarchical_edits_are_kept_and_unsupported_ones_dropped_with_a_warning() {
         "{warnings}"
     );
     assert_eq!(loaded.diagnostics.warning_count(), 1, "{warnings}");
+    // The writer keeps the edits (a `SubdivisionMesh` with string arguments), read back alike.
+    let text = rib_parser::writer::write_scene(&loaded.scene);
+    let again = load(&text);
+    assert_eq!(only_subdivision_mesh(&again), mesh, "{text}");
+    assert_eq!(again.diagnostics.warning_count(), 0, "{}", again.render_warnings());
 }
 
 #[test]
