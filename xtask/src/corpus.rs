@@ -481,7 +481,7 @@ const EXPLANATIONS: &[(&str, &str)] = &[
     ),
     (
         "beyond its displacementbound",
-        "Informational: a standard displacement shader (`dented`, `bumpy`, run by the renderer, docs/raytracer.md) moves the surface farther than the scene's `Attribute \"displacementbound\"` says. RenderMan would clip the displacement at the bound (and crack); the ray tracer needs no bound and draws it in full.",
+        "Informational, about the scene: a standard displacement shader (`dented`, `bumpy`, run by the renderer, docs/tessellation.md) moves the surface farther than the scene's `Attribute \"displacementbound\"` says. PRMan's documentation: a bound too small shows clipping or missing pieces (where the diced surface leaves the primitive's grown bounds), and RenderMan prints a warning for it; neither is the surface the shader describes. The ray tracer needs no bound (its BVH is built over the displaced triangles) and draws the displacement in full, which is what the scene's author meant; the warning says the bound is wrong for a REYES renderer. Stays as information.",
     ),
     (
         "coarser",
@@ -573,7 +573,7 @@ const EXPLANATIONS: &[(&str, &str)] = &[
     ),
     (
         "hierarchical edit",
-        "Gap: a `HierarchicalSubdivisionMesh` renders as the `SubdivisionMesh` it describes (crease, corner, hole, interpolateboundary); its hierarchical edits (values set on refined levels) are not applied.",
+        "A hierarchical edit of a `HierarchicalSubdivisionMesh` that the tessellator cannot apply: a value edit of a primitive variable other than `P` (not carried through the subdivision levels) or a `faceedit` of attributes (a shape has one attribute state), skipped with the reason. `P` value, sharpness and hole edits are applied (docs/tessellation.md).",
     ),
     (
         "ClippingPlane",
@@ -587,8 +587,8 @@ const EXPLANATIONS: &[(&str, &str)] = &[
     ("Imager", "A custom imager shader (RSL): cannot be known, ignored."),
     ("no area", "Degenerate input in a parser test file: reported and skipped, as it should be."),
     (
-        "projective",
-        "Informational: a projective transform on a shape; the ray tracer renders it, consumers needing affine transforms (the haptic proxy) may reject it.",
+        "transformation is projective",
+        "A moving or deforming shape (or object instance) whose transformation is projective (`Perspective` inside the world): drawn at shutter open, without motion blur, since moving BLASes map rays affinely. Shapes under projective transformations are otherwise drawn exactly by every consumer (docs/tessellation.md).",
     ),
     ("unknown request", "Not RIB: a stray shell line in the file; reported and skipped."),
 ];

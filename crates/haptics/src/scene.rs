@@ -114,6 +114,11 @@ pub fn scene_geometry_from_meshes(scene: &Scene, meshes: &SceneMeshes) -> SceneG
     let planes = world_clipping_planes(scene);
     // What CSG removes is not touched either; the solids' work is bounded per scene.
     let mut solids = Solids::new(scene, meshes);
+    for name in &meshes.unreadable_textures {
+        warnings.push(format!(
+            "warning: bumpy's texture \"{name}\" cannot be read: the surface is displaced as if it read 0"
+        ));
+    }
     for skipped in &meshes.skipped {
         let what =
             if skipped.error.is_not_a_surface() { "has no surface to touch" } else { "cannot be touched" };

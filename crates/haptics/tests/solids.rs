@@ -1,5 +1,6 @@
 //! The proxy touches what the ray tracer renders: trimmed NuPatches only where the trim keeps
-//! them, and `SolidBegin` CSG results only on their boundary.
+//! them, `SolidBegin` CSG results only on their boundary, and `bumpy` surfaces displaced by
+//! their texture.
 
 use glam::DVec3;
 use haptics::scene::{SceneGeometry, scene_geometry, tessellation_tolerance};
@@ -169,4 +170,56 @@ fn a_dented_sphere_is_touched_at_its_displaced_radius() {
         (surface - expected).abs() < 4e-3,
         "proxy rests at radius {surface}, the dented surface is at {expected}"
     );
+}
+
+/// `bumpy` "Km" 1 "amplitude" 0.1 on the unit square z = 0 (a bilinear patch, `(s, t) = (u, v)`
+/// = `(x, y)`), reading a texture whose columns are 64, 64, 192, 192 (of 255): where `s` is in
+/// [1/8, 3/8] it reads 64/255 (the texel centres are at 1/8, 3/8, ...; bilinear between them),
+/// in [5/8, 7/8] 192/255, so the surface is the plane `z = 0.1 value` there. A proxy pressed
+/// down rests on it at that height plus its radius, as the ray tracer draws it.
+#[test]
+fn the_proxy_rests_on_a_bumpy_surface_at_its_textures_height() {
+    let dir = tempfile::tempdir().unwrap();
+    let texture = dir.path().join("steps.png");
+    let columns = [64u8, 64, 192, 192];
+    image::GrayImage::from_fn(4, 4, |x, _| image::Luma([columns[x as usize]])).save(&texture).unwrap();
+    let rib = format!(
+        "WorldBegin\nDisplacement \"bumpy\" \"Km\" [1] \"amplitude\" [0.1] \"texturename\" [\"{}\"]\n\
+         Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\nWorldEnd\n",
+        texture.display()
+    );
+    let g = geometry(&rib);
+    for (s, value) in [(0.25, 64.0 / 255.0), (0.75, 192.0 / 255.0)] {
+        let height = 0.1 * value;
+        let (touched, rest) = probe(&g, DVec3::new(s, 0.5, 0.3), DVec3::new(s, 0.5, -0.2));
+        assert!(touched, "at s = {s} the proxy passed through");
+        // Within the tessellation's tolerance (1e-3 of the patch's size at most).
+        let expected = height + RADIUS;
+        assert!(
+            (rest.z - expected).abs() < 1e-3,
+            "at s = {s} the proxy rests at z = {}, expected {expected}",
+            rest.z
+        );
+        assert!((rest.truncate() - glam::DVec2::new(s, 0.5)).length() < 1e-6, "{rest}");
+    }
+}
+
+/// A hierarchical hole edit is not touched either: a subdivided unit cube whose top face's
+/// child 1 (the quarter at the top's vertex 1, (1, 0, 1)) is a hole lets a probe through
+/// there and holds one over the next quarter on the limit surface.
+#[test]
+fn a_hierarchical_hole_is_not_touched() {
+    let g = geometry(
+        "WorldBegin\nHierarchicalSubdivisionMesh \"catmull-clark\" [4 4 4 4 4 4] \
+         [0 3 2 1  4 5 6 7  0 1 5 4  1 2 6 5  2 3 7 6  3 0 4 7] [\"faceedit\"] [3 0 1] [2 1 1] [] [\"hole\"] \
+         \"P\" [0 0 0  1 0 0  1 1 0  0 1 0  0 0 1  1 0 1  1 1 1  0 1 1]\nWorldEnd\n",
+    );
+    let (through, _) = probe(&g, DVec3::new(0.7, 0.3, 2.0), DVec3::new(0.7, 0.3, 0.6));
+    assert!(!through, "the probe was held over the hole");
+    // Pressed just below the top's limit surface (about 0.87 there; 0.92 at the centre), so
+    // the frictionless proxy does not slide far down the rounded cube.
+    let (held, rest) = probe(&g, DVec3::new(0.3, 0.3, 2.0), DVec3::new(0.3, 0.3, 0.8));
+    assert!(held, "the probe passed through the top outside the hole");
+    assert!(rest.z > 0.8 && rest.z < 0.95, "{rest}");
+    assert!((rest.truncate() - glam::DVec2::new(0.3, 0.3)).length() < 0.05, "{rest}");
 }

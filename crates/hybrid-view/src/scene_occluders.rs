@@ -19,6 +19,11 @@ pub fn viewer_tolerance() -> Tolerance {
 pub fn tessellate_once(scene: &rib_parser::scene::Scene, tolerance: &Tolerance, stats: bool) -> SceneMeshes {
     let start = Instant::now();
     let meshes = tessellate_scene(scene, tolerance);
+    for name in &meshes.unreadable_textures {
+        eprintln!(
+            "warning: bumpy's texture \"{name}\" cannot be read: the surface is displaced as if it read 0"
+        );
+    }
     if stats {
         eprintln!(
             "scene tessellated once: {} triangles in {:.1} ms",

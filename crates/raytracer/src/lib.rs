@@ -70,5 +70,8 @@ pub mod sampling;
 pub mod shapes;
 #[doc(hidden)]
 pub mod testing;
-pub mod texture;
+/// Texture maps (moved to `tessellate`, which the haptics' displaced surfaces read them with).
+pub mod texture {
+    pub use tessellate::texture::*;
+}
 pub mod world;

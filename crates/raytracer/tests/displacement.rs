@@ -148,3 +148,34 @@ fn a_deforming_displaced_shape_is_displaced_at_every_key() {
         assert!((hit_z - z).abs() < 1e-4, "at time {time} the square is at z {hit_z}, expected {z}");
     }
 }
+
+/// `displacementbound` bounds no work here (the BVH is built over the displaced triangles):
+/// a bound smaller than the displacement (`bumpy` of a white map moves the unit sphere by
+/// 0.2) is named in a warning and the sphere is drawn in full, radius 1.2 (PRMan would show
+/// clipping or missing pieces); a bound that holds it gives no warning and the same surface.
+#[test]
+fn a_displacementbound_too_small_is_reported_and_the_displacement_drawn_in_full() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(4, 4, image::Rgb([255, 255, 255]))
+        .save(dir.path().join("white.png"))
+        .unwrap();
+    for (bound, warned) in [(0.05, true), (0.25, false)] {
+        let scene = load(
+            dir.path(),
+            &format!(
+                "ShadingRate 16\nAttribute \"displacementbound\" \"sphere\" [{bound}]\n\
+                 Displacement \"bumpy\" \"Km\" [0.5] \"amplitude\" [0.4] \"texturename\" [\"white.png\"]\n\
+                 Sphere 1 -1 1 360"
+            ),
+        );
+        let (world, diagnostics) = world_of(&scene);
+        let text = format!("{:?}", diagnostics.warnings);
+        assert_eq!(text.contains("beyond its displacementbound"), warned, "bound {bound}: {text}");
+        if warned {
+            assert!(text.contains("drawn in full (PRMan would show clipping or missing pieces"), "{text}");
+        }
+        for (d, r) in radii(&world) {
+            assert!((r - 1.2).abs() < 3e-3, "bound {bound}: radius {r} along {d}, expected 1.2");
+        }
+    }
+}

@@ -179,3 +179,85 @@ fn clipping_planes_remove_what_lies_on_the_side_their_normal_points_to() {
     let exact = 10.0 + (1.0 - 2.0 * 0.01f64 * 0.01).sqrt();
     assert!((centre - exact).abs() < 1e-4, "depth {centre}, exact {exact}");
 }
+
+/// `Perspective 90` then `Translate 0 0 1.5`: the unit sphere at (0, 0, 1.5) seen through
+/// `(x, y, z) -> (x/z, y/z, 1 - 1/z)`. Along the orthographic view (world z) its outline is the
+/// central projection of the sphere from the origin: a disc of radius `tan(asin(1/1.5))`. The
+/// pixel `(X, Y)` sees the object-space points `s (X, Y, 1)`; the eye is at world z = -10, so
+/// the smallest `s` on the sphere is nearest it (`1 - 1/s` grows with `s`), at depth
+/// `10 + (1 - 1/s)`.
+#[test]
+fn a_sphere_under_perspective_is_drawn_through_the_projection() {
+    let placed = "Perspective 90 Translate 0 0 1.5 Sphere 1 -1 1 360";
+    // The same sphere as an object instance placed through the projection.
+    let instanced =
+        "ObjectBegin 1 Sphere 1 -1 1 360 ObjectEnd Perspective 90 Translate 0 0 1.5 ObjectInstance 1";
+    for world in [placed, instanced] {
+        sphere_under_perspective(world);
+    }
+}
+
+fn sphere_under_perspective(world: &str) {
+    let (depth, hits) = depths(world);
+    let alpha = (1.0f64 / 1.5).asin();
+    assert_area(hits, std::f64::consts::PI * alpha.tan().powi(2), "projected sphere");
+    let mut checked = 0;
+    for (i, j) in [(100, 100), (120, 90), (70, 130), (140, 100), (100, 60)] {
+        let (x, y) = (-2.0 + (i as f64 + 0.5) * PIXEL, 2.0 - (j as f64 + 0.5) * PIXEL);
+        // |s (X, Y, 1) - (0, 0, 1.5)|^2 = 1.
+        let (a, b, c) = (x * x + y * y + 1.0, -3.0, 1.5f64 * 1.5 - 1.0);
+        let disc = b * b - 4.0 * a * c;
+        assert!(disc > 0.0, "pixel ({i}, {j}) is inside the outline");
+        let s = (-b - disc.sqrt()) / (2.0 * a);
+        let exact = 10.0 + (1.0 - 1.0 / s);
+        let measured = f64::from(depth[j * 200 + i]);
+        // Within the tessellation's tolerance (half a pixel, 0.01).
+        assert!((measured - exact).abs() < 0.01, "pixel ({i}, {j}): depth {measured}, exact {exact}");
+        checked += 1;
+    }
+    assert_eq!(checked, 5);
+}
+
+/// Aqsis' `content/Test/persptrans.rib`: its hyperboloid under `Perspective 90` must be drawn as
+/// under `ConcatTransform [1 0 0 0 0 1 0 0 0 0 1 1 0 0 -1 0]` (PRMan 3.9 matched them).
+#[test]
+fn perspective_90_draws_as_prmans_explicit_matrix() {
+    let shape = "Translate 0 0 1 Hyperboloid -0.25 -0.25 -0.5  0.75 0.25 0.5 300";
+    let (request, request_hits) = depths(&format!("Rotate 30 0 1 0 Perspective 90 {shape}"));
+    let (matrix, matrix_hits) =
+        depths(&format!("Rotate 30 0 1 0 ConcatTransform [1 0 0 0 0 1 0 0 0 0 1 1 0 0 -1 0] {shape}"));
+    assert!(request_hits > 1000, "{request_hits} pixels hit");
+    assert!(request_hits.abs_diff(matrix_hits) <= 2, "{request_hits} vs {matrix_hits} pixels");
+    let both = request.iter().zip(&matrix).filter(|(a, b)| a.is_finite() && b.is_finite());
+    let largest = both.map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+    assert!(largest < 1e-4, "depths differ by up to {largest}");
+}
+
+/// A moving shape under `Perspective` is drawn at shutter open, with a warning (moving BLASes
+/// map rays affinely): the ray along the z axis meets the sphere of the first key where the
+/// closed form of `a_sphere_under_perspective_is_drawn_through_the_projection` says,
+/// `1 - 1/s` with `s = 0.5` (world z = -1), not where the second key (0.5 further along x)
+/// would put it.
+#[test]
+fn a_moving_shape_under_perspective_is_drawn_at_shutter_open_with_a_warning() {
+    use raytracer::diagnostics::Diagnostics;
+    use raytracer::world::{PixelFootprint, Ray, World};
+    let rib = "Shutter 0 1\nWorldBegin\nPerspective 90\nMotionBegin [0 1]\nTranslate 0 0 1.5\nTranslate 0.5 0 1.5\n\
+               MotionEnd\nSphere 1 -1 1 360\nWorldEnd\n";
+    let scene =
+        rib_parser::load_bytes("moving.rib", rib.as_bytes().to_vec(), &Default::default()).unwrap().scene;
+    let eye = glam::DVec3::new(0.0, 0.0, -10.0);
+    let mut diagnostics = Diagnostics::default();
+    let footprint = PixelFootprint::Perspective { radians_per_pixel: 1e-3 };
+    let world = World::build(&scene, eye, footprint, &mut diagnostics).expect("the world builds");
+    let text = format!("{:?}", diagnostics.warnings);
+    assert!(text.contains("transformation is projective (Perspective) is drawn at shutter open"), "{text}");
+    for time in [0.0f32, 0.5, 1.0] {
+        let mut ray = Ray::new(glam::Vec3::ZERO, glam::Vec3::Z);
+        ray.time = time;
+        let hit = world.intersect(&ray).expect("the ray meets the sphere");
+        // From the eye at z = -10 to z = -1 (the tessellation's tolerance: half a milliradian
+        // pixel at that distance and 1e-2 of the size at most).
+        assert!((f64::from(hit.t) - 9.0).abs() < 1e-2, "t = {} at time {time}", hit.t);
+    }
+}

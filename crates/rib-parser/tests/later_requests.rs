@@ -1,5 +1,6 @@
 //! Requests of RenderMan 3.3 and PRMan: `HierarchicalSubdivisionMesh` becomes the
-//! `SubdivisionMesh` it describes, shader networks stay warnings that say why.
+//! `SubdivisionMesh` it describes with the hierarchical edits the tessellator applies, shader
+//! networks stay warnings that say why.
 
 use rib_parser::scene::*;
 use rib_parser::{LoadOptions, load_bytes};
@@ -51,27 +52,42 @@ fn hierarchical_subdivision_mesh_is_the_subdivision_mesh_with_its_tags() {
 }
 
 #[test]
-fn hierarchical_edits_are_dropped_with_a_warning_naming_them() {
-    // A vertex edit of face 0's child 2's vertex 1 (path length 3), adding to P.
+fn hierarchical_edits_are_kept_and_unsupported_ones_dropped_with_a_warning() {
+    // A vertex edit of face 0's child 2's vertex 1 (path length 3) adding to P, a hole at
+    // face 4 (path length 1), and a colour edit, which the tessellator cannot apply.
     let loaded = load(&format!(
         "WorldBegin\nHierarchicalSubdivisionMesh \"catmull-clark\" {CUBE} \
-         [\"interpolateboundary\" \"vertexedit\" \"faceedit\"] [1 0 0  4 3 3  2 0 1] \
-         [1  3 0 2 1  1 4] [0 0.5 0] [\"P\" \"value\" \"add\" \"hole\"] {CUBE_P}\nWorldEnd\n"
+         [\"interpolateboundary\" \"vertexedit\" \"faceedit\" \"vertexedit\"] [1 0 0  4 3 3  2 0 1  3 3 3] \
+         [1  3 0 2 1  1 4  2 0 1] [0 0.5 0  1 0 0] [\"P\" \"value\" \"add\" \"hole\" \"Cs\" \"value\" \"set\"] \
+         {CUBE_P}\nWorldEnd\n"
     ));
     let mesh = only_subdivision_mesh(&loaded);
     let names: Vec<&str> = mesh.tags.iter().map(|t| t.name.as_str()).collect();
-    assert_eq!(names, ["interpolateboundary"]);
+    assert_eq!(names, ["interpolateboundary", "vertexedit", "faceedit"]);
+    let edits = decode_hierarchical_edits(&mesh.tags[1], &mesh.vertices_per_face).unwrap();
+    assert_eq!(
+        edits,
+        [HierarchicalEdit::Position {
+            path: EditPath { face: 0, children: vec![2] },
+            vertex: 1,
+            operator: EditOperator::Add,
+            value: [0.0, 0.5, 0.0]
+        }]
+    );
     let warnings = loaded.render_warnings();
     assert!(
         warnings.contains(
-            "test.rib:2:1: warning: HierarchicalSubdivisionMesh: hierarchical edit \"vertexedit\" of \"P\" \
-             (values set on a refined level's vertices, edges or faces) is not supported; the surface is \
-             rendered without it"
+            "test.rib:2:1: warning: HierarchicalSubdivisionMesh: hierarchical edit \"vertexedit\" skipped: \
+             a value edit of \"Cs\""
         ),
         "{warnings}"
     );
-    assert!(warnings.contains("hierarchical edit \"faceedit\" of \"hole\""), "{warnings}");
-    assert_eq!(loaded.diagnostics.warning_count(), 2, "{warnings}");
+    assert_eq!(loaded.diagnostics.warning_count(), 1, "{warnings}");
+    // The writer keeps the edits (a `SubdivisionMesh` with string arguments), read back alike.
+    let text = rib_parser::writer::write_scene(&loaded.scene);
+    let again = load(&text);
+    assert_eq!(only_subdivision_mesh(&again), mesh, "{text}");
+    assert_eq!(again.diagnostics.warning_count(), 0, "{}", again.render_warnings());
 }
 
 #[test]

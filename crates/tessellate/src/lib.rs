@@ -73,6 +73,8 @@ mod quadric;
 mod seam;
 mod stitch;
 mod subdiv;
+pub mod texture;
+mod texture_scene;
 mod trim;
 
 pub use blobby::{BLOBBY_THRESHOLD, BlobbyField};
@@ -92,6 +94,7 @@ pub use placed::{
     tessellate_placed, tessellate_scene, tessellate_scene_filtered,
 };
 pub use seam::SeamWelder;
+pub use texture_scene::{DisplacementTextures, load_scene_texture};
 
 use glam::DVec3;
 use rib_parser::scene::Shape;

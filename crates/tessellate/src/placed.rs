@@ -54,6 +54,8 @@ pub struct SceneMeshes {
     /// Shapes left out: `Points` and `Curves` ([`TessellateError::is_not_a_surface`]), invalid
     /// shapes, shapes over the triangle budget, shapes the filter excluded are not listed.
     pub skipped: Vec<SkippedShape>,
+    /// Textures `bumpy` names that could not be read (each once; they read 0).
+    pub unreadable_textures: Vec<String>,
 }
 
 impl SceneMeshes {
@@ -69,8 +71,9 @@ impl SceneMeshes {
 /// `reverse_orientation`; triangles are re-wound to stay counter-clockwise around them.
 ///
 /// A singular transform (zero scale) gives flattened triangles and no normals. A projective
-/// transform (a `Perspective` in the object's transform) is applied exactly to positions and
-/// through its Jacobian to normals; its tolerance scale uses the linear part only.
+/// transform (a `Perspective` in the object's transform, as RenderMan allows) is applied
+/// exactly to positions and through its Jacobian to normals; its tolerance scale is a bound of
+/// the Jacobian's stretch over the shape's bounds ([`largest_stretch`]).
 pub fn tessellate_placed(
     shape: &Shape,
     world_from_object: &DMat4,
@@ -91,12 +94,42 @@ pub(crate) fn place(
     if !world_from_object.is_finite() {
         return Err(TessellateError::NonFinite { kind, reason: "the transform is not finite".into() });
     }
-    let linear = DMat3::from_mat4(*world_from_object);
-    let scale = spectral_norm(&linear);
+    let scale = largest_stretch(world_from_object, shape);
     let mut mesh = tessellate_scaled(shape, tol, scale, options)?;
     transform_mesh(&mut mesh, world_from_object, reverse_orientation);
     mesh.check_finite(kind)?;
     Ok(mesh)
+}
+
+/// The most `m` stretches any short object-space segment of `shape`: the spectral norm of
+/// its linear part when it is affine. A projective `m` maps `p` to `p' = (A p + t) / h(p)`
+/// with `h` linear, whose Jacobian `(A - p' w^T) / h` (`w` the bottom row's first three
+/// entries) is bounded over the shape's bounding box by `(|A| + max |p'| |w|) / min |h|`;
+/// both extremes lie at the box's corners while `h` keeps one sign there (`h` is linear, and
+/// the image of the box is the hull of its corners' images). Where `h` changes sign in the
+/// box the surface reaches infinity and no bound exists: the linear part's norm is used.
+pub(crate) fn largest_stretch(m: &DMat4, shape: &Shape) -> f64 {
+    let linear_norm = spectral_norm(&DMat3::from_mat4(*m));
+    let row3 = m.row(3);
+    if row3 == DVec4::W {
+        return linear_norm;
+    }
+    let Some((lo, hi)) = shape_bounds(shape) else { return linear_norm };
+    let (mut min_h, mut max_h, mut max_projected) = (f64::INFINITY, f64::NEG_INFINITY, 0f64);
+    for i in 0..8 {
+        let corner = DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let h = row3.truncate().dot(corner) + row3.w;
+        min_h = min_h.min(h);
+        max_h = max_h.max(h);
+        max_projected = max_projected.max(m.project_point3(corner).length());
+    }
+    let nearest_h = if min_h > 0.0 { min_h } else { -max_h };
+    let bound = (linear_norm + max_projected * row3.truncate().length()) / nearest_h;
+    if nearest_h > 0.0 && bound.is_finite() { bound } else { linear_norm }
 }
 
 /// Applies `m` to positions and normals and fixes winding and normal sides.
@@ -225,7 +258,8 @@ pub const SCENE_DICING: DicingRule = DicingRule::RelativeToSize(1.0 / 128.0);
 /// Tessellates every [`ShapeEntity`] of the scene and every shape of every object instance,
 /// in world space (see [`tessellate_placed`] for the transform and tolerance rules). Surfaces
 /// with a standard displacement shader are displaced (see [`crate::tessellate_displaced`]),
-/// diced by [`SCENE_DICING`]; `bumpy`'s texture is not read here (it reads 0).
+/// diced by [`SCENE_DICING`]; `bumpy` reads its texture as the ray tracer does
+/// ([`crate::DisplacementTextures`]), so the haptics touch the surface that is drawn.
 pub fn tessellate_scene(scene: &Scene, tol: &Tolerance) -> SceneMeshes {
     tessellate_scene_filtered(scene, tol, |_| true)
 }
@@ -242,6 +276,9 @@ pub fn tessellate_scene_filtered(
     // Separate patches that share an edge get bitwise-equal vertices along it.
     let mut seams = scene_bounds(scene).map(|(lo, hi)| SeamWelder::new(lo, hi));
     let attributes = |id: AttributesId| scene.attributes.get(id.0 as usize);
+    let textures = crate::DisplacementTextures::new(scene);
+    let texture = |name: &str, st: glam::Vec2| textures.value(name, st);
+    let mut unreadable_textures: Vec<String> = Vec::new();
     let mut visit = |origin: MeshOrigin,
                      entity: &ShapeEntity,
                      world_from_object: DMat4,
@@ -279,7 +316,7 @@ pub fn tessellate_scene_filtered(
                 let displaced = Displaced {
                     shader: &shader,
                     world_from_placed: DMat4::IDENTITY,
-                    texture: &|_, _| None,
+                    texture: &texture,
                     dicing: SCENE_DICING,
                 };
                 tessellate_displaced_with(
@@ -290,7 +327,14 @@ pub fn tessellate_scene_filtered(
                     &displaced,
                     options,
                 )
-                .map(|d| d.mesh)
+                .map(|d| {
+                    for name in d.unreadable_textures {
+                        if !unreadable_textures.contains(&name) {
+                            unreadable_textures.push(name);
+                        }
+                    }
+                    d.mesh
+                })
             }
             _ => place(&entity.shape, &world_from_object, reverse, &local, options),
         };
@@ -334,6 +378,7 @@ pub fn tessellate_scene_filtered(
             visit(origin, entity, m, resolved, Some(inst.attributes), inst.world_from_instance);
         }
     }
+    out.unreadable_textures = unreadable_textures;
     out
 }
 

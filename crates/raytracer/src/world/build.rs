@@ -4,9 +4,7 @@
 use super::clipping::render_clipping_planes;
 use super::csg::Csg;
 use super::deformation::{KeyDisplacement, deforming_blas, shutter_deformation};
-use super::displacement::{
-    DisplacementTextures, custom_shader_warning, displaced_geometry, displaced_keys, displacement_of,
-};
+use super::displacement::{custom_shader_warning, displaced_geometry, displaced_keys, displacement_of};
 use super::lighting::{self, area_light_params, background, emitter_shape};
 use super::motion::{camera_shutter_motion, motion_box, shutter_motion};
 use super::placement::{
@@ -18,14 +16,13 @@ use crate::accel::BvhStats;
 use crate::diagnostics::Diagnostics;
 use crate::lights::{EmitterShape, Light, LightSet};
 use crate::materials::{Material, MaterialNote};
-use crate::texture::{Texture, Wrap};
+use crate::texture::Texture;
 use rib_parser::deformation::Deformation;
-use rib_parser::scene::{MadeTextureKind, Scene, ShapeEntity};
+use rib_parser::scene::{Scene, ShapeEntity};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
-use tessellate::{SeamWelder, is_quadric, shape_kind};
+use tessellate::{DisplacementTextures, SeamWelder, is_quadric, shape_kind};
 
 /// Adds `g` (the geometry of `entity`) to `builder`, warning at the shape when triangles beyond
 /// the BVH's coordinate range were left out.
@@ -52,43 +49,19 @@ fn add_to_blas(
     added
 }
 
-/// The texture a shader names: the picture of the last `MakeTexture` (or lat-long environment)
-/// that made `name`, with its wrap modes, a cube-face environment's six pictures resampled to
-/// a lat-long map, or else the file `name` itself. Relative paths are
-/// tried from the working directory, then from the RIB file's directory.
+/// Whether `m` has a projective bottom row (a `Perspective` in a shape's transform).
+fn is_projective(m: &DMat4) -> bool {
+    m.row(3) != glam::DVec4::W
+}
+
+/// Whether a transformation motion has a projective key.
+fn motion_is_projective(motion: &Option<Arc<TransformMotion>>) -> bool {
+    motion.as_ref().is_some_and(|m| m.matrices().iter().any(is_projective))
+}
+
+/// The texture a shader names (`tessellate::load_scene_texture`, shared with the haptics).
 pub(super) fn load_texture(scene: &Scene, name: &str) -> Result<Arc<Texture>, String> {
-    let resolve = |file: &str| {
-        let direct = PathBuf::from(file);
-        if direct.is_absolute() || direct.exists() {
-            return direct;
-        }
-        match Path::new(scene.source.as_ref()).parent() {
-            Some(dir) if dir.join(file).exists() => dir.join(file),
-            _ => direct,
-        }
-    };
-    let made = scene.render.textures.iter().rev().find(|t| t.name == name);
-    match made.map(|t| &t.kind) {
-        Some(MadeTextureKind::Texture { picture, swrap, twrap }) => {
-            let wrap = |w: &str| Wrap::from_name(w).unwrap_or(Wrap::Periodic);
-            let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
-            Ok(Arc::new(texture.with_wrap(wrap(swrap), wrap(twrap))))
-        }
-        Some(MadeTextureKind::LatLong { picture }) => {
-            let texture = Texture::load(&resolve(picture)).map_err(|e| format!("{picture}: {e}"))?;
-            Ok(Arc::new(texture.with_wrap(Wrap::Periodic, Wrap::Clamp)))
-        }
-        Some(MadeTextureKind::CubeFaces { faces, fov }) => {
-            let mut loaded = Vec::with_capacity(6);
-            for face in faces {
-                loaded.push(Texture::load(&resolve(face)).map_err(|e| format!("{face}: {e}"))?);
-            }
-            crate::texture::lat_long_from_cube_faces(std::array::from_fn(|i| &loaded[i]), *fov)
-                .map(Arc::new)
-                .ok_or_else(|| format!("cube-face field of view {fov} is not in (0, 180) degrees"))
-        }
-        None => Texture::load(&resolve(name)).map(Arc::new),
-    }
+    tessellate::load_scene_texture(scene, name)
 }
 
 /// Errors that stop a world from being built.
@@ -286,6 +259,20 @@ impl World {
             held.is_some()
         };
         for (i, entity) in scene.shapes.iter().enumerate() {
+            if is_projective(&entity.world_from_object) || motion_is_projective(&entity.motion) {
+                // Moving and deforming BLASes map rays (or intersect quadric keys) affinely;
+                // the shape at shutter open is tessellated through its transform instead.
+                if entity.motion.is_some() || entity.deformation.is_some() {
+                    diagnostics.warn_once(
+                        Some(&entity.loc),
+                        "a moving or deforming shape whose transformation is projective (Perspective) is drawn at shutter open (no motion blur)".to_string(),
+                    );
+                }
+                if !in_solid_blas[i] {
+                    place_world_shape(entity, &mut world_blas, &mut world_emitters, diagnostics);
+                }
+                continue;
+            }
             if let Some(deformation) = shutter_deformation(scene, &entity.deformation) {
                 let why = [
                     "a deforming shape inside SolidBegin is drawn at shutter open (no deformation blur)",
@@ -521,6 +508,13 @@ impl World {
             let Some(blas_index) = blas_index else { continue };
             let attrs = scene.attributes_of(inst.attributes);
             let mut motion = shutter_motion(scene, &inst.motion, &render_from_world);
+            if motion.is_some() && motion_is_projective(&inst.motion) {
+                diagnostics.warn_once(
+                    Some(&inst.loc),
+                    "a moving object instance whose transformation is projective (Perspective) is placed at shutter open (no motion blur)".to_string(),
+                );
+                motion = None;
+            }
             if motion.is_some() && attrs.area_light.is_some() {
                 diagnostics.warn_once(
                     Some(&inst.loc),
@@ -539,9 +533,37 @@ impl World {
                 );
                 continue;
             }
+            // A projective placement does not preserve a ray's parameter: the definition's
+            // shapes are placed through it (tessellated) into a render-space BLAS of their own.
+            let (blas_index, render_from_blas, projected) = if is_projective(&render_from_blas) {
+                let mut builder = BlasBuilder::new();
+                let mut placed = Vec::new();
+                for entity in &def.shapes {
+                    let render_from_object = render_from_blas * entity.world_from_object;
+                    let Some(g) = geometry(entity, &render_from_object, None, diagnostics) else { continue };
+                    if add_to_blas(&mut builder, &g, &render_from_object, entity, scene, diagnostics)
+                        .is_some()
+                    {
+                        let reverse = scene.attributes_of(entity.attributes).reverse_orientation;
+                        placed.push((g, render_from_object, reverse));
+                    }
+                }
+                let blas = builder.finish();
+                if blas.prims.is_empty() {
+                    continue;
+                }
+                blases.push(blas);
+                (blases.len() as u32 - 1, DMat4::IDENTITY, Some(placed))
+            } else {
+                (blas_index, render_from_blas, None)
+            };
+            let placed = match &projected {
+                Some(placed) => Some(placed),
+                None => definition_geometry.get(&object),
+            };
             let mut inst_emitters = Vec::new();
             if let Some(id) = attrs.area_light {
-                for (g, def_from_object, reverse) in definition_geometry.get(&object).into_iter().flatten() {
+                for (g, def_from_object, reverse) in placed.into_iter().flatten() {
                     let reverse = *reverse ^ attrs.reverse_orientation;
                     let shape =
                         emitter_shape(g, &render_from_blas, &(render_from_blas * *def_from_object), reverse);

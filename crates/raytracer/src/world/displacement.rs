@@ -5,15 +5,11 @@
 
 use super::placement::{Geometry, PixelFootprint, tolerance_for};
 use crate::diagnostics::Diagnostics;
-use crate::texture::Texture;
 use glam::{DMat3, DMat4, DVec3, Vec2};
 use rib_parser::scene::{Attributes, Scene, ShapeEntity};
-use std::cell::RefCell;
-use std::collections::HashMap;
-use std::sync::Arc;
 use tessellate::{
-    DicingRule, Displaced, DisplacementShader, SCENE_DICING, displacement_bound, is_surface, shape_kind,
-    tessellate_displaced,
+    DicingRule, Displaced, DisplacementShader, DisplacementTextures, SCENE_DICING, displacement_bound,
+    is_surface, shape_kind, tessellate_displaced,
 };
 
 /// Most triangles one displaced shape may be diced into (within the world's own budget); the
@@ -36,28 +32,6 @@ pub(super) fn custom_shader_warning(attrs: &Attributes) -> Option<String> {
              surfaces are not displaced"
         )
     })
-}
-
-/// `float texture(name, s, t)` for `bumpy`: the first channel of the texture the name resolves
-/// to (as for surface shaders), each file read once.
-pub(super) struct DisplacementTextures<'a> {
-    scene: &'a Scene,
-    cache: RefCell<HashMap<String, Option<Arc<Texture>>>>,
-}
-
-impl<'a> DisplacementTextures<'a> {
-    pub(super) fn new(scene: &'a Scene) -> DisplacementTextures<'a> {
-        DisplacementTextures { scene, cache: RefCell::new(HashMap::new()) }
-    }
-
-    fn value(&self, name: &str, st: Vec2) -> Option<f64> {
-        let mut cache = self.cache.borrow_mut();
-        let texture = cache
-            .entry(name.to_string())
-            .or_insert_with(|| super::build::load_texture(self.scene, name).ok())
-            .clone()?;
-        Some(f64::from(texture.lookup(st).x))
-    }
 }
 
 /// The micropolygon size for a shape placed in render space (`footprint` known) or in a space
@@ -127,7 +101,8 @@ pub(super) fn displaced_geometry(
                 loc,
                 format!(
                     "Displacement \"{name}\" moves {kind} by up to {:.4}, beyond its displacementbound of {bound:.4}: \
-                     drawn in full (RenderMan would clip it at the bound)",
+                     drawn in full (PRMan would show clipping or missing pieces where the surface leaves its bound; \
+                     a ray tracer needs no bound)",
                     out.largest_displacement
                 ),
             );

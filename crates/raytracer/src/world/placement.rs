@@ -3,6 +3,7 @@
 //! builder they go into.
 
 use super::*;
+use glam::DVec4;
 use rib_parser::scene::{AttributesId, Scene, Shape, ShapeEntity};
 use tessellate::{
     RibbonFacing, SeamWelder, Tolerance, TriangleMesh, curve_ribbons, is_quadric, point_widths,
@@ -158,10 +159,17 @@ pub(super) fn place_geometry_with(
     footprint: Option<&PixelFootprint>,
     tolerance: Tolerance,
 ) -> Result<Geometry, String> {
-    if is_quadric(shape) {
+    // Under a projective transform (`Perspective` in the object's transform) a quadric is no
+    // longer one the exact intersector knows, and a ray maps to a line whose parameter is not
+    // preserved: such shapes are tessellated, which applies the transform exactly at every
+    // vertex (`tessellate_placed`).
+    let affine = blas_from_object.row(3) == DVec4::W;
+    if is_quadric(shape) && affine {
         return Quadric::new(shape).map(Geometry::Quadric).map_err(|e| e.0.to_string());
     }
-    if let Shape::Points(points) = shape {
+    if let Shape::Points(points) = shape
+        && affine
+    {
         return points_as_spheres(points);
     }
     let mesh = match shape {
@@ -403,7 +411,9 @@ pub(super) fn transformed_box(m: &DMat4, lo: DVec3, hi: DVec3) -> (Vec3, Vec3) {
             if i & 2 == 0 { lo.y } else { hi.y },
             if i & 4 == 0 { lo.z } else { hi.z },
         );
-        let p = m.transform_point3(c);
+        // A projective `m` (whose denominator keeps one sign over the box, else the shape
+        // reaches infinity) maps the box into the hull of its corners' images.
+        let p = if m.row(3) == DVec4::W { m.transform_point3(c) } else { m.project_point3(c) };
         bmin = bmin.min(p);
         bmax = bmax.max(p);
     }

@@ -6,7 +6,7 @@ use super::{AttrState, SceneBuilder};
 use crate::diagnostics::DiagnosticKind;
 use crate::scene::*;
 use crate::target::{Cx, NuPatchArgs, Quadric};
-use glam::{DVec4, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 use std::sync::Arc;
 
 /// Removes the parameter `name` from `params` and returns its floats.
@@ -241,15 +241,9 @@ impl SceneBuilder {
             return;
         }
         let attributes = self.intern_attributes();
+        // A projective transformation (`Perspective` inside the world) is kept as given: every
+        // consumer places shapes through it exactly (tessellate's `transform_mesh`).
         let world_from_object = snap_affine(self.gs.ctm);
-        if world_from_object.row(3) != DVec4::W {
-            self.warn_once(
-                "projective-shape",
-                cx,
-                DiagnosticKind::Unsupported,
-                "this shape's transformation is projective (Perspective); consumers that need affine transformations may reject it",
-            );
-        }
         let motion = self.gs.motion.clone();
         if let Some(world) = self.world_mut() {
             if let Some(&solid) = world.open_solids.last() {

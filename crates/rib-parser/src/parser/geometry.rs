@@ -4,7 +4,10 @@
 use super::{PResult, ParamContext, PeekKind, Reader, Stop};
 use crate::diagnostics::DiagnosticKind;
 use crate::params::ClassCounts;
-use crate::scene::{FileLoc, ParamList, ParamValues, PatchKind, SubdivisionTag, TrimCurves, Wrap};
+use crate::scene::{
+    FileLoc, ParamList, ParamValues, PatchKind, SubdivisionTag, TrimCurves, Wrap, decode_hierarchical_edits,
+    is_hierarchical_edit,
+};
 use crate::target::{NuPatchArgs, Quadric, RibTarget};
 use glam::Vec3;
 
@@ -543,7 +546,8 @@ impl Reader {
 
     /// `SubdivisionMesh`, or PRMan's `HierarchicalSubdivisionMesh` (`hierarchical`), which
     /// always gives three argument counts per tag and the tags' string arguments, and may
-    /// carry hierarchical edits; it becomes a `SubdivisionMesh` without those edits.
+    /// carry hierarchical edits; it becomes a `SubdivisionMesh` whose tags keep the edits the
+    /// tessellator applies.
     fn subdivision_mesh<T: RibTarget + ?Sized>(
         &mut self,
         loc: &FileLoc,
@@ -605,9 +609,9 @@ impl Reader {
                 return Err(self.bad(loc, format!("{r}: more tag arguments are given than the tags use")));
             }
         }
-        if hierarchical {
-            tags = self.without_hierarchical_edits(tags, loc);
-        }
+        // The writer writes edits as a `SubdivisionMesh` with string arguments: read back, they
+        // are checked alike.
+        tags = self.supported_hierarchical_edits(r, tags, &nverts, loc);
         let params = self.geometry_params(r)?;
         let total = usize_of(sum(&nverts));
         if total != verts.len() {
@@ -642,28 +646,33 @@ impl Reader {
         Ok(())
     }
 
-    /// Drops the hierarchical edits of a `HierarchicalSubdivisionMesh` with one warning each.
-    /// They change vertices, edges or faces of a refined level (a path from a control face
-    /// through its children), which the tessellator's levels do not address; the rest of the
-    /// mesh is the same surface without them.
-    fn without_hierarchical_edits(
+    /// Keeps the hierarchical edits of a `HierarchicalSubdivisionMesh` the tessellator applies
+    /// (`P` values, vertex and edge sharpness, holes: `scene::decode_hierarchical_edits`) and
+    /// drops the others with a warning that says why.
+    fn supported_hierarchical_edits(
         &mut self,
+        r: &str,
         tags: Vec<SubdivisionTag>,
+        vertices_per_face: &[u32],
         loc: &FileLoc,
     ) -> Vec<SubdivisionTag> {
-        let (edits, kept): (Vec<_>, Vec<_>) = tags
-            .into_iter()
-            .partition(|tag| matches!(tag.name.as_str(), "vertexedit" | "edgeedit" | "faceedit"));
-        for edit in edits {
-            let what = edit.string_args.first().map(|s| format!(" of \"{s}\"")).unwrap_or_default();
-            self.diagnostics.warn(
-                DiagnosticKind::Unsupported,
-                loc,
-                format!(
-                    "HierarchicalSubdivisionMesh: hierarchical edit \"{}\"{what} (values set on a refined level's vertices, edges or faces) is not supported; the surface is rendered without it",
-                    edit.name
+        let mut kept = Vec::with_capacity(tags.len());
+        for tag in tags {
+            if !is_hierarchical_edit(&tag.name) {
+                kept.push(tag);
+                continue;
+            }
+            match decode_hierarchical_edits(&tag, vertices_per_face) {
+                Ok(_) => kept.push(tag),
+                Err(why) => self.diagnostics.warn(
+                    DiagnosticKind::Unsupported,
+                    loc,
+                    format!(
+                        "{r}: hierarchical edit \"{}\" skipped: {why}; the surface is drawn without it",
+                        tag.name
+                    ),
                 ),
-            );
+            }
         }
         kept
     }

@@ -15,11 +15,13 @@
 //! - Every entity carries the [`FileLoc`] of the request that made it.
 
 mod attributes;
+mod hierarchical;
 mod params;
 mod settings;
 mod shapes;
 
 pub use attributes::*;
+pub use hierarchical::*;
 pub use params::*;
 pub use settings::*;
 pub use shapes::*;

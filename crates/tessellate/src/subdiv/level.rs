@@ -161,7 +161,11 @@ impl Level {
 }
 
 /// The control mesh with its tags, checked.
-pub(super) fn control_level(sm: &SubdivisionMesh) -> Result<(Level, Boundary, u32), TessellateError> {
+/// Also returns the number of degenerate faces dropped and each request face's index in the
+/// control level (`u32::MAX` for a dropped one).
+pub(super) fn control_level(
+    sm: &SubdivisionMesh,
+) -> Result<(Level, Boundary, u32, Vec<u32>), TessellateError> {
     if !sm.scheme.eq_ignore_ascii_case("catmull-clark") {
         return Err(TessellateError::UnsupportedScheme(sm.scheme.clone()));
     }
@@ -286,5 +290,5 @@ pub(super) fn control_level(sm: &SubdivisionMesh) -> Result<(Level, Boundary, u3
             }
         }
     }
-    Ok((level, boundary, degenerate))
+    Ok((level, boundary, degenerate, kept_face_of_input))
 }

@@ -1,5 +1,6 @@
-//! `SubdivisionMesh "catmull-clark"`: arbitrary polygons, boundaries, and the tags
-//! `interpolateboundary`, `crease`, `corner` and `hole`.
+//! `SubdivisionMesh "catmull-clark"`: arbitrary polygons, boundaries, the tags
+//! `interpolateboundary`, `crease`, `corner` and `hole`, and PRMan's hierarchical edits
+//! (`edits.rs`), applied to the uniform level they name as it is made.
 //!
 //! Rules (DeRose, Kass and Truong, "Subdivision surfaces in character animation", 1998, as
 //! OpenSubdiv implements them with its default uniform sharpness decrement):
@@ -42,9 +43,11 @@
 //! control mesh with its tags), `rules.rs` (one Catmull-Clark step with creases and corners),
 //! `limit.rs` (limit positions and normals, special vertices, the per-face deviation measure),
 //! `adaptive.rs` (the one-ring sub-meshes and the refinement of the faces that miss the
-//! tolerance), `emit.rs` (the drawn triangles and their shared output vertices).
+//! tolerance), `emit.rs` (the drawn triangles and their shared output vertices), `edits.rs`
+//! (hierarchical edits).
 
 mod adaptive;
+mod edits;
 mod emit;
 mod level;
 mod limit;
@@ -52,11 +55,12 @@ mod rules;
 
 use super::{TessellateError, Tolerance, TriangleMesh, check_budget, diagonal_of};
 use adaptive::{Node, refine};
+use edits::Edits;
 use emit::emit;
 use level::control_level;
 use limit::{face_deviations, limit, special_vertices};
 use rib_parser::scene::SubdivisionMesh;
-use rules::{Rule, rules, subdivide};
+use rules::{Rule, rules};
 use std::collections::HashMap;
 
 const KIND: &str = "SubdivisionMesh";
@@ -106,7 +110,10 @@ pub(crate) fn tessellate_subdivision_planned(
     scale: f64,
     planning: &mut Planning,
 ) -> Result<TriangleMesh, TessellateError> {
-    let (control, boundary, degenerate) = control_level(sm)?;
+    let (mut control, boundary, degenerate, face_of_input) = control_level(sm)?;
+    // Hierarchical edits act on the uniform levels as they are made (`edits.rs`).
+    let edits = Edits::new(sm, &control, &face_of_input);
+    edits.apply(&mut control, 0);
     let size = diagonal_of(KIND, control.positions.iter().copied())?;
     let eps = tol.effective(size, scale)?;
     if control.face_count() == 0 {
@@ -127,7 +134,8 @@ pub(crate) fn tessellate_subdivision_planned(
         .chain(control.vertex_sharpness.iter().copied())
         .filter(|s| s.is_finite())
         .fold(0.0f64, f64::max);
-    let mut min_level = (finite_sharpness.ceil() as u32).clamp(1, MAX_LEVEL);
+    // Hierarchical edits need the uniform levels down to the deepest they act on.
+    let mut min_level = (finite_sharpness.ceil() as u32).max(edits.deepest()).clamp(1, MAX_LEVEL);
     while min_level > 1 && triangles_at(min_level) > cap {
         min_level -= 1;
     }
@@ -137,14 +145,14 @@ pub(crate) fn tessellate_subdivision_planned(
     // of its faces miss it (those are then refined on their own). Once two successive decay
     // rates of the regular faces agree and are near-quadratic, the remaining levels are
     // predicted instead of built only to be measured.
-    let mut current = subdivide(&control, boundary);
+    let mut current = edits.subdivide(&control, 1, boundary);
     let mut current_limit = limit(&current, boundary);
     let mut k = 1u32;
     let mut measured: Vec<f64> = Vec::new();
     if let Planning::Replay(plan) = planning {
         check_budget(KIND, triangles_at(plan.level), tol)?;
         while k < plan.level.min(MAX_LEVEL) {
-            current = subdivide(&current, boundary);
+            current = edits.subdivide(&current, k + 1, boundary);
             k += 1;
         }
         current_limit = limit(&current, boundary);
@@ -174,14 +182,14 @@ pub(crate) fn tessellate_subdivision_planned(
             check_budget(KIND, triangles_at(level), tol)?;
             if level > k {
                 while k < level {
-                    current = subdivide(&current, boundary);
+                    current = edits.subdivide(&current, k + 1, boundary);
                     k += 1;
                 }
                 current_limit = limit(&current, boundary);
             }
             break (current, k, current_limit, None);
         }
-        let next = subdivide(&current, boundary);
+        let next = edits.subdivide(&current, k + 1, boundary);
         let next_limit = limit(&next, boundary);
         let special = special_vertices(&current, boundary);
         let deviations = face_deviations(&current, &current_limit.0, &next_limit.0);

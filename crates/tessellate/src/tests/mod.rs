@@ -3,6 +3,7 @@
 mod blobby;
 mod curves;
 mod displace;
+mod hedits;
 mod keys;
 mod nurbs;
 mod patch;

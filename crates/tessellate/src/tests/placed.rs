@@ -1,6 +1,6 @@
 use super::polygon::{CUBE_FACES, CUBE_POSITIONS, points_polygons};
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
-use crate::placed::spectral_norm;
+use crate::placed::{largest_stretch, spectral_norm};
 use crate::{
     MeshOrigin, TessellateError, Tolerance, is_quadric, tessellate, tessellate_placed, tessellate_scene,
     tessellate_scene_filtered,
@@ -127,6 +127,38 @@ fn singular_and_projective_transforms_do_not_break() {
         tessellate_placed(&unit_sphere(), &bad, false, &Tolerance::default()),
         Err(TessellateError::NonFinite { .. })
     ));
+}
+
+#[test]
+fn the_stretch_bound_holds_the_jacobian_of_a_perspective() {
+    // `Perspective 90` then `Translate 0 0 1.5` (the unit sphere spans z in [0.5, 2.5] there).
+    let persp = DMat4::from_cols_array(&[
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, -1.0, 0.0,
+    ]) * DMat4::from_translation(DVec3::new(0.0, 0.0, 1.5));
+    let bound = largest_stretch(&persp, &unit_sphere());
+    // The Jacobian by central differences at points of the sphere's box.
+    let mut largest = 0f64;
+    for i in 0..=10 {
+        for j in 0..=10 {
+            for k in 0..=10 {
+                let p = DVec3::new(i as f64 / 5.0 - 1.0, j as f64 / 5.0 - 1.0, k as f64 / 5.0 - 1.0);
+                let h = 1e-6;
+                let column = |e: DVec3| {
+                    (persp.project_point3(p + e * h) - persp.project_point3(p - e * h)) / (2.0 * h)
+                };
+                let jacobian = DMat3::from_cols(column(DVec3::X), column(DVec3::Y), column(DVec3::Z));
+                largest = largest.max(spectral_norm(&jacobian));
+            }
+        }
+    }
+    // At (1, 1, -1) (z = 0.5) the Jacobian stretches by about 7; the bound (8) is not much looser.
+    assert!(largest <= bound * (1.0 + 1e-6), "Jacobian {largest} over the bound {bound}");
+    assert!(bound < 2.0 * largest, "bound {bound} for a largest stretch of {largest}");
+    // The linear part alone (stretch 1) would have tessellated 7 times too coarsely.
+    assert!(largest > 6.0, "{largest}");
+    // An affine transform keeps the spectral norm.
+    let affine = DMat4::from_scale(DVec3::new(2.0, 3.0, 0.5));
+    assert_eq!(largest_stretch(&affine, &unit_sphere()), 3.0);
 }
 
 fn entity(shape: Shape, m: DMat4, attributes: u32) -> ShapeEntity {
