@@ -13,9 +13,10 @@
 // the coarse clusters' (the fine ones' near it) form factors `cos_x cos_y A / (pi d^2 + A)` (a
 // disc of the cluster's area seen from x, finite at d = 0) times their loss flux
 // (fs_shadow_bounce_taken, into a full-frame texture drawn only when the frame's uniform or a
-// live mesh's changed); fs_shadow_bounce removes it every frame. No visibility between
-// receiver and cluster is tested (the cosines only): a surface the scene hides from the shadow
-// loses light too. Only surfaces the camera sees in the render are emitters.
+// live mesh's changed); fs_shadow_bounce removes it every frame. Between receiver and cluster
+// only the live spheres are tested (they hide part of the shadow from the surfaces above it),
+// not the scene: a surface the scene hides from the shadow loses light too. Only surfaces the
+// camera sees in the render are emitters.
 
 // Clusters along each side of the shadows' scissor: fine ones (tiles of the scissor) and coarse
 // ones (4x4 fine ones each).
@@ -166,13 +167,37 @@ fn cluster_loss(p: vec3<f32>, n: vec3<f32>, at: vec2<i32>, side: i32, flux_area:
     if cos_y <= 0.0 {
         return vec3<f32>(0.0);
     }
+    // Where a live sphere stands between them, the surface did not see the cluster's light
+    // with the sphere there (the occlusion of indirect light already took what the sphere
+    // hides); the scene's own surfaces are not tested.
+    let d = sqrt(d2);
+    if sphere_blocks(p, v / d, d) {
+        return vec3<f32>(0.0);
+    }
     // Both cosines carry a factor d: d2 * d2 below is (d^2) * (pi d^2 + A) over d^2.
     return flux_area.rgb * (cos_x * cos_y / (d2 * (PI * d2 + flux_area.w)));
 }
 
+// Whether a live sphere comes within `extent` of the segment from p to q: it may then hide part
+// of a cluster of that size at q and not the rest, which its fine clusters resolve.
+fn sphere_near_segment(p: vec3<f32>, q: vec3<f32>, extent: f32) -> bool {
+    let along = q - p;
+    let length2 = max(dot(along, along), 1e-30);
+    for (var i = 0u; i < frame.layer_info.w; i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let t = clamp(dot(sphere.xyz - p, along) / length2, 0.0, 1.0);
+        let gap = sphere.xyz - (p + t * along);
+        let reach = sphere.w + extent;
+        if dot(gap, gap) < reach * reach {
+            return true;
+        }
+    }
+    return false;
+}
+
 // The radiance per unit albedo the surface at p (camera space, unit normal n) no longer
 // receives from the shadowed surfaces, in the image's units: the coarse clusters' losses, or
-// their fine clusters' where p is near.
+// their fine clusters' where p is near or a live sphere may hide part of the coarse one.
 fn shadow_bounce_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let coarse_side = i32(SHADOW_BOUNCE_COARSE);
@@ -186,7 +211,7 @@ fn shadow_bounce_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         }
         let q = textureLoad(shadow_bounce_clusters, at + vec2<i32>(coarse_side, 0), 0).xyz;
         let d2 = dot(q - p, q - p);
-        if d2 >= SHADOW_BOUNCE_REFINE * flux_area.w {
+        if d2 >= SHADOW_BOUNCE_REFINE * flux_area.w && !sphere_near_segment(p, q, sqrt(flux_area.w)) {
             sum += cluster_loss(p, n, at, coarse_side, flux_area);
             continue;
         }
