@@ -222,6 +222,8 @@ fn the_shadow_bounce_is_the_same_in_both_modes_and_after_a_move() {
     let (full, _) = render(&s, &live, settings(CompositeMode::Fullscreen, true));
     let (points, _) = render(&s, &live, settings(CompositeMode::Points, true));
     assert!(full == points, "the two compositing paths differ");
+    let (plain, _) = render(&s, &live, settings(CompositeMode::Fullscreen, false));
+    assert!(full != plain, "the pass changed nothing");
     let mut c = Compositor::new(&gpu(), &s, settings(CompositeMode::Fullscreen, true)).unwrap();
     c.render(&unlit_sphere(DVec3::new(0.3, -0.4, -0.2), 0.25)).unwrap();
     c.render(&LiveObjects::default()).unwrap();
