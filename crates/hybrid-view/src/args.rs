@@ -62,6 +62,10 @@ pub struct Args {
     /// Do not add the light live spheres reflect onto the pre-rendered scene.
     #[arg(long)]
     pub no_bounce_light: bool,
+    /// Do not remove the light the live objects' shadows take from the rest of the scene (the
+    /// shadowed surfaces no longer lighting what they see).
+    #[arg(long)]
+    pub no_shadow_bounce: bool,
     /// Take the light a live sphere hides from a surface as the light of what lies behind the
     /// sphere, not that surface's average indirect light.
     #[arg(long)]
@@ -194,6 +198,8 @@ pub struct Settings {
     pub bounce_light: bool,
     /// The light a live sphere hides taken from behind it (`--occlusion-from-behind`).
     pub occlusion_from_behind: bool,
+    /// The shadows' second bounce removed (`--no-shadow-bounce` clears it).
+    pub shadow_bounce: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
@@ -256,6 +262,7 @@ impl Args {
             antialias: !self.no_antialias,
             bounce_light: !self.no_bounce_light,
             occlusion_from_behind: self.occlusion_from_behind,
+            shadow_bounce: !self.no_shadow_bounce,
             depth_settings,
             backends,
             stats: self.stats,

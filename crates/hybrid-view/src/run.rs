@@ -113,6 +113,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         own_shadow_maps: true,
         bounce_light: settings.bounce_light,
         occlusion_from_behind: settings.occlusion_from_behind,
+        shadow_bounce: settings.shadow_bounce,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
@@ -364,6 +365,7 @@ fn print_stats(
     }
     eprintln!("scene shadows on live objects: {}", compositor.scene_shadows_summary());
     eprintln!("bounce light onto the scene: {}", compositor.bounce_light_summary());
+    eprintln!("shadows' second bounce: {}", compositor.shadow_bounce_summary());
     if let Some(note) = compositor.live_shadows_note() {
         eprintln!("live meshes' shadows: {note}");
     }

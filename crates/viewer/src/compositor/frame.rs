@@ -14,7 +14,8 @@ impl Compositor {
             self.ensure_points()?;
         }
         self.occluders.update_live(&self.gpu.queue, live, self.projection.camera().camera_from_world());
-        let uniform = self.frame_uniform(live);
+        let mut uniform = self.frame_uniform(live);
+        uniform.shadow_bounce = self.shadow_bounce_uniform(&uniform);
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 
         let loss_map_rows = loss_map::mesh_rows(&uniform, live);
@@ -82,12 +83,16 @@ impl Compositor {
                 wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
             );
             self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            // What the shadows took, before the bounce light adds to the backdrop after them.
+            self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);
             // The light the spheres reflect onto the scene, from their radiosity maps, which
             // read the loss maps (bounce.rs).
             if let Some(rect) = self.bounce_scissor(&uniform) {
                 self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
                 self.record_bounce(&mut encoder, rect);
             }
+            self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
+            self.record_shadow_bounce(&mut encoder, &uniform);
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
             self.record_live(&mut pass, &draws, sphere);
         }

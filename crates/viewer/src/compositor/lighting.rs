@@ -95,6 +95,10 @@ pub(super) struct FrameUniform {
     /// layer's slice, the visible surfaces' bounding diagonal (f32 bits), 1 when the spheres'
     /// occlusion of indirect light is corrected with the light from behind them.
     pub(super) bounce: [u32; 4],
+    /// The light the shadows take from the rest of the scene (`shadow_bounce.rs`): 1 when on,
+    /// the shadows' scissor as `x | y << 16` and `width | height << 16`, the albedo layer's
+    /// slice. Set by `Compositor::render` from the shadows' scissor.
+    pub(super) shadow_bounce: [u32; 4],
 }
 
 #[repr(C)]
@@ -269,6 +273,7 @@ impl Compositor {
                 }
                 _ => [0; 4],
             },
+            shadow_bounce: [0; 4],
         }
     }
 }

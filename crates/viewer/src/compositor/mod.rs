@@ -16,6 +16,7 @@ mod readback;
 mod reflections;
 mod scene_shadows;
 mod settings;
+mod shadow_bounce;
 mod shadows;
 mod sphere_atlas;
 
@@ -98,6 +99,9 @@ pub struct Compositor {
     /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
     /// the pass that adds it.
     bounce: bounce::Bounce,
+    /// The light the shadows take from the rest of the scene: its clusters (binding 16), what
+    /// each pixel loses (binding 17) and the passes that draw and remove it.
+    shadow_bounce: shadow_bounce::ShadowBounce,
     /// Live objects' edges at four samples per pixel, filtered (`None`: off, for the reason
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
@@ -111,6 +115,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/shadows.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
+    include_str!("../shaders/shadow_bounce.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -292,6 +297,8 @@ impl Compositor {
             bounce::ATLAS_FORMAT,
             bounce::RADIOSITY_MAP_TEXELS,
         );
+        let shadow_bounce_textures =
+            shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -342,6 +349,14 @@ impl Compositor {
                     binding: 15,
                     resource: wgpu::BindingResource::TextureView(&radiosity_map_textures.read_view),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 16,
+                    resource: wgpu::BindingResource::TextureView(&shadow_bounce_textures.clusters.read_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 17,
+                    resource: wgpu::BindingResource::TextureView(&shadow_bounce_textures.taken.read_view),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -387,6 +402,17 @@ impl Compositor {
                 module: &module,
                 frame_only: &frame_only,
                 with_mesh: &with_mesh,
+                linear_format,
+                mask_format: MASK_FORMAT,
+                depth_format,
+            },
+        );
+        let shadow_bounce = shadow_bounce::ShadowBounce::new(
+            device,
+            shadow_bounce_textures,
+            &shadow_bounce::ShadowBounceSetup {
+                module: &module,
+                frame_only: &frame_only,
                 linear_format,
                 mask_format: MASK_FORMAT,
                 depth_format,
@@ -624,6 +650,7 @@ impl Compositor {
             shadowed_texture,
             loss_maps,
             bounce,
+            shadow_bounce,
             antialias,
             antialias_off,
         })

@@ -103,6 +103,10 @@ pub struct CompositorSettings {
     /// Off by default: in `cargo xtask illusion` it helped some rows as much as it hurt others
     /// (docs/viewer.md, "Live spheres light the scene").
     pub occlusion_from_behind: bool,
+    /// With light layers that hold the diffuse albedo, the light the live objects' shadows
+    /// take from the rest of the scene (the shadowed surfaces no longer light what they see) is
+    /// removed too (`compositor/shadow_bounce.rs`); `false` leaves it.
+    pub shadow_bounce: bool,
 }
 
 impl Default for CompositorSettings {
@@ -116,6 +120,7 @@ impl Default for CompositorSettings {
             own_shadow_maps: true,
             bounce_light: true,
             occlusion_from_behind: false,
+            shadow_bounce: true,
         }
     }
 }

@@ -84,6 +84,9 @@ struct Frame {
     // layer's slice, the visible surfaces' bounding diagonal (f32 bits), 1 when the occlusion
     // of indirect light is corrected with what lies behind the spheres.
     bounce: vec4<u32>,
+    // The light the shadows take from the rest of the scene (shadow_bounce.wgsl): 1 when on,
+    // the shadows' scissor (x | y << 16, width | height << 16), the albedo layer's slice.
+    shadow_bounce: vec4<u32>,
 }
 
 const NO_LAYER: u32 = 0xffffffffu;

@@ -1,0 +1,327 @@
+//! The light the live objects' shadows take from the rest of the scene: the shadow's second
+//! bounce (differential rendering's loss term beyond the shadowed pixels themselves;
+//! `shaders/shadow_bounce.wgsl`).
+//!
+//! The floor a sphere shadows no longer lights the walls beside it, nor the sphere's
+//! surroundings. What the shadow pass took from each backdrop pixel (the image less the
+//! backdrop after shadows) is the outgoing radiance that surface lost, the same toward every
+//! receiver for a Lambertian surface. So the pixels of the shadows' scissor are summed into
+//! [`FINE`]^2 clusters (loss flux, area, loss-weighted position and normal per tile) and those
+//! into [`COARSE`]^2; a full-frame pass then gives each pre-rendered pixel its albedo times the
+//! coarse clusters' form factors times their flux (the fine ones' near the receiver), leaving
+//! pixels that would lose a negligible share of their value at zero. These are drawn only when
+//! the frame's uniform or a live mesh's changed, as the sphere maps are; every frame, a
+//! full-screen pass removes the loss (pixels that lose nothing keep their value bit for bit) and
+//! copies the frame into the backdrop after shadows.
+
+use super::Compositor;
+use super::lighting::FrameUniform;
+use std::cell::RefCell;
+
+/// Fine clusters along each side of the shadows' scissor, and coarse ones (4x4 fine ones each;
+/// `shadow_bounce.wgsl` SHADOW_BOUNCE_FINE and SHADOW_BOUNCE_COARSE).
+const FINE: u32 = 64;
+const COARSE: u32 = 16;
+/// What each pixel loses: a small correction, so half floats (2^-11 of it) suffice.
+const TAKEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// A texture a pass draws into and the copy the frame bind group reads, so that no pass reads
+/// the texture it draws into.
+#[derive(Debug)]
+pub(super) struct DrawnAndRead {
+    drawn: wgpu::Texture,
+    drawn_view: wgpu::TextureView,
+    read: wgpu::Texture,
+    /// The copy's view, for the frame bind group.
+    pub(super) read_view: wgpu::TextureView,
+}
+
+impl DrawnAndRead {
+    fn new(
+        device: &wgpu::Device,
+        label: &str,
+        format: wgpu::TextureFormat,
+        (width, height): (u32, u32),
+    ) -> Self {
+        let texture = |label: &str, usage: wgpu::TextureUsages| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        use wgpu::TextureUsages as U;
+        let drawn = texture(&format!("{label}, drawn"), U::RENDER_ATTACHMENT | U::COPY_SRC);
+        let read = texture(label, U::TEXTURE_BINDING | U::COPY_DST);
+        let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        DrawnAndRead { drawn_view: view(&drawn), read_view: view(&read), drawn, read }
+    }
+
+    fn copy_drawn_to_read(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_texture_to_texture(
+            self.drawn.as_image_copy(),
+            self.read.as_image_copy(),
+            self.drawn.size(),
+        );
+    }
+}
+
+/// The textures of the shadows' second bounce: the clusters (binding 16) and what each pixel
+/// loses (binding 17).
+#[derive(Debug)]
+pub(super) struct ShadowBounceTextures {
+    pub(super) clusters: DrawnAndRead,
+    pub(super) taken: DrawnAndRead,
+}
+
+impl ShadowBounceTextures {
+    /// Made before the frame bind group, which the pipelines' module needs. The clusters are
+    /// in the frame's linear format: the pass is off unless that is 32-bit float
+    /// ([`Compositor::shadow_bounce_uniform`]).
+    pub(super) fn new(
+        device: &wgpu::Device,
+        frame_size: (u32, u32),
+        linear_format: wgpu::TextureFormat,
+    ) -> Self {
+        ShadowBounceTextures {
+            clusters: DrawnAndRead::new(
+                device,
+                "shadow bounce clusters",
+                linear_format,
+                (3 * FINE, FINE + COARSE),
+            ),
+            taken: DrawnAndRead::new(device, "shadow bounce taken", TAKEN_FORMAT, frame_size),
+        }
+    }
+}
+
+/// The textures, the three pipelines and what the clusters and the loss were last drawn from.
+#[derive(Debug)]
+pub(super) struct ShadowBounce {
+    textures: ShadowBounceTextures,
+    cluster_pipeline: wgpu::RenderPipeline,
+    taken_pipeline: wgpu::RenderPipeline,
+    apply_pipeline: wgpu::RenderPipeline,
+    /// The frame and mesh uniforms the clusters and the loss were last drawn from (empty:
+    /// never drawn).
+    drawn_from: RefCell<Vec<u8>>,
+}
+
+/// What the pipelines are built from.
+pub(super) struct ShadowBounceSetup<'a> {
+    pub(super) module: &'a wgpu::ShaderModule,
+    pub(super) frame_only: &'a wgpu::PipelineLayout,
+    pub(super) linear_format: wgpu::TextureFormat,
+    pub(super) mask_format: wgpu::TextureFormat,
+    pub(super) depth_format: wgpu::TextureFormat,
+}
+
+impl ShadowBounce {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        textures: ShadowBounceTextures,
+        setup: &ShadowBounceSetup<'_>,
+    ) -> ShadowBounce {
+        let fragment = |entry: &'static str, targets| wgpu::FragmentState {
+            module: setup.module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            targets,
+        };
+        let vertex = wgpu::VertexState {
+            module: setup.module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        };
+        let alone = |label: &str, entry: &'static str, format: wgpu::TextureFormat| {
+            let targets =
+                [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(setup.frame_only),
+                vertex: vertex.clone(),
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: setup.module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let cluster_pipeline =
+            alone("shadow bounce clusters", "fs_shadow_bounce_clusters", setup.linear_format);
+        let taken_pipeline = alone("shadow bounce taken", "fs_shadow_bounce_taken", TAKEN_FORMAT);
+        // Into the frame's colour target (the mask and depth stay as the backdrop left them).
+        let frame_targets = [
+            Some(wgpu::ColorTargetState {
+                format: setup.linear_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::COLOR,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: setup.mask_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::empty(),
+            }),
+        ];
+        let apply_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadow bounce"),
+            layout: Some(setup.frame_only),
+            vertex,
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: setup.depth_format,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(fragment("fs_shadow_bounce", &frame_targets)),
+            multiview_mask: None,
+            cache: None,
+        });
+        ShadowBounce {
+            textures,
+            cluster_pipeline,
+            taken_pipeline,
+            apply_pipeline,
+            drawn_from: RefCell::new(Vec::new()),
+        }
+    }
+}
+
+impl Compositor {
+    /// The light the shadows take from the rest of the scene in words (for `--stats`).
+    pub fn shadow_bounce_summary(&self) -> &'static str {
+        if !self.settings.shadow_bounce {
+            "off (turned off)"
+        } else if self.layers.info[0] != 1 {
+            "off (no light layers: their albedo and normals are needed)"
+        } else if self.layers.albedo_slice.is_none() {
+            "off (the light layers hold no diffuse albedo)"
+        } else if self.linear_format != super::LINEAR_FORMAT {
+            "off (32-bit float targets cannot be rendered to here)"
+        } else {
+            "the shadowed pixels' loss in 16x16 clusters (64x64 near the receiver), form factors \
+             without visibility (surfaces the camera does not see are left out)"
+        }
+    }
+
+    /// The uniform's `shadow_bounce` field: on with layers holding an albedo, layered shadows
+    /// drawn and a scissor for them, and 32-bit float targets (the clusters' sums).
+    pub(super) fn shadow_bounce_uniform(&self, uniform: &FrameUniform) -> [u32; 4] {
+        let slice = match self.layers.albedo_slice {
+            Some(slice)
+                if self.settings.shadow_bounce && uniform.layer_info[0] == 1 && uniform.counts[1] == 1 =>
+            {
+                slice
+            }
+            _ => return [0; 4],
+        };
+        match self.shadow_scissor_all(uniform) {
+            Some([x, y, w, h]) if w > 0 && h > 0 => [1, x | y << 16, w | h << 16, slice],
+            _ => [0; 4],
+        }
+    }
+
+    /// Draws the clusters of what the shadows took and what each pixel loses, unless they are
+    /// already drawn from the same `uniform` and mesh uniforms (`mesh_bytes`). Reads the
+    /// backdrop after shadows: runs after the bounce light added to it, whose clusters
+    /// ([`Compositor::record_shadow_bounce_clusters`]) ran before.
+    pub(super) fn record_shadow_bounce_taken(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        mesh_bytes: &[u8],
+    ) {
+        let bounce = &self.shadow_bounce;
+        if uniform.shadow_bounce[0] != 1 {
+            return;
+        }
+        let mut key = bytemuck::bytes_of(uniform).to_vec();
+        key.extend_from_slice(mesh_bytes);
+        if *bounce.drawn_from.borrow() == key {
+            return;
+        }
+        *bounce.drawn_from.borrow_mut() = key;
+        {
+            let taken = &bounce.textures.taken;
+            let mut pass = super::colour_pass(
+                encoder,
+                "shadow bounce taken",
+                &taken.drawn_view,
+                wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+            );
+            pass.set_pipeline(&bounce.taken_pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        bounce.textures.taken.copy_drawn_to_read(encoder);
+    }
+
+    /// Draws the clusters of what the shadows took when the loss is to be drawn again this
+    /// frame (see [`Compositor::record_shadow_bounce_taken`], which decides from the same key):
+    /// before the bounce light adds to the backdrop after shadows, which they read.
+    pub(super) fn record_shadow_bounce_clusters(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        mesh_bytes: &[u8],
+    ) {
+        let bounce = &self.shadow_bounce;
+        if uniform.shadow_bounce[0] != 1 {
+            return;
+        }
+        let mut key = bytemuck::bytes_of(uniform).to_vec();
+        key.extend_from_slice(mesh_bytes);
+        if *bounce.drawn_from.borrow() == key {
+            return;
+        }
+        // The fine rows from the pixels, then the coarse rows from the copy of the fine ones.
+        let clusters = &bounce.textures.clusters;
+        for (load, [x, y, w, h]) in [
+            (wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), [0, 0, 3 * FINE, FINE]),
+            (wgpu::LoadOp::Load, [0, FINE, 3 * COARSE, COARSE]),
+        ] {
+            {
+                let mut pass =
+                    super::colour_pass(encoder, "shadow bounce clusters", &clusters.drawn_view, load);
+                pass.set_pipeline(&bounce.cluster_pipeline);
+                pass.set_bind_group(0, &self.frame_bind_group, &[]);
+                pass.set_scissor_rect(x, y, w, h);
+                pass.draw(0..3, 0..1);
+            }
+            clusters.copy_drawn_to_read(encoder);
+        }
+    }
+
+    /// Removes what each pixel loses from the frame, then copies the frame into the backdrop
+    /// after shadows, which the live objects' shading and edges read.
+    pub(super) fn record_shadow_bounce(&self, encoder: &mut wgpu::CommandEncoder, uniform: &FrameUniform) {
+        if uniform.shadow_bounce[0] != 1 {
+            return;
+        }
+        {
+            let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+            pass.set_pipeline(&self.shadow_bounce.apply_pipeline);
+            pass.draw(0..3, 0..1);
+        }
+        encoder.copy_texture_to_texture(
+            self.linear_texture.as_image_copy(),
+            self.shadowed_texture.as_image_copy(),
+            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+        );
+    }
+}
