@@ -359,6 +359,9 @@ fn render_in_pool(
 
     // Image.
     let render_start = Instant::now();
+    let view =
+        crate::integrators::ViewContext { rays: &rays, bounds: (x0, y0, x1, y1), seed: options.seed, spp };
+    let view_counters = integrator.prepare_view(&world, &view);
     let frame = Frame {
         world: &world,
         rays: &rays,
@@ -391,6 +394,7 @@ fn render_in_pool(
             }
         };
     let time_render = render_start.elapsed();
+    counters.add(&view_counters);
 
     // Probes go with the layers.
     let probes_start = Instant::now();

@@ -34,6 +34,7 @@ pub mod clip;
 pub mod cull;
 pub mod estimate;
 pub mod grid;
+pub mod irradiance_cache;
 pub mod kdtree;
 pub mod progressive;
 mod render;
@@ -103,6 +104,8 @@ pub struct PhotonMapSettings {
     pub alpha: f32,
     /// `passes`: passes of a progressive render (unless `--time` or `--target-error` decide).
     pub passes: u32,
+    /// `irradiancecache` and its parameters ([`irradiance_cache`]).
+    pub irradiance_cache: irradiance_cache::IrradianceCacheSettings,
 }
 
 impl Default for PhotonMapSettings {
@@ -125,6 +128,7 @@ impl Default for PhotonMapSettings {
             progressive: false,
             alpha: progressive::DEFAULT_ALPHA,
             passes: progressive::DEFAULT_PASSES,
+            irradiance_cache: irradiance_cache::IrradianceCacheSettings::default(),
         }
     }
 }
@@ -258,8 +262,11 @@ impl PhotonMapSettings {
             Some(other) => notes
                 .push(format!("photonmap \"filter\" \"{other}\" is not box, cone or gaussian: using box")),
         }
+        s.irradiance_cache.read(params, &mut notes);
         for p in &params.0 {
-            if !KNOWN_PARAMS.contains(&p.name.as_str()) {
+            if !KNOWN_PARAMS.contains(&p.name.as_str())
+                && !irradiance_cache::PARAMS.contains(&p.name.as_str())
+            {
                 notes.push(format!("photonmap parameter \"{}\" is unknown: ignored", p.name));
             }
         }
@@ -370,6 +377,8 @@ pub struct PhotonStats {
     pub warnings: Vec<String>,
     /// Progressive mode: the pass and its search radii (squared).
     pub progressive: Option<(u32, progressive::Radii)>,
+    /// The irradiance cache's records and use, where one was built.
+    pub irradiance_cache: Option<irradiance_cache::CacheStats>,
 }
 
 impl PhotonStats {
@@ -410,6 +419,7 @@ impl PhotonStats {
             "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4})",
             self.lookups, self.gather_rays, self.max_dist
         ));
+        out.extend(self.irradiance_cache.as_ref().map(|c| c.line()));
         if let Some((pass, r)) = &self.progressive {
             let median = |f: &Option<std::sync::Arc<progressive::RadiusField>>| {
                 f.as_ref().map_or("none".to_string(), |f| {
@@ -445,6 +455,8 @@ pub struct PhotonMapper {
     direct: Option<KdTree<Photon>>,
     indirect: Option<KdTree<Photon>>,
     radiance: Option<KdTree<RadiancePhoton>>,
+    /// Records of the final gather's indirect irradiance over the view, once built.
+    irradiance_cache: Option<irradiance_cache::IrradianceCache>,
     /// Whether final gathering runs (it is skipped without interreflection).
     gather: bool,
     max_d2: f32,
@@ -662,6 +674,7 @@ impl PhotonMapper {
             direct,
             indirect,
             radiance,
+            irradiance_cache: None,
             gather,
             max_d2,
             light_bounds,
@@ -705,6 +718,7 @@ impl PhotonMapper {
             .map(|(r, c)| (*r, c.load(Ordering::Relaxed)))
             .filter(|(_, c)| *c > 0)
             .collect();
+        s.irradiance_cache = self.irradiance_cache.as_ref().map(|c| c.stats());
         s
     }
 }
@@ -740,6 +754,10 @@ impl Integrator for PhotonMapper {
 
     fn photon_stats(&self) -> Option<PhotonStats> {
         Some(PhotonMapper::stats(self))
+    }
+
+    fn prepare_view(&mut self, world: &World, view: &crate::integrators::ViewContext) -> RayCounters {
+        self.build_irradiance_cache(world, view)
     }
 
     fn default_passes(&self) -> Option<u32> {
