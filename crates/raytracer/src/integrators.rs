@@ -367,9 +367,9 @@ pub trait Integrator: Sync {
     }
 }
 
-/// The view an image is rendered from: its camera rays, the pixels rendered (`(x0, y0, x1,
-/// y1)`, the crop window in full-frame coordinates), the render's seed and its samples per
-/// pixel (of one pass).
+/// The view an image is rendered from: its camera rays, its pixels (`(x0, y0, x1, y1)`, the
+/// whole frame even for a crop, so that a crop's pixels are the full frame's), the render's seed
+/// and its samples per pixel (of one pass).
 #[derive(Clone, Copy, Debug)]
 pub struct ViewContext<'a> {
     pub rays: &'a crate::render::CameraRays,

@@ -359,8 +359,14 @@ fn render_in_pool(
 
     // Image.
     let render_start = Instant::now();
-    let view =
-        crate::integrators::ViewContext { rays: &rays, bounds: (x0, y0, x1, y1), seed: options.seed, spp };
+    // The whole frame, not the crop: a crop's or a tile's pixels are then the full frame's, bit for
+    // bit (docs/scale-out.md), at the price of each tile building the whole view's state.
+    let view = crate::integrators::ViewContext {
+        rays: &rays,
+        bounds: (0, 0, full_w, full_h),
+        seed: options.seed,
+        spp,
+    };
     let view_counters = integrator.prepare_view(&world, &view);
     let frame = Frame {
         world: &world,

@@ -65,6 +65,25 @@ fn cached_images_do_not_depend_on_the_thread_count() {
     }
 }
 
+/// The cache is built over the whole frame whatever the crop, so a crop (a tile of
+/// `--tiles`) holds exactly the full frame's pixels, as without the cache.
+#[test]
+fn a_crop_is_the_full_frame_bit_for_bit() {
+    let mut scene = cornell();
+    scene.camera.x_resolution = 64;
+    scene.camera.y_resolution = 64;
+    let full = run(&scene, settings(true), 2, 2);
+    scene.camera.crop_window = depth_remap::CropWindow { xmin: 0.25, xmax: 0.75, ymin: 0.0, ymax: 0.5 };
+    let crop = run(&scene, settings(true), 2, 2);
+    assert!(cache_use(&crop).1 > 0);
+    for y in 0..crop.image.height {
+        for x in 0..crop.image.width {
+            let (fx, fy) = (x + crop.image.x_offset, y + crop.image.y_offset);
+            assert_eq!(crop.image.rgb(x, y), full.image.rgb(fx, fy), "pixel ({fx}, {fy})");
+        }
+    }
+}
+
 /// Inside a sphere that emits 1 and reflects half (matte), the radiance is 2 everywhere; its
 /// indirect part (1 of the 2) comes from the cache at nearly every sample, and the image is
 /// as right as without the cache.
