@@ -183,8 +183,16 @@ fn scenes(root: &Path, quick: bool) -> Vec<BenchScene> {
     } else {
         cornell.extend([direct_rung(4), direct_rung(16)]);
         cornell.extend([4, 8, 16, 32, 64, 128, 256].map(path_rung));
-        // The defaults (100k photons, 8 gather rays) and progressive photon mapping.
-        cornell.extend(pm(&[100_000], &[(4, 8), (16, 8), (64, 8)]));
+        // The defaults (100k photons, 8 gather rays, the irradiance cache) and progressive
+        // photon mapping; 256 spp shows the cache's bias floor.
+        cornell.extend(pm(&[100_000], &[(2, 8), (4, 8), (8, 8), (16, 8), (64, 8), (256, 8)]));
+        // Without the irradiance cache (the defaults before it), and with fewer rays per record.
+        for (extra, spps) in [
+            ("\"string irradiancecache\" [\"false\"]", &[4, 16, 64][..]),
+            ("\"integer cachesamples\" [64]", &[4, 8, 16][..]),
+        ] {
+            cornell.extend(spps.iter().map(|&spp| photon_rung(100_000, spp, 8, extra)));
+        }
         // Candidates for the defaults near relMSE 1e-3: gather rays against pixel samples.
         cornell.extend(pm(&[100_000], &[(16, 4), (8, 16), (32, 4)]));
         for (photons, gather) in [(100_000, 4), (25_000, 4)] {

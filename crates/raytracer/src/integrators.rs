@@ -348,6 +348,11 @@ pub trait Integrator: Sync {
     fn photon_stats(&self) -> Option<PhotonStats> {
         None
     }
+    /// Work that depends on the view, done once before the image (the photon mapper's
+    /// irradiance cache), in the render's thread pool; returns the rays it traced.
+    fn prepare_view(&mut self, _world: &World, _view: &ViewContext) -> RayCounters {
+        RayCounters::default()
+    }
     /// Passes a render with this integrator takes by default (`None`: one pass, unless
     /// `--time` or `--target-error` ask for more); see [`crate::passes`].
     fn default_passes(&self) -> Option<u32> {
@@ -360,6 +365,17 @@ pub trait Integrator: Sync {
     fn next_pass(&mut self, _world: &World) -> Option<Box<dyn Integrator>> {
         None
     }
+}
+
+/// The view an image is rendered from: its camera rays, its pixels (`(x0, y0, x1, y1)`, the
+/// whole frame even for a crop, so that a crop's pixels are the full frame's), the render's seed
+/// and its samples per pixel (of one pass).
+#[derive(Clone, Copy, Debug)]
+pub struct ViewContext<'a> {
+    pub rays: &'a crate::render::CameraRays,
+    pub bounds: (u32, u32, u32, u32),
+    pub seed: u64,
+    pub spp: u32,
 }
 
 /// Preparation of an integrator: threads are the render's pool (already installed), `seed` the

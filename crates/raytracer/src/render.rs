@@ -359,6 +359,15 @@ fn render_in_pool(
 
     // Image.
     let render_start = Instant::now();
+    // The whole frame, not the crop: a crop's or a tile's pixels are then the full frame's, bit for
+    // bit (docs/scale-out.md), at the price of each tile building the whole view's state.
+    let view = crate::integrators::ViewContext {
+        rays: &rays,
+        bounds: (0, 0, full_w, full_h),
+        seed: options.seed,
+        spp,
+    };
+    let view_counters = integrator.prepare_view(&world, &view);
     let frame = Frame {
         world: &world,
         rays: &rays,
@@ -391,6 +400,7 @@ fn render_in_pool(
             }
         };
     let time_render = render_start.elapsed();
+    counters.add(&view_counters);
 
     // Probes go with the layers.
     let probes_start = Instant::now();

@@ -34,7 +34,9 @@ pub mod clip;
 pub mod cull;
 pub mod estimate;
 pub mod grid;
+pub mod irradiance_cache;
 pub mod kdtree;
+mod octahedral;
 pub mod progressive;
 mod render;
 pub(crate) mod shoot;
@@ -46,6 +48,7 @@ use cull::{CullReason, LightBounds};
 pub use estimate::PhotonFilter;
 use glam::Vec3;
 use kdtree::{KdTree, Positioned};
+pub use octahedral::{pack_unit, unpack_unit};
 use rayon::prelude::*;
 use rib_parser::scene::ParamList;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -103,6 +106,8 @@ pub struct PhotonMapSettings {
     pub alpha: f32,
     /// `passes`: passes of a progressive render (unless `--time` or `--target-error` decide).
     pub passes: u32,
+    /// `irradiancecache` and its parameters ([`irradiance_cache`]).
+    pub irradiance_cache: irradiance_cache::IrradianceCacheSettings,
 }
 
 impl Default for PhotonMapSettings {
@@ -125,6 +130,7 @@ impl Default for PhotonMapSettings {
             progressive: false,
             alpha: progressive::DEFAULT_ALPHA,
             passes: progressive::DEFAULT_PASSES,
+            irradiance_cache: irradiance_cache::IrradianceCacheSettings::default(),
         }
     }
 }
@@ -258,8 +264,11 @@ impl PhotonMapSettings {
             Some(other) => notes
                 .push(format!("photonmap \"filter\" \"{other}\" is not box, cone or gaussian: using box")),
         }
+        s.irradiance_cache.read(params, &mut notes);
         for p in &params.0 {
-            if !KNOWN_PARAMS.contains(&p.name.as_str()) {
+            if !KNOWN_PARAMS.contains(&p.name.as_str())
+                && !irradiance_cache::PARAMS.contains(&p.name.as_str())
+            {
                 notes.push(format!("photonmap parameter \"{}\" is unknown: ignored", p.name));
             }
         }
@@ -297,35 +306,6 @@ impl Positioned for RadiancePhoton {
     fn position(&self) -> Vec3 {
         self.p
     }
-}
-
-/// Encodes a unit vector in 32 bits (octahedral mapping, 16 bits per coordinate on an odd grid
-/// so that the axes are exact; error below 1e-4 radians).
-pub fn pack_unit(v: Vec3) -> u32 {
-    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-    if !(l1 > 0.0) || !l1.is_finite() {
-        return pack_unit(Vec3::Z);
-    }
-    let (mut x, mut y) = (v.x / l1, v.y / l1);
-    if v.z < 0.0 {
-        let (ox, oy) = (x, y);
-        x = (1.0 - oy.abs()) * if ox >= 0.0 { 1.0 } else { -1.0 };
-        y = (1.0 - ox.abs()) * if oy >= 0.0 { 1.0 } else { -1.0 };
-    }
-    let q = |c: f32| ((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65534.0).round() as u32;
-    q(x) | (q(y) << 16)
-}
-
-/// Decodes [`pack_unit`].
-#[inline]
-pub fn unpack_unit(bits: u32) -> Vec3 {
-    let x = ((bits & 0xffff) as f32 / 65534.0 * 2.0 - 1.0).clamp(-1.0, 1.0);
-    let y = ((bits >> 16) as f32 / 65534.0 * 2.0 - 1.0).clamp(-1.0, 1.0);
-    let z = 1.0 - x.abs() - y.abs();
-    let t = (-z).max(0.0);
-    let x = x + if x >= 0.0 { -t } else { t };
-    let y = y + if y >= 0.0 { -t } else { t };
-    Vec3::new(x, y, z).normalize()
 }
 
 /// Size and cost of one photon map.
@@ -370,6 +350,8 @@ pub struct PhotonStats {
     pub warnings: Vec<String>,
     /// Progressive mode: the pass and its search radii (squared).
     pub progressive: Option<(u32, progressive::Radii)>,
+    /// The irradiance cache's records and use, where one was built.
+    pub irradiance_cache: Option<irradiance_cache::CacheStats>,
 }
 
 impl PhotonStats {
@@ -410,6 +392,7 @@ impl PhotonStats {
             "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4})",
             self.lookups, self.gather_rays, self.max_dist
         ));
+        out.extend(self.irradiance_cache.as_ref().map(|c| c.line()));
         if let Some((pass, r)) = &self.progressive {
             let median = |f: &Option<std::sync::Arc<progressive::RadiusField>>| {
                 f.as_ref().map_or("none".to_string(), |f| {
@@ -445,6 +428,8 @@ pub struct PhotonMapper {
     direct: Option<KdTree<Photon>>,
     indirect: Option<KdTree<Photon>>,
     radiance: Option<KdTree<RadiancePhoton>>,
+    /// Records of the final gather's indirect irradiance over the view, once built.
+    irradiance_cache: Option<irradiance_cache::IrradianceCache>,
     /// Whether final gathering runs (it is skipped without interreflection).
     gather: bool,
     max_d2: f32,
@@ -662,6 +647,7 @@ impl PhotonMapper {
             direct,
             indirect,
             radiance,
+            irradiance_cache: None,
             gather,
             max_d2,
             light_bounds,
@@ -705,6 +691,7 @@ impl PhotonMapper {
             .map(|(r, c)| (*r, c.load(Ordering::Relaxed)))
             .filter(|(_, c)| *c > 0)
             .collect();
+        s.irradiance_cache = self.irradiance_cache.as_ref().map(|c| c.stats());
         s
     }
 }
@@ -742,6 +729,10 @@ impl Integrator for PhotonMapper {
         Some(PhotonMapper::stats(self))
     }
 
+    fn prepare_view(&mut self, world: &World, view: &crate::integrators::ViewContext) -> RayCounters {
+        self.build_irradiance_cache(world, view)
+    }
+
     fn default_passes(&self) -> Option<u32> {
         self.settings.progressive.then_some(self.settings.passes)
     }
@@ -759,20 +750,6 @@ impl Integrator for PhotonMapper {
 mod tests {
     use super::*;
     use crate::testing::shader;
-
-    #[test]
-    fn unit_vectors_round_trip() {
-        let mut rng = crate::sampling::Rng::new(9, 9);
-        for _ in 0..10_000 {
-            let v = crate::sampling::sample_uniform_sphere(rng.uniform2());
-            let w = unpack_unit(pack_unit(v));
-            assert!((v - w).length() < 1e-4, "{v} -> {w}");
-        }
-        for v in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
-            assert!((unpack_unit(pack_unit(v)) - v).length() < 1e-4);
-        }
-        assert_eq!(unpack_unit(pack_unit(Vec3::new(f32::NAN, 0.0, 0.0))), Vec3::Z);
-    }
 
     #[test]
     fn parameters_parse_and_range_errors_are_reported() {

@@ -69,11 +69,33 @@ struct Scratch {
     gather_rays: u64,
     lookups: u64,
     culled: [u64; 3],
+    /// While an irradiance-cache record gathers: the sum of the inverse lengths of its gather
+    /// rays' first segments and their count (misses count with length infinity).
+    hit_distances: Option<(f32, u32)>,
+    /// Camera samples whose indirect light the irradiance cache gave, and those it could not.
+    cache_interpolated: u64,
+    cache_gathered: u64,
+}
+
+impl Scratch {
+    fn new(n_used: u32) -> Scratch {
+        Scratch {
+            nearest: estimate::Nearest::new(n_used as usize),
+            guide_heap: KnnHeap::new(GUIDE_PHOTONS),
+            guide_dirs: Vec::new(),
+            gather_rays: 0,
+            lookups: 0,
+            culled: [0; 3],
+            hit_distances: None,
+            cache_interpolated: 0,
+            cache_gathered: 0,
+        }
+    }
 }
 
 /// The normal of `si` on the side its ray arrived from.
 #[inline]
-fn facing_normal(si: &SurfaceInteraction) -> Vec3 {
+pub(super) fn facing_normal(si: &SurfaceInteraction) -> Vec3 {
     if si.ng.dot(si.wo) < 0.0 { -si.ng } else { si.ng }
 }
 
@@ -100,15 +122,17 @@ impl PhotonMapper {
         sampler: &mut Sampler,
         counters: &mut RayCounters,
     ) -> Radiance {
-        let mut scratch = Scratch {
-            nearest: estimate::Nearest::new(self.settings.n_used as usize),
-            guide_heap: KnnHeap::new(GUIDE_PHOTONS),
-            guide_dirs: Vec::new(),
-            gather_rays: 0,
-            lookups: 0,
-            culled: [0; 3],
-        };
+        let mut scratch = Scratch::new(self.settings.n_used);
         let r = self.li_depth(world, ray, 0, sampler, counters, &mut scratch);
+        self.add_counts(&scratch);
+        r
+    }
+
+    /// Adds a scratch's counts to the shared counters.
+    fn add_counts(&self, scratch: &Scratch) {
+        if let Some(cache) = &self.irradiance_cache {
+            cache.count(scratch.cache_interpolated, scratch.cache_gathered);
+        }
         let c = &self.counters;
         if scratch.gather_rays > 0 {
             c.gather_rays.fetch_add(scratch.gather_rays, Ordering::Relaxed);
@@ -121,7 +145,32 @@ impl PhotonMapper {
                 a.fetch_add(n, Ordering::Relaxed);
             }
         }
-        r
+    }
+
+    /// One irradiance-cache record's gather at the camera-visible surface `si` (a surface
+    /// whose non-specular lobes are all Lambertian): the final gather of today's path with
+    /// `n` rays through a white Lambertian BSDF in the surface's frame, so that the result is
+    /// the indirect irradiance over pi (a matte surface reflects its albedo times it). Also the
+    /// harmonic mean length of the gather rays' first segments (Ward's record radius), infinite
+    /// when every ray left the scene.
+    pub(super) fn record_gather(
+        &self,
+        world: &World,
+        si: &SurfaceInteraction,
+        bsdf: &Bsdf,
+        n: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> (Vec3, f32) {
+        let mut white = Bsdf::new(bsdf.frame, bsdf.ng);
+        white.add(Lobe::Lambert { r: Vec3::ONE });
+        let mut scratch = Scratch::new(self.settings.n_used);
+        scratch.hit_distances = Some((0.0, 0));
+        let e = self.gather(world, si, &white, n, sampler, counters, &mut scratch);
+        self.add_counts(&scratch);
+        let (inverse_sum, count) = scratch.hit_distances.unwrap_or((0.0, 0));
+        let harmonic = if inverse_sum > 0.0 { count as f32 / inverse_sum } else { f32::INFINITY };
+        (e, harmonic)
     }
 
     fn li_depth(
@@ -168,7 +217,13 @@ impl PhotonMapper {
                     l += caustic;
                 }
                 if self.gather {
-                    l += self.gather(world, &si, &bsdf, sampler, counters, scratch);
+                    l += match self.cached_indirect(&si, &bsdf, scratch) {
+                        Some(cached) => cached,
+                        None => {
+                            let n = self.settings.final_gather_samples;
+                            self.gather(world, &si, &bsdf, n, sampler, counters, scratch)
+                        }
+                    };
                 } else if let Some(indirect) =
                     self.visible_photons(VisibleMap::Indirect, &si, n, &bsdf, scratch)
                 {
@@ -186,6 +241,26 @@ impl PhotonMapper {
             }
         }
         Radiance { rgb: sanitize(l * weight), alpha: 1.0 }
+    }
+
+    /// Indirect light at a matte surface from the irradiance cache: its albedo times the
+    /// interpolated irradiance over pi; `None` without a cache, at other surfaces and where no
+    /// record covers the point.
+    fn cached_indirect(&self, si: &SurfaceInteraction, bsdf: &Bsdf, scratch: &mut Scratch) -> Option<Vec3> {
+        let cache = self.irradiance_cache.as_ref()?;
+        if !super::irradiance_cache::cacheable(bsdf) {
+            return None;
+        }
+        match cache.interpolate(si.p, facing_normal(si)) {
+            Some(e) => {
+                scratch.cache_interpolated += 1;
+                Some(bsdf.diffuse_reflectance() * e)
+            }
+            None => {
+                scratch.cache_gathered += 1;
+                None
+            }
+        }
     }
 
     /// Direct light from every light of the surface's set that can reach it: light sampling
@@ -221,17 +296,19 @@ impl PhotonMapper {
         l
     }
 
-    /// Indirect light reflected at `si` by final gathering.
+    /// Indirect light reflected at `si` by final gathering with `n` gather rays.
+    #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
         world: &World,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
+        n: u32,
         sampler: &mut Sampler,
         counters: &mut RayCounters,
         scratch: &mut Scratch,
     ) -> Vec3 {
-        let n = self.settings.final_gather_samples.max(1);
+        let n = n.max(1);
         if self.settings.gather_sampling == GatherSampling::Photons && n >= 2 {
             self.collect_guide_directions(si, scratch);
             if !scratch.guide_dirs.is_empty() {
@@ -383,6 +460,18 @@ impl PhotonMapper {
             let found = find_surface(world, ray, sampler, &mut rays);
             counters.bounce += rays;
             scratch.gather_rays += rays;
+            if first_segment
+                && levels == SECONDARY_GATHER_LEVELS
+                && let Some((inverse_sum, count)) = &mut scratch.hit_distances
+            {
+                *count += 1;
+                if let Some((si, _)) = &found {
+                    let d = (si.p - ray.origin).length();
+                    if d > 0.0 {
+                        *inverse_sum += 1.0 / d;
+                    }
+                }
+            }
             let Some((si, weight)) = found else { break };
             beta *= weight;
             let material = world.material(si.attributes);
