@@ -197,7 +197,7 @@ impl SeamWelder {
             neighbours.entry(b).or_default().push(a);
             forward.insert((a, b), t);
         }
-        let positions = mesh.positions.clone();
+        let positions = &mesh.positions;
         let mut starts: Vec<u32> = neighbours.keys().copied().collect();
         starts.sort_unstable();
         for a in starts {
