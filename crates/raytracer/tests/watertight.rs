@@ -4,9 +4,10 @@
 //!
 //! Scenes: the aqsis teapot (32 Bezier `NuPatch`es), a `PatchMesh` per basis split into 2 x 2
 //! separate primitives, a periodic b-spline tube split in two, two uniform-knot `NuPatch`es
-//! (one walked backwards) sharing a side, and a closed subdivision mesh. Each seam point is
-//! the true surface at the shared parameter line, nudged across the seam by up to a few
-//! tessellation tolerances; a ray from a quarter of the scene away must hit within a few
+//! (one walked backwards) sharing a side, a closed subdivision mesh, and a closed body cut
+//! into two subdivision meshes that dice their shared boundary at different levels. Each seam
+//! point is the true surface at the shared parameter line, nudged across the seam by up to a
+//! few tessellation tolerances; a ray from a quarter of the scene away must hit within a few
 //! tolerances of it. A crack (T-junction or a few-ulp mismatch) lets some of these rays
 //! through to whatever lies behind, or to nothing.
 
@@ -598,4 +599,179 @@ WorldEnd
     }
     eprintln!("subdivision: {} probes: {world_leaks} world leaks, {proxy_leaks} proxy leaks", probes.len());
     assert_eq!((world_leaks, proxy_leaks), (0, 0));
+}
+
+/// A point of the uniform cubic B-spline through `c` (sharp ends: phantom points `2 c0 - c1`),
+/// at `t` in `[0, c.len() - 1]`: the limit of a boundary crease of a `SubdivisionMesh` with
+/// `interpolateboundary` between two sharp corners.
+fn crease_curve(c: &[DVec3], t: f64) -> DVec3 {
+    let n = c.len();
+    let at = |i: isize| -> DVec3 {
+        if i < 0 {
+            2.0 * c[0] - c[1]
+        } else if i as usize >= n {
+            2.0 * c[n - 1] - c[n - 2]
+        } else {
+            c[i as usize]
+        }
+    };
+    let span = (t.floor() as isize).clamp(0, n as isize - 2);
+    let s = t - span as f64;
+    let w = [
+        (1.0 - s).powi(3),
+        3.0 * s.powi(3) - 6.0 * s * s + 4.0,
+        -3.0 * s.powi(3) + 3.0 * s * s + 3.0 * s + 1.0,
+        s.powi(3),
+    ];
+    (w[0] * at(span - 1) + w[1] * at(span) + w[2] * at(span + 1) + w[3] * at(span + 2)) / 6.0
+}
+
+/// The vertices on edges used by one triangle only.
+fn open_boundary_vertices(indices: &[[u32; 3]]) -> usize {
+    let mut edges = std::collections::HashMap::new();
+    for t in indices {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let mut vertices: Vec<u32> =
+        edges.iter().filter(|&(_, &n)| n == 1).flat_map(|(&(a, b), _)| [a, b]).collect();
+    vertices.sort_unstable();
+    vertices.dedup();
+    vertices.len()
+}
+
+#[test]
+fn two_subdivision_meshes_sharing_a_boundary_at_different_levels_have_no_crack() {
+    // A closed lumpy box cut along a wavy ring into a tall spiky dome and a nearly flat cap:
+    // two 3 x 3-face SubdivisionMeshes sharing their 12 boundary vertices. The dome's
+    // curvature asks for more levels than the cap's, so each dices the shared boundary curve
+    // at its own rate unless the seam is closed between them.
+    let ring: Vec<DVec3> = (0..16)
+        .map(|k| {
+            let (x, y) = ((k / 4) as f64 - 1.5, (k % 4) as f64 - 1.5);
+            DVec3::new(x, y, 0.15 * (2.1 * x + 1.3 * y).sin())
+        })
+        .collect();
+    let grid = |lift: &dyn Fn(usize) -> f64| -> Vec<DVec3> {
+        (0..16)
+            .map(|k| {
+                let inner = (1..3).contains(&(k / 4)) && (1..3).contains(&(k % 4));
+                let p = ring[k];
+                if inner { DVec3::new(p.x * 0.8, p.y * 0.8, lift(k)) } else { p }
+            })
+            .collect()
+    };
+    let dome = grid(&|k| match k {
+        5 => 4.0,
+        6 => 1.2,
+        9 => 1.5,
+        _ => 3.5,
+    });
+    let cap = grid(&|_| -0.05);
+    // Faces of a 4 x 4 vertex grid; the cap walks them the other way so both face outwards.
+    let faces = |flip: bool| -> String {
+        let mut s = String::new();
+        for i in 0..3 {
+            for j in 0..3 {
+                let q = [4 * i + j, 4 * i + j + 1, 4 * (i + 1) + j + 1, 4 * (i + 1) + j];
+                let q = if flip { [q[3], q[2], q[1], q[0]] } else { q };
+                s += &format!("{} {} {} {}  ", q[0], q[1], q[2], q[3]);
+            }
+        }
+        s
+    };
+    let mesh = |points: &[DVec3], flip: bool| {
+        format!(
+            "SubdivisionMesh \"catmull-clark\" [4 4 4 4 4 4 4 4 4] [{}] [\"interpolateboundary\"] [1 0] [1] [] \"P\" [{}]\n",
+            faces(flip),
+            rib_points(points.iter().copied())
+        )
+    };
+    let rib = format!("WorldBegin\n{}{}WorldEnd\n", mesh(&dome, false), mesh(&cap, true));
+    let scene = load("two-subdivs.rib", rib);
+
+    // Tessellated one by one, the two put different numbers of vertices on the ring.
+    let tolerance = tessellation_tolerance(None);
+    let ring_vertices = |shape: &Shape| {
+        let mesh = tessellate::tessellate(shape, &tolerance).expect("tessellates");
+        open_boundary_vertices(&mesh.indices)
+    };
+    let (dome_ring, cap_ring) =
+        (ring_vertices(&scene.shapes[0].shape), ring_vertices(&scene.shapes[1].shape));
+    eprintln!("ring vertices tessellated alone: dome {dome_ring}, cap {cap_ring}");
+    assert!(
+        dome_ring >= 2 * cap_ring,
+        "the dome should dice the ring more finely: {dome_ring} vs {cap_ring}"
+    );
+
+    // Targets next to the ring (the crease between dome and cap), nudged towards a point the
+    // body is star-shaped around (so inside it); rays from
+    // far outside, within 60 degrees of the normal of either side (the box's side outwards,
+    // the cap's downwards), must meet the surface by `slack` past them. A ray through a crack
+    // goes on to the far side of the body, at least half a unit further.
+    let sides: [([usize; 4], DVec3); 4] = [
+        ([0, 1, 2, 3], DVec3::NEG_X),
+        ([3, 7, 11, 15], DVec3::Y),
+        ([15, 14, 13, 12], DVec3::X),
+        ([12, 8, 4, 0], DVec3::NEG_Y),
+    ];
+    let inside = DVec3::new(0.0, 0.0, 0.5);
+    let mut rng = Rng(0x51ab_d1c5);
+    let mut probes = Vec::new();
+    for (side, out) in &sides {
+        let c: Vec<DVec3> = side.iter().map(|&k| ring[k]).collect();
+        for k in 0..1000 {
+            // Away from the sharp corners, where dome and cap close to a thin wedge.
+            let t = rng.range(0.4, 2.6);
+            let on_seam = crease_curve(&c, t);
+            let aim = on_seam + 0.01 * (inside - on_seam).normalize();
+            let normal = if k % 2 == 0 { *out } else { DVec3::NEG_Z };
+            let direction = loop {
+                let d = rng.unit();
+                if -d.dot(normal) >= 60f64.to_radians().cos() {
+                    break d;
+                }
+            };
+            probes.push(Probe { aim, direction });
+        }
+    }
+    let (length, slack) = (10.0, 0.05);
+    let eye = DVec3::new(1.0, -2.0, 12.0);
+    // The welder adds its fans to the newer mesh: the finer one, or the coarser one.
+    let cap_first = format!("WorldBegin\n{}{}WorldEnd\n", mesh(&cap, true), mesh(&dome, false));
+    let mut leaks_by_order = Vec::new();
+    for (order, scene) in [("dome first", scene), ("cap first", load("cap-first.rib", cap_first))] {
+        let mut diagnostics = Diagnostics::default();
+        let footprint = PixelFootprint::Perspective { radians_per_pixel: 1e-3 };
+        let world = World::build(&scene, eye, footprint, &mut diagnostics).expect("world builds");
+        let geometry = scene_geometry(&scene, &tolerance);
+        let triangles: Vec<[Vec3; 3]> =
+            (0..geometry.mesh.triangle_count()).map(|t| geometry.mesh.triangle_f32(t)).collect();
+        let (mut world_leaks, mut proxy_leaks) = (0, 0);
+        for probe in &probes {
+            let origin = probe.aim - probe.direction * length;
+            let ray = Ray::new((origin - eye).as_vec3(), probe.direction.as_vec3());
+            if !world.intersect(&ray).is_some_and(|h| f64::from(h.t) <= length + slack) {
+                world_leaks += 1;
+            }
+            let local = geometry.mesh.local_from_world(origin);
+            let shear = RayShear::new(local.as_vec3(), probe.direction.as_vec3()).expect("a ray");
+            let reach = (length + slack) as f32;
+            if !triangles.iter().any(|&[a, b, c]| intersect_triangle(&shear, a, b, c, reach).is_some()) {
+                proxy_leaks += 1;
+            }
+        }
+        eprintln!(
+            "two subdivision meshes, {order}: {} probes: {world_leaks} world leaks, {proxy_leaks} proxy leaks",
+            probes.len()
+        );
+        leaks_by_order.push((world_leaks, proxy_leaks));
+    }
+    assert_eq!(
+        leaks_by_order,
+        [(0, 0), (0, 0)],
+        "rays through the seam (world, haptic proxy; dome first, cap first)"
+    );
 }
