@@ -21,7 +21,6 @@ use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
 use super::shadows::{AO_REACH, merge};
 use super::sphere_atlas::SphereMapAtlas;
 use glam::DVec3;
-use std::cell::RefCell;
 
 /// Texels along each side of a sphere's map (`bounce.wgsl` RADIOSITY_MAP_TEXELS).
 pub(super) const RADIOSITY_MAP_TEXELS: u32 = 32;
@@ -34,7 +33,7 @@ pub(super) struct Bounce {
     map_pipeline: wgpu::RenderPipeline,
     bounce_pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
-    drawn_from: RefCell<Vec<u8>>,
+    drawn_from: super::DrawnFrom,
 }
 
 /// What the bounce's pipelines are built from.
@@ -108,7 +107,7 @@ impl Bounce {
             multiview_mask: None,
             cache: None,
         });
-        Bounce { atlas, map_pipeline, bounce_pipeline, drawn_from: RefCell::new(Vec::new()) }
+        Bounce { atlas, map_pipeline, bounce_pipeline, drawn_from: super::DrawnFrom::default() }
     }
 }
 
@@ -158,12 +157,9 @@ impl Compositor {
         if uniform.bounce[0] != 1 || uniform.layer_info[3] == 0 {
             return;
         }
-        let mut key = bytemuck::bytes_of(uniform).to_vec();
-        key.extend_from_slice(mesh_bytes);
-        if *maps.drawn_from.borrow() == key {
+        if !maps.drawn_from.renew(uniform, mesh_bytes) {
             return;
         }
-        *maps.drawn_from.borrow_mut() = key;
         {
             let mut pass =
                 super::colour_pass(encoder, "radiosity maps", &maps.atlas.drawn_view, wgpu::LoadOp::Load);

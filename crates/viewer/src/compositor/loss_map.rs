@@ -15,7 +15,6 @@ use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
 use super::sphere_atlas::SphereMapAtlas;
 use crate::live::LiveObjects;
-use std::cell::RefCell;
 
 /// Texels along each side of a sphere's map (`shadow_loss.wgsl` LOSS_MAP_TEXELS).
 pub(super) const LOSS_MAP_TEXELS: u32 = 32;
@@ -28,7 +27,7 @@ pub(super) struct LossMaps {
     atlas: SphereMapAtlas,
     pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
-    drawn_from: RefCell<Vec<u8>>,
+    drawn_from: super::DrawnFrom,
 }
 
 impl LossMaps {
@@ -64,7 +63,7 @@ impl LossMaps {
             multiview_mask: None,
             cache: None,
         });
-        LossMaps { atlas, pipeline, drawn_from: RefCell::new(Vec::new()) }
+        LossMaps { atlas, pipeline, drawn_from: super::DrawnFrom::default() }
     }
 }
 
@@ -109,12 +108,9 @@ impl Compositor {
         if !self.settings.own_shadow_maps || uniform.counts[1] != 1 || !probes || row_count == 0 {
             return;
         }
-        let mut key = bytemuck::bytes_of(uniform).to_vec();
-        key.extend_from_slice(mesh_bytes);
-        if *maps.drawn_from.borrow() == key {
+        if !maps.drawn_from.renew(uniform, mesh_bytes) {
             return;
         }
-        *maps.drawn_from.borrow_mut() = key;
         {
             let mut pass = super::colour_pass(
                 encoder,

@@ -708,6 +708,34 @@ impl Compositor {
     }
 }
 
+/// What a cached pass (the loss maps, the radiosity maps, the shadows' second bounce) was last
+/// drawn from: the frame uniform's bytes and the live meshes' uniforms. Empty: never drawn.
+#[derive(Debug, Default)]
+struct DrawnFrom(std::cell::RefCell<Vec<u8>>);
+
+impl DrawnFrom {
+    fn key(uniform: &FrameUniform, mesh_bytes: &[u8]) -> Vec<u8> {
+        let mut key = bytemuck::bytes_of(uniform).to_vec();
+        key.extend_from_slice(mesh_bytes);
+        key
+    }
+
+    /// Whether the pass was last drawn from `uniform` and `mesh_bytes`.
+    fn is_current(&self, uniform: &FrameUniform, mesh_bytes: &[u8]) -> bool {
+        *self.0.borrow() == Self::key(uniform, mesh_bytes)
+    }
+
+    /// Whether the pass must be drawn again for `uniform` and `mesh_bytes`; if so, records them.
+    fn renew(&self, uniform: &FrameUniform, mesh_bytes: &[u8]) -> bool {
+        let key = Self::key(uniform, mesh_bytes);
+        if *self.0.borrow() == key {
+            return false;
+        }
+        *self.0.borrow_mut() = key;
+        true
+    }
+}
+
 /// A render pass into one colour target, without depth, that starts from what the target holds
 /// (`load`) and stores what it draws: the shape of the full-screen and per-sphere map passes.
 fn colour_pass<'e>(

@@ -16,7 +16,6 @@
 
 use super::Compositor;
 use super::lighting::FrameUniform;
-use std::cell::RefCell;
 
 /// Fine clusters along each side of the shadows' scissor, and coarse ones (4x4 fine ones each;
 /// `shadow_bounce.wgsl` SHADOW_BOUNCE_FINE and SHADOW_BOUNCE_COARSE).
@@ -109,7 +108,7 @@ pub(super) struct ShadowBounce {
     apply_pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the clusters and the loss were last drawn from (empty:
     /// never drawn).
-    drawn_from: RefCell<Vec<u8>>,
+    drawn_from: super::DrawnFrom,
 }
 
 /// What the pipelines are built from.
@@ -197,7 +196,7 @@ impl ShadowBounce {
             cluster_pipeline,
             taken_pipeline,
             apply_pipeline,
-            drawn_from: RefCell::new(Vec::new()),
+            drawn_from: super::DrawnFrom::default(),
         }
     }
 }
@@ -250,12 +249,9 @@ impl Compositor {
         if uniform.shadow_bounce[0] != 1 {
             return;
         }
-        let mut key = bytemuck::bytes_of(uniform).to_vec();
-        key.extend_from_slice(mesh_bytes);
-        if *bounce.drawn_from.borrow() == key {
+        if !bounce.drawn_from.renew(uniform, mesh_bytes) {
             return;
         }
-        *bounce.drawn_from.borrow_mut() = key;
         {
             let taken = &bounce.textures.taken;
             let mut pass = super::colour_pass(
@@ -284,9 +280,7 @@ impl Compositor {
         if uniform.shadow_bounce[0] != 1 {
             return;
         }
-        let mut key = bytemuck::bytes_of(uniform).to_vec();
-        key.extend_from_slice(mesh_bytes);
-        if *bounce.drawn_from.borrow() == key {
+        if bounce.drawn_from.is_current(uniform, mesh_bytes) {
             return;
         }
         // The fine rows from the pixels, then the coarse rows from the copy of the fine ones.
