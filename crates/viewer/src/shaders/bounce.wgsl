@@ -196,6 +196,34 @@ fn occlusion_correction(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>, albedo: ve
     return sum;
 }
 
+// A pre-rendered pixel as a receiver of indirect light: its albedo (from the sidecar layer
+// `albedo_layer`), surface point and unit normal; `valid` is false where the pixel has no
+// albedo, no surface or no normal, so it neither gains nor loses light.
+struct Receiver {
+    albedo: vec3<f32>,
+    p: vec3<f32>,
+    n: vec3<f32>,
+    valid: bool,
+}
+
+fn receiver_at(pixel: vec2<i32>, albedo_layer: i32) -> Receiver {
+    var r: Receiver;
+    r.valid = false;
+    r.albedo = textureLoad(light_layers, pixel, albedo_layer, 0).rgb;
+    if all(r.albedo <= vec3<f32>(0.0)) {
+        return r;
+    }
+    let centre = surface_point(pixel);
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    if centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
+        return r;
+    }
+    r.p = centre.xyz;
+    r.n = normalize(n_raw);
+    r.valid = true;
+    return r;
+}
+
 // The backdrop after shadows plus what the live spheres reflect onto it (albedo / pi times the
 // irradiance they send, from the sidecar's albedo and normal layers) and the correction of what
 // they hide (occlusion_correction), in the image's units, never below zero. Pixels that change
@@ -203,19 +231,13 @@ fn occlusion_correction(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>, albedo: ve
 @fragment
 fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let albedo = textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb;
-    if all(albedo <= vec3<f32>(0.0)) {
+    let r = receiver_at(pixel, i32(frame.bounce.y));
+    if !r.valid {
         discard;
     }
-    let centre = surface_point(pixel);
-    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
-    if centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
-        discard;
-    }
-    let n = normalize(n_raw);
-    var added = albedo / PI * bounce_irradiance(centre.xyz, n) * frame.tone.x;
+    var added = r.albedo / PI * bounce_irradiance(r.p, r.n) * frame.tone.x;
     if frame.bounce.w == 1u {
-        added += occlusion_correction(pixel, centre.xyz, n, albedo);
+        added += occlusion_correction(pixel, r.p, r.n, r.albedo);
     }
     if all(added == vec3<f32>(0.0)) {
         discard;

@@ -233,16 +233,11 @@ fn shadow_bounce_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_shadow_bounce_taken(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let albedo = textureLoad(light_layers, pixel, i32(frame.shadow_bounce.w), 0).rgb;
-    if all(albedo <= vec3<f32>(0.0)) {
+    let r = receiver_at(pixel, i32(frame.shadow_bounce.w));
+    if !r.valid {
         discard;
     }
-    let centre = surface_point(pixel);
-    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
-    if centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
-        discard;
-    }
-    let taken = albedo * shadow_bounce_loss(centre.xyz, normalize(n_raw));
+    let taken = r.albedo * shadow_bounce_loss(r.p, r.n);
     let before = textureLoad(backdrop_shadowed, pixel, 0).rgb;
     if all(taken <= before * SHADOW_BOUNCE_NEGLIGIBLE) {
         discard;
