@@ -482,7 +482,7 @@ fn the_teapot_has_no_cracks_between_its_patches() {
     let mut patches = Vec::new();
     for entity in &scene.shapes {
         let Shape::NuPatch(np) = &*entity.shape else { continue };
-        assert_eq!((np.nu, np.nv, np.u_order, np.v_order), (4, 4, 4, 4));
+        assert_eq!((np.basis.nu, np.basis.nv, np.basis.u_order, np.basis.v_order), (4, 4, 4, 4));
         patches.push((np.positions.clone(), entity.world_from_object));
     }
     let (surfaces, seams) = teapot_surfaces(&patches);

@@ -258,14 +258,7 @@ pub fn mismatch(a: &Shape, b: &Shape) -> Option<String> {
         .or_else(|| count("positions", x.positions.len(), y.positions.len())),
         (Shape::NuPatch(x), Shape::NuPatch(y)) => differ(
             "other orders, knots, parameter ranges or trim curves",
-            x.nu == y.nu
-                && x.nv == y.nv
-                && x.u_order == y.u_order
-                && x.v_order == y.v_order
-                && x.u_knots == y.u_knots
-                && x.v_knots == y.v_knots
-                && (x.u_min, x.u_max, x.v_min, x.v_max) == (y.u_min, y.u_max, y.v_min, y.v_max)
-                && x.trim == y.trim,
+            x.basis == y.basis && x.trim == y.trim,
         )
         .or_else(|| count("positions", x.positions.len(), y.positions.len())),
         (Shape::SubdivisionMesh(x), Shape::SubdivisionMesh(y)) => differ(

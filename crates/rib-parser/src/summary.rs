@@ -212,10 +212,10 @@ fn shape_text(shape: &Shape) -> String {
         ),
         Shape::NuPatch(p) => format!(
             "NuPatch {}x{} order={}x{} trimmed={} primvars=[{}]",
-            p.nu,
-            p.nv,
-            p.u_order,
-            p.v_order,
+            p.basis.nu,
+            p.basis.nv,
+            p.basis.u_order,
+            p.basis.v_order,
             p.trim.is_some(),
             primvar_names(&p.primvars)
         ),

@@ -10,6 +10,7 @@
 //! `Blobby`, texture making, ...), so a target only writes what it supports.
 
 use crate::diagnostics::{DiagnosticKind, Diagnostics};
+pub use crate::scene::NuPatchBasis;
 use crate::scene::{
     Basis, FileLoc, Handle, MadeTexture, MadeTextureKind, ParamDecl, ParamList, PatchKind, ShaderCall,
     SubdivisionTag, TrimCurves, Wrap,
@@ -60,21 +61,6 @@ impl ShaderSlot {
             ShaderSlot::Deformation => "Deformation",
         }
     }
-}
-
-/// The arguments of `NuPatch` other than its parameter list.
-#[derive(Clone, Debug, PartialEq)]
-pub struct NuPatchArgs {
-    pub nu: u32,
-    pub u_order: u32,
-    pub u_knots: Vec<f32>,
-    pub u_min: f32,
-    pub u_max: f32,
-    pub nv: u32,
-    pub v_order: u32,
-    pub v_knots: Vec<f32>,
-    pub v_min: f32,
-    pub v_max: f32,
 }
 
 /// The quadric surfaces, with their RIB arguments (angles in degrees).
@@ -223,7 +209,7 @@ pub trait RibTarget {
         params: ParamList,
         cx: &mut Cx<'_>,
     );
-    fn nu_patch(&mut self, patch: NuPatchArgs, params: ParamList, cx: &mut Cx<'_>);
+    fn nu_patch(&mut self, patch: NuPatchBasis, params: ParamList, cx: &mut Cx<'_>);
     fn subdivision_mesh(
         &mut self,
         scheme: &str,

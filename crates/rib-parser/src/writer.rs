@@ -589,16 +589,16 @@ impl Writer {
                 let pw: Vec<f32> = n.positions.iter().flat_map(|v| v.to_array()).collect();
                 format!(
                     "NuPatch {} {} {} {} {} {} {} {} {} {} \"vertex hpoint Pw\" {}{}",
-                    n.nu,
-                    n.u_order,
-                    floats(&n.u_knots),
-                    f(n.u_min),
-                    f(n.u_max),
-                    n.nv,
-                    n.v_order,
-                    floats(&n.v_knots),
-                    f(n.v_min),
-                    f(n.v_max),
+                    n.basis.nu,
+                    n.basis.u_order,
+                    floats(&n.basis.u_knots),
+                    f(n.basis.u_min),
+                    f(n.basis.u_max),
+                    n.basis.nv,
+                    n.basis.v_order,
+                    floats(&n.basis.v_knots),
+                    f(n.basis.v_min),
+                    f(n.basis.v_max),
                     floats(&pw),
                     param_list(&n.primvars)
                 )

@@ -3,7 +3,7 @@
 
 use glam::{DMat4, DVec3};
 use rib_parser::scene::*;
-use rib_parser::target::{Cx, NuPatchArgs, Quadric, RibTarget, ShaderSlot};
+use rib_parser::target::{Cx, NuPatchBasis, Quadric, RibTarget, ShaderSlot};
 use rib_parser::{ReadOptions, Reader};
 
 /// Records every call as `name arg=value ...`.
@@ -84,7 +84,7 @@ impl RibTarget for Recorder {
         points_general_polygons(nloops: Vec<u32>, nverts: Vec<u32>, verts: Vec<u32>, params: ParamList);
         patch(kind: PatchKind, params: ParamList);
         patch_mesh(kind: PatchKind, nu: u32, uwrap: Wrap, nv: u32, vwrap: Wrap, params: ParamList);
-        nu_patch(patch: NuPatchArgs, params: ParamList);
+        nu_patch(patch: NuPatchBasis, params: ParamList);
         subdivision_mesh(scheme: &str, nverts: Vec<u32>, verts: Vec<u32>, tags: Vec<SubdivisionTag>, params: ParamList);
         quadric(q: Quadric, params: ParamList);
         points(params: ParamList);
@@ -208,7 +208,7 @@ fn subdivision_tags_and_nurbs_arguments() {
         "{c:?}"
     );
     assert!(
-        c[1].starts_with("nu_patch patch=NuPatchArgs { nu: 2, u_order: 2, u_knots: [0.0, 0.0, 1.0, 1.0]"),
+        c[1].starts_with("nu_patch patch=NuPatchBasis { nu: 2, u_order: 2, u_knots: [0.0, 0.0, 1.0, 1.0]"),
         "{c:?}"
     );
 }

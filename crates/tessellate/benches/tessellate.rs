@@ -7,8 +7,8 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{DMat4, DVec3, Vec3, Vec4};
 use rib_parser::scene::{
-    Basis, NuPatch, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh, SubdivisionTag,
-    TrimCurves, Wrap,
+    Basis, NuPatch, NuPatchBasis, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh,
+    SubdivisionTag, TrimCurves, Wrap,
 };
 use std::hint::black_box;
 use std::sync::Arc;
@@ -145,16 +145,18 @@ fn nurbs_sphere() -> NuPatch {
         }
     }
     NuPatch {
-        nu: 9,
-        u_order: 3,
-        u_knots: CIRCLE_KNOTS.to_vec(),
-        u_min: 0.0,
-        u_max: 1.0,
-        nv: 5,
-        v_order: 3,
-        v_knots: vec![0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0],
-        v_min: 0.0,
-        v_max: 1.0,
+        basis: NuPatchBasis {
+            nu: 9,
+            u_order: 3,
+            u_knots: CIRCLE_KNOTS.to_vec(),
+            u_min: 0.0,
+            u_max: 1.0,
+            nv: 5,
+            v_order: 3,
+            v_knots: vec![0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0],
+            v_min: 0.0,
+            v_max: 1.0,
+        },
         positions,
         trim: None,
         primvars: ParamList::default(),

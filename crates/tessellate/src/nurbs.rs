@@ -168,8 +168,8 @@ pub(crate) struct Surface {
 
 impl Surface {
     pub fn new(np: &NuPatch) -> Result<Surface, TessellateError> {
-        let u = KnotVector::new(KIND, &np.u_knots, np.u_order, np.nu, "u")?;
-        let v = KnotVector::new(KIND, &np.v_knots, np.v_order, np.nv, "v")?;
+        let u = KnotVector::new(KIND, &np.basis.u_knots, np.basis.u_order, np.basis.nu, "u")?;
+        let v = KnotVector::new(KIND, &np.basis.v_knots, np.basis.v_order, np.basis.nv, "v")?;
         if np.positions.len() != u.n * v.n {
             return Err(TessellateError::InvalidShape {
                 kind: KIND,
@@ -226,15 +226,15 @@ pub(crate) fn tessellate_nupatch(
     planning: &mut RatePlanning,
 ) -> Result<TriangleMesh, TessellateError> {
     let surface = Surface::new(np)?;
-    let limits = [np.u_min, np.u_max, np.v_min, np.v_max];
+    let limits = [np.basis.u_min, np.basis.u_max, np.basis.v_min, np.basis.v_max];
     if let Some(x) = limits.iter().find(|x| !x.is_finite()) {
         return Err(TessellateError::NonFinite { kind: KIND, reason: format!("parameter range {x}") });
     }
     // The ranges are clamped to where the surface is defined.
     let (u_lo, u_hi) = surface.u.domain();
     let (v_lo, v_hi) = surface.v.domain();
-    let (u0, u1) = ((np.u_min as f64).max(u_lo), (np.u_max as f64).min(u_hi));
-    let (v0, v1) = ((np.v_min as f64).max(v_lo), (np.v_max as f64).min(v_hi));
+    let (u0, u1) = ((np.basis.u_min as f64).max(u_lo), (np.basis.u_max as f64).min(u_hi));
+    let (v0, v1) = ((np.basis.v_min as f64).max(v_lo), (np.basis.v_max as f64).min(v_hi));
     if !(u0 < u1 && v0 < v1) {
         return Ok(TriangleMesh::default());
     }

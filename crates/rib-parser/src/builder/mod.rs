@@ -63,7 +63,7 @@ use crate::diagnostics::{DiagnosticKind, Diagnostics};
 use crate::limits::Limits;
 use crate::motion::TransformMotion;
 use crate::scene::*;
-use crate::target::{Cx, NuPatchArgs, Quadric, RibTarget, ShaderSlot};
+use crate::target::{Cx, NuPatchBasis, Quadric, RibTarget, ShaderSlot};
 use depth_remap::CameraSettings;
 use glam::{DMat4, DVec3};
 use std::collections::HashMap;
@@ -668,7 +668,7 @@ impl RibTarget for SceneBuilder {
         SceneBuilder::patch_mesh(self, kind, nu, u_wrap, nv, v_wrap, params, cx)
     }
 
-    fn nu_patch(&mut self, patch: NuPatchArgs, params: ParamList, cx: &mut Cx<'_>) {
+    fn nu_patch(&mut self, patch: NuPatchBasis, params: ParamList, cx: &mut Cx<'_>) {
         SceneBuilder::nu_patch(self, patch, params, cx)
     }
 

@@ -5,7 +5,7 @@ use super::transforms::snap_affine;
 use super::{AttrState, SceneBuilder};
 use crate::diagnostics::DiagnosticKind;
 use crate::scene::*;
-use crate::target::{Cx, NuPatchArgs, Quadric};
+use crate::target::{Cx, NuPatchBasis, Quadric};
 use glam::{Vec3, Vec4};
 use std::sync::Arc;
 
@@ -103,23 +103,9 @@ fn patch_mesh_shape(
     })
 }
 
-fn nu_patch_shape(a: NuPatchArgs, trim: Option<Arc<TrimCurves>>, mut params: ParamList) -> Shape {
+fn nu_patch_shape(a: NuPatchBasis, trim: Option<Arc<TrimCurves>>, mut params: ParamList) -> Shape {
     let positions = positions4(&mut params, a.nu, a.nv);
-    Shape::NuPatch(NuPatch {
-        nu: a.nu,
-        u_order: a.u_order,
-        u_knots: a.u_knots,
-        u_min: a.u_min,
-        u_max: a.u_max,
-        nv: a.nv,
-        v_order: a.v_order,
-        v_knots: a.v_knots,
-        v_min: a.v_min,
-        v_max: a.v_max,
-        positions,
-        trim,
-        primvars: params,
-    })
+    Shape::NuPatch(NuPatch { basis: a, positions, trim, primvars: params })
 }
 
 fn subdivision_mesh_shape(
@@ -324,7 +310,7 @@ impl SceneBuilder {
         self.add_shape(shape, cx);
     }
 
-    pub(super) fn nu_patch(&mut self, patch: NuPatchArgs, params: ParamList, cx: &mut Cx<'_>) {
+    pub(super) fn nu_patch(&mut self, patch: NuPatchBasis, params: ParamList, cx: &mut Cx<'_>) {
         let shape = nu_patch_shape(patch, self.gs.attrs.trim.clone(), params);
         self.add_shape(shape, cx);
     }

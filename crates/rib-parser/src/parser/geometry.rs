@@ -8,7 +8,7 @@ use crate::scene::{
     FileLoc, ParamList, ParamValues, PatchKind, SubdivisionTag, TrimCurves, Wrap, decode_hierarchical_edits,
     is_hierarchical_edit,
 };
-use crate::target::{NuPatchArgs, Quadric, RibTarget};
+use crate::target::{NuPatchBasis, Quadric, RibTarget};
 use glam::Vec3;
 
 fn sum(v: &[u32]) -> u64 {
@@ -486,7 +486,7 @@ impl Reader {
             face_vertex: 4 * su * sv,
         };
         self.check_patch_counts(r, &params, counts)?;
-        let args = NuPatchArgs { nu, u_order, u_knots, u_min, u_max, nv, v_order, v_knots, v_min, v_max };
+        let args = NuPatchBasis { nu, u_order, u_knots, u_min, u_max, nv, v_order, v_knots, v_min, v_max };
         t.nu_patch(args, params, &mut self.cx(loc.clone()));
         Ok(())
     }

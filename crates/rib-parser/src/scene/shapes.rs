@@ -72,10 +72,10 @@ pub struct TrimCurves {
     pub w: Vec<f32>,
 }
 
-/// `NuPatch`: a non-uniform rational B-spline surface. Positions are homogeneous (`Pw`;
-/// `P` gives `w = 1`), `nu * nv` of them, u varying fastest.
+/// The arguments of `NuPatch` before its parameter list: in each direction the vertex count,
+/// the order, the knot vector and the parameter range drawn.
 #[derive(Clone, Debug, PartialEq)]
-pub struct NuPatch {
+pub struct NuPatchBasis {
     pub nu: u32,
     pub u_order: u32,
     pub u_knots: Vec<f32>,
@@ -86,6 +86,13 @@ pub struct NuPatch {
     pub v_knots: Vec<f32>,
     pub v_min: f32,
     pub v_max: f32,
+}
+
+/// `NuPatch`: a non-uniform rational B-spline surface. Positions are homogeneous (`Pw`;
+/// `P` gives `w = 1`), `nu * nv` of them, u varying fastest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NuPatch {
+    pub basis: NuPatchBasis,
     pub positions: Vec<Vec4>,
     pub trim: Option<Arc<TrimCurves>>,
     pub primvars: PrimVars,

@@ -1,7 +1,7 @@
 use super::{assert_normals_follow_winding, assert_well_formed, max_deviation};
 use crate::{ShapeOptions, TessellateError, Tolerance, TriangleMesh, tessellate, tessellate_scaled};
 use glam::{DVec3, Vec4};
-use rib_parser::scene::{NuPatch, ParamList, Shape, TrimCurves};
+use rib_parser::scene::{NuPatch, NuPatchBasis, ParamList, Shape, TrimCurves};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -29,16 +29,7 @@ pub(crate) fn nupatch(
     let (u_min, u_max) = (u_knots[u_order as usize - 1], u_knots[nu as usize]);
     let (v_min, v_max) = (v_knots[v_order as usize - 1], v_knots[nv as usize]);
     NuPatch {
-        nu,
-        u_order,
-        u_knots,
-        u_min,
-        u_max,
-        nv,
-        v_order,
-        v_knots,
-        v_min,
-        v_max,
+        basis: NuPatchBasis { nu, u_order, u_knots, u_min, u_max, nv, v_order, v_knots, v_min, v_max },
         positions,
         trim: None,
         primvars: ParamList::default(),
@@ -112,8 +103,8 @@ fn a_nurbs_sphere_is_closed_and_converges() {
 #[test]
 fn parameter_ranges_cut_the_surface() {
     let mut np = nurbs_cylinder(1.0);
-    np.u_max = 0.25; // the first quarter of the circle
-    np.v_min = 0.5;
+    np.basis.u_max = 0.25; // the first quarter of the circle
+    np.basis.v_min = 0.5;
     let m = run(np, 1e-3);
     for p in &m.positions {
         assert!(p.x >= -1e-6 && p.y >= -1e-6 && p.z >= 0.5 - 1e-6);
@@ -122,12 +113,12 @@ fn parameter_ranges_cut_the_surface() {
     assert!((m.area() - PI / 4.0).abs() < 2e-3 * PI / 4.0 * 2.0);
     // Ranges outside the knots clamp; an empty range gives nothing.
     let mut np = nurbs_cylinder(1.0);
-    np.u_min = -5.0;
-    np.u_max = 5.0;
+    np.basis.u_min = -5.0;
+    np.basis.u_max = 5.0;
     assert!(!run(np, 1e-2).is_closed());
     let mut np = nurbs_cylinder(1.0);
-    np.u_min = 0.7;
-    np.u_max = 0.2;
+    np.basis.u_min = 0.7;
+    np.basis.u_max = 0.2;
     assert!(run(np, 1e-2).is_empty());
 }
 
@@ -291,22 +282,22 @@ fn bad_nurbs_are_errors_not_panics() {
         );
     };
     let mut np = nurbs_cylinder(1.0);
-    np.u_knots.pop();
+    np.basis.u_knots.pop();
     check(np);
     let mut np = nurbs_cylinder(1.0);
-    np.u_knots.swap(3, 8);
+    np.basis.u_knots.swap(3, 8);
     check(np);
     let mut np = nurbs_cylinder(1.0);
-    np.u_order = 1;
+    np.basis.u_order = 1;
     check(np);
     let mut np = nurbs_cylinder(1.0);
-    np.u_order = 40;
+    np.basis.u_order = 40;
     check(np);
     let mut np = nurbs_cylinder(1.0);
     np.positions.pop();
     check(np);
     let mut np = nurbs_cylinder(1.0);
-    np.v_knots = vec![0.0, 0.0, 0.0, 0.0];
+    np.basis.v_knots = vec![0.0, 0.0, 0.0, 0.0];
     check(np);
     let mut np = nurbs_cylinder(1.0);
     np.positions[3].w = -1.0;

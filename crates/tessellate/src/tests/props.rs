@@ -7,8 +7,8 @@ use crate::{
 use glam::{DMat4, DVec3, Vec3, Vec4};
 use proptest::prelude::*;
 use rib_parser::scene::{
-    Basis, NuPatch, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh, SubdivisionTag,
-    TrimCurves, Wrap,
+    Basis, NuPatch, NuPatchBasis, ParamList, PatchKind, PatchMesh, PolygonMesh, Shape, SubdivisionMesh,
+    SubdivisionTag, TrimCurves, Wrap,
 };
 use std::sync::Arc;
 
@@ -261,16 +261,18 @@ fn nupatch() -> impl Strategy<Value = Shape> {
                             }
                         };
                         Shape::NuPatch(NuPatch {
-                            nu,
-                            u_order: uo,
-                            u_min: pick(u_min, &u_knots, (uo as usize).saturating_sub(1)),
-                            u_max: pick(u_max, &u_knots, nu as usize),
-                            u_knots,
-                            nv,
-                            v_order: vo,
-                            v_min: pick(v_min, &v_knots, (vo as usize).saturating_sub(1)),
-                            v_max: pick(v_max, &v_knots, nv as usize),
-                            v_knots,
+                            basis: NuPatchBasis {
+                                nu,
+                                u_order: uo,
+                                u_min: pick(u_min, &u_knots, (uo as usize).saturating_sub(1)),
+                                u_max: pick(u_max, &u_knots, nu as usize),
+                                u_knots,
+                                nv,
+                                v_order: vo,
+                                v_min: pick(v_min, &v_knots, (vo as usize).saturating_sub(1)),
+                                v_max: pick(v_max, &v_knots, nv as usize),
+                                v_knots,
+                            },
                             positions,
                             trim,
                             primvars: ParamList::default(),
