@@ -114,6 +114,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         bounce_light: settings.bounce_light,
         occlusion_from_behind: settings.occlusion_from_behind,
         shadow_bounce: settings.shadow_bounce,
+        amortise_while_moving: settings.amortise_while_moving,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }

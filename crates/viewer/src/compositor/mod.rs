@@ -25,6 +25,7 @@ pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
 };
+pub use shadow_bounce::TAKEN_BANDS as SHADOW_BOUNCE_BANDS;
 
 use crate::error::ViewerError;
 use crate::gpu::Gpu;
