@@ -78,14 +78,14 @@ fn a_moving_frame_redraws_one_band_and_the_frame_at_rest_is_exact() {
     for mode in [CompositeMode::Fullscreen, CompositeMode::Points] {
         let mut c = Compositor::new(&gpu(), &scene(), settings(mode, true)).unwrap();
         let mut seen = Vec::new();
-        for live in [sphere(HERE), sphere(THERE), sphere(THERE)] {
+        for live in [sphere(HERE), sphere(THERE), sphere(THERE), sphere(THERE)] {
             c.render(&live).unwrap();
             seen.push(c.read_back_linear().unwrap().rgba);
         }
         frames.push(seen);
     }
     assert!(frames[0] == frames[1], "the two compositing paths differ");
-    let [first, moving, resting] = &frames[0][..] else { unreachable!() };
+    let [first, moving, resting, still] = &frames[0][..] else { unreachable!() };
     assert!(*first == exact_here, "the first frame is not the exact one");
     let stale = differing_rows(moving, &exact_there);
     assert!(!stale.is_empty(), "the moving frame redrew everything");
@@ -94,6 +94,24 @@ fn a_moving_frame_redraws_one_band_and_the_frame_at_rest_is_exact() {
         "rows {stale:?} of the redrawn band differ from the exact frame"
     );
     assert!(*resting == exact_there, "the frame at rest differs from a fresh compositor's");
+    assert!(*still == exact_there, "the backdrop kept from the frame before differs from a fresh one");
+}
+
+/// A frame with the inputs of the one before copies the backdrop after shadows, bounce light and
+/// second bounce that frame drew instead of drawing them again: with every pass on, it equals a
+/// fresh compositor's frame, also after the sphere left the view and came back.
+#[test]
+fn a_frame_at_rest_equals_a_fresh_one() {
+    let all_on = CompositorSettings::default();
+    let mut c = Compositor::new(&gpu(), &scene(), all_on).unwrap();
+    let mut fresh = Compositor::new(&gpu(), &scene(), all_on).unwrap();
+    fresh.render(&sphere(THERE)).unwrap();
+    let want = fresh.read_back_linear().unwrap();
+    for live in [sphere(THERE), sphere(THERE), LiveObjects::default(), sphere(THERE)] {
+        c.render(&live).unwrap();
+    }
+    let got = c.read_back_linear().unwrap();
+    assert!(got.rgba == want.rgba, "a frame at rest differs from a fresh compositor's");
 }
 
 /// With the sphere gone the frame is the input, amortised or not, after any move.

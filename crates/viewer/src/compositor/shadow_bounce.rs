@@ -373,6 +373,12 @@ impl Compositor {
         }
     }
 
+    /// Whether what each pixel loses is drawn in full from `uniform`'s inputs (or the pass is
+    /// off): none of it is from earlier frames. Call after [`Compositor::record_shadow_bounce_taken`].
+    pub(super) fn shadow_bounce_settled(&self, uniform: &FrameUniform) -> bool {
+        uniform.shadow_bounce[0] != 1 || self.shadow_bounce.bands.current.get() == TakenBands::ALL
+    }
+
     /// Removes what each pixel loses from the frame, then copies the frame into the backdrop
     /// after shadows, which the live objects' shading and edges read.
     pub(super) fn record_shadow_bounce(&self, encoder: &mut wgpu::CommandEncoder, uniform: &FrameUniform) {
