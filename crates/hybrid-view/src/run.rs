@@ -367,6 +367,13 @@ fn print_stats(
     eprintln!("scene shadows on live objects: {}", compositor.scene_shadows_summary());
     eprintln!("bounce light onto the scene: {}", compositor.bounce_light_summary());
     eprintln!("shadows' second bounce: {}", compositor.shadow_bounce_summary());
+    if compositor.settings().amortise_while_moving {
+        eprintln!(
+            "while live objects move: the shadows' second bounce redrawn in one of {} bands a frame, \
+             exact from the second frame at rest (--exact-while-moving: every frame exact)",
+            viewer::compositor::SHADOW_BOUNCE_BANDS
+        );
+    }
     if let Some(note) = compositor.live_shadows_note() {
         eprintln!("live meshes' shadows: {note}");
     }
