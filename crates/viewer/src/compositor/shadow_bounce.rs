@@ -397,3 +397,38 @@ impl Compositor {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{TAKEN_BANDS, TakenBands, band_rect};
+
+    /// The first drawing is whole; then each change draws the next band in turn, and the first
+    /// frame without a change draws the rest; without amortising every change draws the whole.
+    #[test]
+    fn bands_are_drawn_in_turn_while_moving_and_completed_at_rest() {
+        let bands = TakenBands::default();
+        assert_eq!(bands.to_draw(true, true), TakenBands::ALL, "the first frame draws every band");
+        assert_eq!(bands.to_draw(false, true), 0, "a still frame after a whole drawing draws nothing");
+        for k in 0..TAKEN_BANDS + 2 {
+            assert_eq!(bands.to_draw(true, true), 1 << (k % TAKEN_BANDS), "move {k}");
+        }
+        let last = 1 << ((TAKEN_BANDS + 1) % TAKEN_BANDS);
+        assert_eq!(bands.to_draw(false, true), TakenBands::ALL & !last, "at rest the rest is drawn");
+        assert_eq!(bands.to_draw(false, true), 0);
+        assert_eq!(bands.to_draw(true, false), TakenBands::ALL, "exact frames draw every band");
+    }
+
+    /// The bands cover every row once, for heights that do and do not divide evenly.
+    #[test]
+    fn the_bands_cover_every_row_once() {
+        for height in [1, 7, 16, 511, 512, 2048] {
+            let mut next_row = 0;
+            for k in 0..TAKEN_BANDS {
+                let [x, y, w, h] = band_rect(k, (300, height));
+                assert_eq!((x, w, y), (0, 300, next_row), "height {height}, band {k}");
+                next_row += h;
+            }
+            assert_eq!(next_row, height);
+        }
+    }
+}
