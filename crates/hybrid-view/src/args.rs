@@ -70,6 +70,11 @@ pub struct Args {
     /// sphere, not that surface's average indirect light.
     #[arg(long)]
     pub occlusion_from_behind: bool,
+    /// Draw every frame exactly while the sphere moves. By default a moving sphere's frame
+    /// redraws the shadows' second bounce in one sixteenth of the image (the rest is at most 15
+    /// frames old), and the frame is exact again from the second frame the sphere rests.
+    #[arg(long)]
+    pub exact_while_moving: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -200,6 +205,9 @@ pub struct Settings {
     pub occlusion_from_behind: bool,
     /// The shadows' second bounce removed (`--no-shadow-bounce` clears it).
     pub shadow_bounce: bool,
+    /// Costly passes amortised over frames while the sphere moves (`--exact-while-moving`
+    /// clears it).
+    pub amortise_while_moving: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
@@ -263,6 +271,7 @@ impl Args {
             bounce_light: !self.no_bounce_light,
             occlusion_from_behind: self.occlusion_from_behind,
             shadow_bounce: !self.no_shadow_bounce,
+            amortise_while_moving: !self.exact_while_moving,
             depth_settings,
             backends,
             stats: self.stats,
@@ -365,5 +374,7 @@ mod tests {
         let s = parse(&["--mode", "points", "--no-shadows"]).unwrap();
         assert_eq!(s.mode, CompositeMode::Points);
         assert_eq!(s.shadows, None);
+        assert!(s.amortise_while_moving, "a moving sphere's frame is amortised by default");
+        assert!(!parse(&["--exact-while-moving"]).unwrap().amortise_while_moving);
     }
 }

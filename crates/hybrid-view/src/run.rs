@@ -114,6 +114,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         bounce_light: settings.bounce_light,
         occlusion_from_behind: settings.occlusion_from_behind,
         shadow_bounce: settings.shadow_bounce,
+        amortise_while_moving: settings.amortise_while_moving,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
@@ -366,6 +367,13 @@ fn print_stats(
     eprintln!("scene shadows on live objects: {}", compositor.scene_shadows_summary());
     eprintln!("bounce light onto the scene: {}", compositor.bounce_light_summary());
     eprintln!("shadows' second bounce: {}", compositor.shadow_bounce_summary());
+    if compositor.settings().amortise_while_moving {
+        eprintln!(
+            "while live objects move: the shadows' second bounce redrawn in one of {} bands a frame, \
+             exact from the second frame at rest (--exact-while-moving: every frame exact)",
+            viewer::compositor::SHADOW_BOUNCE_BANDS
+        );
+    }
     if let Some(note) = compositor.live_shadows_note() {
         eprintln!("live meshes' shadows: {note}");
     }

@@ -2,20 +2,77 @@
 //! cursor sphere and its shadow in view (a typical interactive frame). One iteration is
 //! `render` + waiting for the GPU, so it is the whole frame's latency.
 //!
+//! The `lit` benches add what `lrt-depth`'s sidecars give the illusion's frames (light layers
+//! with albedo and normals, an irradiance probe, the area light's samples), so the layered
+//! shadows, the bounce light and the shadows' second bounce run, and move the sphere by 1 cm
+//! every frame as the haptic cursor does: the frame a user gets (issue 10's target: at most
+//! twice the plain `fullscreen/512`).
+//!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md).
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
 use depth_remap::{Camera, CameraSettings, Projection};
 use glam::{DMat4, DVec3, Vec3};
 use std::time::Duration;
 use viewer::{
     Backends, CompositeMode, Compositor, CompositorSettings, DepthTable, Gpu, LiveLight, LiveObjects,
-    Material, Rgba8Image, Sphere, ToneMap, ViewerScene,
+    Material, Rgba8Image, SceneLayers, Sphere, ToneMap, ViewerScene,
 };
 
 /// The Cornell room without its boxes (five walls, the eye 3.9 in front of the back wall) at
 /// `size^2`, with analytic radial depths.
 fn room(size: u32) -> ViewerScene {
+    room_and_normals(size).0
+}
+
+/// The area light's emitting quad, a centimetre below the ceiling, as two triangles.
+const LIGHT_QUAD: [[DVec3; 3]; 2] = {
+    let c = [
+        DVec3::new(-0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, -0.18),
+        DVec3::new(0.23, 0.99, 0.2),
+        DVec3::new(-0.23, 0.99, 0.2),
+    ];
+    [[c[0], c[1], c[2]], [c[0], c[2], c[3]]]
+};
+
+/// [`room`] with what the illusion's renders come with: light layers (the wall's normal, an
+/// albedo of 0.7, direct light 0.3 and indirect light 0.1 everywhere), the area light's 256
+/// samples and one irradiance probe of uniform radiance 0.2.
+fn lit_room(size: u32) -> ViewerScene {
+    let (mut scene, normals) = room_and_normals(size);
+    let fingerprint = sidecar::depth_fingerprint(scene.depth().values());
+    let mut layers =
+        sidecar::LightLayers::new(size, size, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
+    for (k, normal) in normals.iter().enumerate() {
+        if let Some(n) = normal {
+            layers.normal[k] = n.as_vec3().to_array();
+            layers.albedo[k] = [0.7; 3];
+            layers.light[0][k] = [0.3; 3];
+            layers.indirect[k] = [0.1; 3];
+        }
+    }
+    let area_samples = vec![viewer::light_layers::area_samples(&LIGHT_QUAD, 256)];
+    scene
+        .set_light_layers(SceneLayers { layers, layer_of_light: vec![Some(0)], area_samples })
+        .expect("layers");
+    let texels = sidecar::VISIBILITY_TEXELS * sidecar::VISIBILITY_TEXELS;
+    let mut sh = [[0.0f32; 3]; 9];
+    sh[0] = [0.2 * 0.282_094_8 * 4.0 * std::f32::consts::PI; 3];
+    scene.set_probes(sidecar::ProbeGrid {
+        depth_fingerprint: fingerprint,
+        origin: [0.0; 3],
+        spacing: [1.0; 3],
+        counts: [1, 1, 1],
+        radiance_sh: vec![sh],
+        visibility: vec![[10.0, 100.0]; texels],
+        emitters_seen: false,
+    });
+    scene
+}
+
+/// [`room`] and each pixel's wall normal (world space, into the room; `None` where no wall).
+fn room_and_normals(size: u32) -> (ViewerScene, Vec<Option<DVec3>>) {
     let camera_from_world =
         DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9));
     let camera = Camera::new(CameraSettings {
@@ -28,6 +85,7 @@ fn room(size: u32) -> ViewerScene {
     .expect("camera");
     let world_from_camera = camera.world_from_camera();
     let mut values = Vec::with_capacity((size * size) as usize);
+    let mut normals = Vec::with_capacity((size * size) as usize);
     let mut pixels = Vec::with_capacity((size * size * 4) as usize);
     for j in 0..size {
         for i in 0..size {
@@ -35,18 +93,26 @@ fn room(size: u32) -> ViewerScene {
             let o = world_from_camera.transform_point3(ray.origin);
             let d = world_from_camera.transform_vector3(ray.direction);
             // Walls: x = +-1, y = +-1, z = -1 (the box is open towards the eye).
-            let mut best = f64::INFINITY;
+            let (mut best, mut normal) = (f64::INFINITY, None);
             for (axis, plane) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0), (2, -1.0)] {
                 let t = (plane - o[axis]) / d[axis];
                 if t > 0.0 {
                     let p = o + d * t;
-                    if p.x.abs() <= 1.0 + 1e-9 && p.y.abs() <= 1.0 + 1e-9 && p.z <= 1.0 && p.z >= -1.0 - 1e-9
+                    if p.x.abs() <= 1.0 + 1e-9
+                        && p.y.abs() <= 1.0 + 1e-9
+                        && p.z <= 1.0
+                        && p.z >= -1.0 - 1e-9
+                        && t < best
                     {
-                        best = best.min(t);
+                        best = t;
+                        let mut n = DVec3::ZERO;
+                        n[axis] = -plane;
+                        normal = Some(n);
                     }
                 }
             }
             values.push(best as f32);
+            normals.push(normal);
             pixels.extend_from_slice(&[(i % 256) as u8, (j % 256) as u8, ((i ^ j) % 256) as u8, 255]);
         }
     }
@@ -60,7 +126,7 @@ fn room(size: u32) -> ViewerScene {
         area: 0.17,
         radius: 0.23,
     };
-    ViewerScene::new(camera, image, depth, vec![light], ToneMap::default()).expect("scene")
+    (ViewerScene::new(camera, image, depth, vec![light], ToneMap::default()).expect("scene"), normals)
 }
 
 fn frame_time(c: &mut Criterion) {
@@ -116,5 +182,54 @@ fn frame_time(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, frame_time);
+/// The lit room's frame at 512^2 (see the module's notes): the sphere at rest (the maps drawn
+/// once), moving 1 cm a frame drawn exactly, and moving with `amortise_while_moving` (the
+/// viewer's default).
+fn lit_frame_time(c: &mut Criterion) {
+    let gpu = Gpu::new(Backends::default()).expect("a GPU adapter (lavapipe: cargo xtask install-test-deps)");
+    let sphere_at = |frame: u32| {
+        // Back and forth over 40 cm along x above the floor, 1 cm a frame.
+        let step = f64::from(frame % 80);
+        let x = -0.2 + 0.01 * if step < 40.0 { step } else { 80.0 - step };
+        LiveObjects {
+            sphere: Some(Sphere {
+                centre: DVec3::new(x, -0.6, -0.3),
+                radius: 0.3,
+                material: Material::default(),
+            }),
+            meshes: Vec::new(),
+        }
+    };
+    let mut group = c.benchmark_group("frame");
+    // A moving frame drawn exactly takes seconds on lavapipe: the fewest samples criterion takes,
+    // one frame each (flat sampling; linear sampling would take 55 frames).
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(10));
+    let scene = lit_room(512);
+    for (what, moving, amortise) in
+        [("lit-rest", false, false), ("lit-moving-exact", true, false), ("lit-moving", true, true)]
+    {
+        let settings =
+            CompositorSettings { amortise_while_moving: amortise, ..CompositorSettings::default() };
+        let mut compositor = Compositor::new(&gpu, &scene, settings).expect("compositor");
+        compositor.render(&sphere_at(0)).expect("render");
+        compositor.wait_idle().expect("wait");
+        let mut frame = 0;
+        group.bench_function(format!("fullscreen-{what}/512"), |b| {
+            b.iter(|| {
+                if moving {
+                    frame += 1;
+                }
+                compositor.render(&sphere_at(frame)).expect("render");
+                compositor.wait_idle().expect("wait");
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, frame_time, lit_frame_time);
 criterion_main!(benches);

@@ -69,18 +69,31 @@ impl Compositor {
         // The backdrop after shadows is read by live objects' shading (the light their shadows
         // took, with shadows on) and by their edges' resolve: kept only for them.
         let keep_shadowed = live_drawn && (uniform.counts[1] == 1 || antialiased.is_some());
+        // At rest (the inputs of the last frame that drew the backdrop after shadows, bounce
+        // light and second bounce in full), that backdrop is the copy the last frame left.
+        let mut rest_key = mesh_bytes.clone();
+        rest_key.extend(draws.iter().flat_map(|&k| (k as u64).to_le_bytes()));
+        let at_rest = keep_shadowed && self.shadowed_from.is_current(&uniform, &rest_key);
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
-            self.record_backdrop(&mut pass, &uniform);
+            self.record_backdrop(&mut pass, &uniform, !at_rest);
             if live_drawn && !keep_shadowed {
                 self.record_live(&mut pass, &draws, sphere);
             }
         }
-        if keep_shadowed {
+        let frame_extent =
+            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 };
+        if at_rest {
+            encoder.copy_texture_to_texture(
+                self.shadowed_texture.as_image_copy(),
+                target_texture.as_image_copy(),
+                frame_extent,
+            );
+        } else if keep_shadowed {
             encoder.copy_texture_to_texture(
                 target_texture.as_image_copy(),
                 self.shadowed_texture.as_image_copy(),
-                wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+                frame_extent,
             );
             self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
             // What the shadows took, before the bounce light adds to the backdrop after them.
@@ -93,6 +106,15 @@ impl Compositor {
             }
             self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
             self.record_shadow_bounce(&mut encoder, &uniform);
+            // A frame whose second bounce is partly from earlier inputs (amortised) is no copy
+            // to keep.
+            if self.shadow_bounce_settled(&uniform) {
+                self.shadowed_from.renew(&uniform, &rest_key);
+            } else {
+                self.shadowed_from.forget();
+            }
+        }
+        if keep_shadowed {
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
             self.record_live(&mut pass, &draws, sphere);
         }
@@ -151,8 +173,8 @@ impl Compositor {
         pass
     }
 
-    /// The pre-rendered image and depth, then the live objects' shadows on it.
-    fn record_backdrop(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform) {
+    /// The pre-rendered image and depth, then (with `shadows`) the live objects' shadows on it.
+    fn record_backdrop(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform, shadows: bool) {
         match (self.settings.mode, &self.points) {
             (CompositeMode::Points, Some(points)) => {
                 pass.set_pipeline(&self.backdrop_points);
@@ -164,7 +186,8 @@ impl Compositor {
                 pass.draw(0..3, 0..1);
             }
         }
-        if uniform.counts[1] == 1
+        if shadows
+            && uniform.counts[1] == 1
             && let Some([x, y, w, h]) = self.shadow_scissor_all(uniform)
         {
             pass.set_scissor_rect(x, y, w, h);

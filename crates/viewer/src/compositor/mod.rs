@@ -25,6 +25,7 @@ pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
 };
+pub use shadow_bounce::TAKEN_BANDS as SHADOW_BOUNCE_BANDS;
 
 use crate::error::ViewerError;
 use crate::gpu::Gpu;
@@ -94,6 +95,10 @@ pub struct Compositor {
     depth_storage: wgpu::Buffer,
     /// The frame after shadows, before live objects (copied each frame with live objects).
     shadowed_texture: wgpu::Texture,
+    /// The inputs `shadowed_texture` holds the backdrop after shadows, bounce light and second
+    /// bounce of in full (empty: none): a frame with the same inputs copies it back instead of
+    /// drawing them again.
+    shadowed_from: DrawnFrom,
     /// The live spheres' own-shadow loss maps (binding 14).
     loss_maps: loss_map::LossMaps,
     /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
@@ -233,7 +238,7 @@ impl Compositor {
         // The frame after shadows, before live objects: what the shadows took, for the live
         // objects' own shading and the antialiased edges' backdrop.
         let shadowed_texture =
-            texture("backdrop after shadows", linear_format, U::TEXTURE_BINDING | U::COPY_DST);
+            texture("backdrop after shadows", linear_format, U::TEXTURE_BINDING | U::COPY_DST | U::COPY_SRC);
         let display_texture = texture("backdrop display", FRAME_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
         let window_depth_texture =
             texture("backdrop window depth", wgpu::TextureFormat::R32Float, U::TEXTURE_BINDING | U::COPY_DST);
@@ -648,6 +653,7 @@ impl Compositor {
             readback_bind_group,
             depth_storage,
             shadowed_texture,
+            shadowed_from: DrawnFrom::default(),
             loss_maps,
             bounce,
             shadow_bounce,
@@ -723,6 +729,11 @@ impl DrawnFrom {
     /// Whether the pass was last drawn from `uniform` and `mesh_bytes`.
     fn is_current(&self, uniform: &FrameUniform, mesh_bytes: &[u8]) -> bool {
         *self.0.borrow() == Self::key(uniform, mesh_bytes)
+    }
+
+    /// Forgets what the pass was drawn from: it is drawn again next time.
+    fn forget(&self) {
+        self.0.borrow_mut().clear();
     }
 
     /// Whether the pass must be drawn again for `uniform` and `mesh_bytes`; if so, records them.

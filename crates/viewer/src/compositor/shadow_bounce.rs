@@ -13,6 +13,12 @@
 //! the frame's uniform or a live mesh's changed, as the sphere maps are; every frame, a
 //! full-screen pass removes the loss (pixels that lose nothing keep their value bit for bit) and
 //! copies the frame into the backdrop after shadows.
+//!
+//! The loss costs most of a moving sphere's frame (every pixel sums 256 clusters). With
+//! `CompositorSettings::amortise_while_moving`, a frame whose inputs changed draws it in one of
+//! [`TAKEN_BANDS`] horizontal bands of the frame, the others keeping what earlier frames drew;
+//! the first frame that repeats its predecessor's inputs draws the bands not yet drawn from
+//! them, so a resting sphere's frame is the exact one from its second frame on.
 
 use super::Compositor;
 use super::lighting::FrameUniform;
@@ -23,6 +29,51 @@ const FINE: u32 = 64;
 const COARSE: u32 = 16;
 /// What each pixel loses: a small correction, so half floats (2^-11 of it) suffice.
 const TAKEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Horizontal bands of the frame the loss is drawn in, one a frame, while the inputs change (with
+/// `amortise_while_moving`): a pixel's loss is then at most `TAKEN_BANDS - 1` frames old.
+pub const TAKEN_BANDS: u32 = 16;
+
+/// Which bands of the loss were drawn from the inputs `drawn_from` holds.
+#[derive(Debug, Default)]
+struct TakenBands {
+    /// Bit k: band k was drawn from the current inputs.
+    current: std::cell::Cell<u32>,
+    /// Whether every band was drawn at least once (until then, a frame draws them all).
+    complete_once: std::cell::Cell<bool>,
+    /// The band the next frame with new inputs draws.
+    next: std::cell::Cell<u32>,
+}
+
+impl TakenBands {
+    const ALL: u32 = (1 << TAKEN_BANDS) - 1;
+
+    /// The bands to draw this frame (bit k: band k), and records them as drawn. `changed`: the
+    /// inputs differ from those the bands were drawn from.
+    fn to_draw(&self, changed: bool, amortise: bool) -> u32 {
+        if changed {
+            self.current.set(0);
+        }
+        let wanted = if changed && amortise && self.complete_once.get() {
+            let k = self.next.get();
+            self.next.set((k + 1) % TAKEN_BANDS);
+            1 << k
+        } else {
+            Self::ALL & !self.current.get()
+        };
+        self.current.set(self.current.get() | wanted);
+        if self.current.get() == Self::ALL {
+            self.complete_once.set(true);
+        }
+        wanted
+    }
+}
+
+/// Band `k`'s rows of a frame `height` rows high: `[x, y, w, h]`, possibly empty.
+fn band_rect(k: u32, (width, height): (u32, u32)) -> [u32; 4] {
+    let top = k * height / TAKEN_BANDS;
+    let bottom = (k + 1) * height / TAKEN_BANDS;
+    [0, top, width, bottom - top]
+}
 
 /// A texture a pass draws into and the copy the frame bind group reads, so that no pass reads
 /// the texture it draws into.
@@ -109,6 +160,8 @@ pub(super) struct ShadowBounce {
     /// The frame and mesh uniforms the clusters and the loss were last drawn from (empty:
     /// never drawn).
     drawn_from: super::DrawnFrom,
+    /// Which bands of the loss were drawn from them.
+    bands: TakenBands,
 }
 
 /// What the pipelines are built from.
@@ -197,6 +250,7 @@ impl ShadowBounce {
             taken_pipeline,
             apply_pipeline,
             drawn_from: super::DrawnFrom::default(),
+            bands: TakenBands::default(),
         }
     }
 }
@@ -235,10 +289,10 @@ impl Compositor {
         }
     }
 
-    /// Draws the clusters of what the shadows took and what each pixel loses, unless they are
-    /// already drawn from the same `uniform` and mesh uniforms (`mesh_bytes`). Reads the
-    /// backdrop after shadows: runs after the bounce light added to it, whose clusters
-    /// ([`Compositor::record_shadow_bounce_clusters`]) ran before.
+    /// Draws what each pixel loses where it is not already drawn from the same `uniform` and
+    /// mesh uniforms (`mesh_bytes`): the whole frame, or while they change one band of it (see
+    /// the module's notes). Reads the backdrop after shadows: runs after the bounce light added
+    /// to it, whose clusters ([`Compositor::record_shadow_bounce_clusters`]) ran before.
     pub(super) fn record_shadow_bounce_taken(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -249,11 +303,18 @@ impl Compositor {
         if uniform.shadow_bounce[0] != 1 {
             return;
         }
-        if !bounce.drawn_from.renew(uniform, mesh_bytes) {
+        let changed = bounce.drawn_from.renew(uniform, mesh_bytes);
+        let bands = bounce.bands.to_draw(changed, self.settings.amortise_while_moving);
+        if bands == 0 {
             return;
         }
+        let taken = &bounce.textures.taken;
+        let rects: Vec<[u32; 4]> = (0..TAKEN_BANDS)
+            .filter(|k| bands & (1 << k) != 0)
+            .map(|k| band_rect(k, (self.width, self.height)))
+            .filter(|r| r[3] > 0)
+            .collect();
         {
-            let taken = &bounce.textures.taken;
             let mut pass = super::colour_pass(
                 encoder,
                 "shadow bounce taken",
@@ -262,9 +323,20 @@ impl Compositor {
             );
             pass.set_pipeline(&bounce.taken_pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
-            pass.draw(0..3, 0..1);
+            for &[x, y, w, h] in &rects {
+                pass.set_scissor_rect(x, y, w, h);
+                pass.draw(0..3, 0..1);
+            }
         }
-        bounce.textures.taken.copy_drawn_to_read(encoder);
+        // Only the bands drawn: the others keep what earlier frames drew.
+        for &[x, y, w, h] in &rects {
+            let origin = wgpu::Origin3d { x, y, z: 0 };
+            encoder.copy_texture_to_texture(
+                wgpu::TexelCopyTextureInfo { origin, ..taken.drawn.as_image_copy() },
+                wgpu::TexelCopyTextureInfo { origin, ..taken.read.as_image_copy() },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
     }
 
     /// Draws the clusters of what the shadows took when the loss is to be drawn again this
@@ -301,6 +373,12 @@ impl Compositor {
         }
     }
 
+    /// Whether what each pixel loses is drawn in full from `uniform`'s inputs (or the pass is
+    /// off): none of it is from earlier frames. Call after [`Compositor::record_shadow_bounce_taken`].
+    pub(super) fn shadow_bounce_settled(&self, uniform: &FrameUniform) -> bool {
+        uniform.shadow_bounce[0] != 1 || self.shadow_bounce.bands.current.get() == TakenBands::ALL
+    }
+
     /// Removes what each pixel loses from the frame, then copies the frame into the backdrop
     /// after shadows, which the live objects' shading and edges read.
     pub(super) fn record_shadow_bounce(&self, encoder: &mut wgpu::CommandEncoder, uniform: &FrameUniform) {
@@ -317,5 +395,40 @@ impl Compositor {
             self.shadowed_texture.as_image_copy(),
             wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{TAKEN_BANDS, TakenBands, band_rect};
+
+    /// The first drawing is whole; then each change draws the next band in turn, and the first
+    /// frame without a change draws the rest; without amortising every change draws the whole.
+    #[test]
+    fn bands_are_drawn_in_turn_while_moving_and_completed_at_rest() {
+        let bands = TakenBands::default();
+        assert_eq!(bands.to_draw(true, true), TakenBands::ALL, "the first frame draws every band");
+        assert_eq!(bands.to_draw(false, true), 0, "a still frame after a whole drawing draws nothing");
+        for k in 0..TAKEN_BANDS + 2 {
+            assert_eq!(bands.to_draw(true, true), 1 << (k % TAKEN_BANDS), "move {k}");
+        }
+        let last = 1 << ((TAKEN_BANDS + 1) % TAKEN_BANDS);
+        assert_eq!(bands.to_draw(false, true), TakenBands::ALL & !last, "at rest the rest is drawn");
+        assert_eq!(bands.to_draw(false, true), 0);
+        assert_eq!(bands.to_draw(true, false), TakenBands::ALL, "exact frames draw every band");
+    }
+
+    /// The bands cover every row once, for heights that do and do not divide evenly.
+    #[test]
+    fn the_bands_cover_every_row_once() {
+        for height in [1, 7, 16, 511, 512, 2048] {
+            let mut next_row = 0;
+            for k in 0..TAKEN_BANDS {
+                let [x, y, w, h] = band_rect(k, (300, height));
+                assert_eq!((x, w, y), (0, 300, next_row), "height {height}, band {k}");
+                next_row += h;
+            }
+            assert_eq!(next_row, height);
+        }
     }
 }

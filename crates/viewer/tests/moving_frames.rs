@@ -1,0 +1,126 @@
+//! GPU tests of the frames of a moving sphere with `CompositorSettings::amortise_while_moving`
+//! (`compositor/shadow_bounce.rs`): while the sphere moves, what each pixel loses to the
+//! shadows' second bounce is drawn in one band of the frame per frame; the second frame at rest
+//! is, bit for bit, the frame a fresh compositor draws, in both compositing modes.
+
+mod common;
+
+use common::*;
+use glam::{DVec3, Vec3};
+use viewer::{CompositeMode, Compositor, CompositorSettings, LiveObjects, Material, Sphere};
+
+const LEVEL: f32 = 0.5;
+const HERE: DVec3 = DVec3::new(-0.5, -0.55, 0.55);
+const THERE: DVec3 = DVec3::new(0.3, -0.6, -0.2);
+
+/// The Cornell camera and depth, a flat backdrop of `LEVEL` lit by one point light (its layer
+/// holds all of it), each side's normal and an albedo of 0.8: the ceiling and the walls receive
+/// what the sphere's shadow on the floor no longer reflects.
+fn scene() -> viewer::ViewerScene {
+    let mut s = layered_cornell(DVec3::new(-0.3, 0.6, 0.5), false, LEVEL);
+    let camera = s.camera().clone();
+    let mut layers = s.light_layers().expect("layers").clone();
+    for (k, (normal, albedo)) in layers.layers.normal.iter_mut().zip(&mut layers.layers.albedo).enumerate() {
+        let (i, j) = (k as u32 % 512, k as u32 / 512);
+        let Some(r) = s.depth().get(i, j).filter(|r| r.is_finite()) else { continue };
+        let ray = camera.pixel_centre_ray(i, j);
+        let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
+        // The side the point lies on (the boxes' faces keep the floor's normal).
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-3;
+        *normal = match () {
+            _ if near(p.y, 1.0) => [0.0, -1.0, 0.0],
+            _ if near(p.x, -1.0) => [1.0, 0.0, 0.0],
+            _ if near(p.x, 1.0) => [-1.0, 0.0, 0.0],
+            _ if near(p.z, -1.0) => [0.0, 0.0, 1.0],
+            _ => [0.0, 1.0, 0.0],
+        };
+        *albedo = [0.8; 3];
+    }
+    s.set_light_layers(layers).unwrap();
+    s
+}
+
+fn sphere(centre: DVec3) -> LiveObjects {
+    LiveObjects {
+        sphere: Some(Sphere { centre, radius: 0.2, material: Material::unlit(Vec3::new(0.0, 0.0, 1.0)) }),
+        meshes: Vec::new(),
+    }
+}
+
+fn settings(mode: CompositeMode, amortise_while_moving: bool) -> CompositorSettings {
+    CompositorSettings { mode, bounce_light: false, amortise_while_moving, ..Default::default() }
+}
+
+/// The frame a fresh compositor draws of `live`.
+fn fresh(mode: CompositeMode, live: &LiveObjects) -> Vec<f32> {
+    let mut c = Compositor::new(&gpu(), &scene(), settings(mode, false)).unwrap();
+    c.render(live).unwrap();
+    c.read_back_linear().unwrap().rgba
+}
+
+/// The rows of `a` and `b` (RGBA rows of 512 pixels) that differ.
+fn differing_rows(a: &[f32], b: &[f32]) -> Vec<usize> {
+    let row = 512 * 4;
+    (0..a.len() / row).filter(|&j| a[j * row..(j + 1) * row] != b[j * row..(j + 1) * row]).collect()
+}
+
+/// The first frame is exact; the frame after a move differs from the exact one only outside the
+/// band it redrew (the top rows, the first band); the next frame at rest is exact again, and the
+/// two compositing modes stay bit-identical throughout.
+#[test]
+fn a_moving_frame_redraws_one_band_and_the_frame_at_rest_is_exact() {
+    let exact_here = fresh(CompositeMode::Fullscreen, &sphere(HERE));
+    let exact_there = fresh(CompositeMode::Fullscreen, &sphere(THERE));
+    let moved_rows = differing_rows(&exact_here, &exact_there);
+    let band = 512 / viewer::compositor::SHADOW_BOUNCE_BANDS as usize;
+    assert!(moved_rows.iter().any(|&j| j < band), "the move changes nothing in the first band");
+    let mut frames = Vec::new();
+    for mode in [CompositeMode::Fullscreen, CompositeMode::Points] {
+        let mut c = Compositor::new(&gpu(), &scene(), settings(mode, true)).unwrap();
+        let mut seen = Vec::new();
+        for live in [sphere(HERE), sphere(THERE), sphere(THERE), sphere(THERE)] {
+            c.render(&live).unwrap();
+            seen.push(c.read_back_linear().unwrap().rgba);
+        }
+        frames.push(seen);
+    }
+    assert!(frames[0] == frames[1], "the two compositing paths differ");
+    let [first, moving, resting, still] = &frames[0][..] else { unreachable!() };
+    assert!(*first == exact_here, "the first frame is not the exact one");
+    let stale = differing_rows(moving, &exact_there);
+    assert!(!stale.is_empty(), "the moving frame redrew everything");
+    assert!(
+        stale.iter().all(|&j| j >= band),
+        "rows {stale:?} of the redrawn band differ from the exact frame"
+    );
+    assert!(*resting == exact_there, "the frame at rest differs from a fresh compositor's");
+    assert!(*still == exact_there, "the backdrop kept from the frame before differs from a fresh one");
+}
+
+/// A frame with the inputs of the one before copies the backdrop after shadows, bounce light and
+/// second bounce that frame drew instead of drawing them again: with every pass on, it equals a
+/// fresh compositor's frame, also after the sphere left the view and came back.
+#[test]
+fn a_frame_at_rest_equals_a_fresh_one() {
+    let all_on = CompositorSettings::default();
+    let mut c = Compositor::new(&gpu(), &scene(), all_on).unwrap();
+    let mut fresh = Compositor::new(&gpu(), &scene(), all_on).unwrap();
+    fresh.render(&sphere(THERE)).unwrap();
+    let want = fresh.read_back_linear().unwrap();
+    for live in [sphere(THERE), sphere(THERE), LiveObjects::default(), sphere(THERE)] {
+        c.render(&live).unwrap();
+    }
+    let got = c.read_back_linear().unwrap();
+    assert!(got.rgba == want.rgba, "a frame at rest differs from a fresh compositor's");
+}
+
+/// With the sphere gone the frame is the input, amortised or not, after any move.
+#[test]
+fn without_a_live_object_the_frame_is_the_input() {
+    let mut c = Compositor::new(&gpu(), &scene(), settings(CompositeMode::Fullscreen, true)).unwrap();
+    for live in [sphere(HERE), sphere(THERE), LiveObjects::default()] {
+        c.render(&live).unwrap();
+    }
+    let empty = c.read_back_linear().unwrap().rgba;
+    assert!(empty.chunks(4).all(|c| c[..3] == [LEVEL; 3]), "the input changed with no live object");
+}
