@@ -52,10 +52,10 @@ pub use probes::{
 };
 pub use probes_io::{read_probes, write_probes};
 pub use reflections::{
-    REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, blinn_albedo, blinn_exponent,
-    octahedral_texel_center, octahedral_texel_solid_angle, prefilter_radiance, reflection_level,
-    reflection_level_exponent, reflection_level_roughness, reflection_level_texels, reflection_levels,
-    reflection_lobe, reflections_absent_note,
+    GLOSSY_SAMPLES, LobeDirection, REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, blinn_albedo,
+    blinn_exponent, glossy_lobe_directions, octahedral_texel_center, octahedral_texel_solid_angle,
+    prefilter_radiance, reflection_level, reflection_level_exponent, reflection_level_roughness,
+    reflection_level_texels, reflection_levels, reflection_lobe, reflections_absent_note,
 };
 pub use reflections_io::{MAX_REFLECTION_PROBES, read_reflections, write_reflections};
 

@@ -263,7 +263,8 @@ fn cell_corner(cell: GridCell, corner: u32) -> CellCorner {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The reflection probes: a port of sidecar::ReflectionProbes::radiance (its reference lookup).
+// The reflection probes: a port of sidecar::ReflectionProbes::glossy_radiance (its reference
+// lookup over the glossy lobe).
 
 const REFLECTION_TEXELS: u32 = 32u;
 
@@ -306,52 +307,6 @@ fn probe_sees(cell: vec3<u32>, p: vec3<f32>) -> bool {
         return true;
     }
     return d <= 1.05 * probe_distance_toward(probe_index(cell), to_p / d);
-}
-
-// Parallax-corrected lookup of one probe (ReflectionProbes::radiance_from).
-fn probe_radiance_from(cell: vec3<u32>, p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
-    let probe = probe_index(cell);
-    let pc = p - probe_position(cell);
-    var dir = r;
-    for (var step = 0; step < 3; step++) {
-        let radius = probe_distance_toward(probe, dir);
-        let b = dot(pc, r);
-        let disc = b * b - (dot(pc, pc) - radius * radius);
-        if disc < 0.0 {
-            break;
-        }
-        let t = max(-b + sqrt(disc), 0.0);
-        let hit = pc + t * r;
-        let len = length(hit);
-        if !(len > 0.0) {
-            break;
-        }
-        dir = hit / len;
-    }
-    return textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, level).rgb;
-}
-
-// Glossy reflection at world point p toward unit r (ReflectionProbes::radiance): the probes
-// around p weighted trilinearly, a probe a wall hides from p by 1e-3 of that.
-fn reflection_radiance_at(p: vec3<f32>, r: vec3<f32>, level: f32) -> vec3<f32> {
-    let grid = grid_cell(p, frame.reflection_origin.xyz, frame.reflection_spacing.xyz, frame.reflection_counts.xyz);
-    var sum = vec3<f32>(0.0);
-    var total = 0.0;
-    for (var corner = 0u; corner < 8u; corner++) {
-        let c = cell_corner(grid, corner);
-        let trilinear = c.trilinear;
-        if trilinear <= 0.0 {
-            continue;
-        }
-        let cell = c.probe;
-        let w = select(1e-3 * trilinear, trilinear, probe_sees(cell, p));
-        sum += w * probe_radiance_from(cell, p, r, level);
-        total += w;
-    }
-    if total > 0.0 {
-        return sum / total;
-    }
-    return probe_radiance_from(vec3<u32>(round(vec3<f32>(grid.base) + grid.alpha)), p, r, level);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -437,6 +392,147 @@ fn blinn_albedo(material: Material, cos_o: f32) -> f32 {
     let a = material.albedo[i / 4u][i % 4u];
     let b = material.albedo[(i + 1u) / 4u][(i + 1u) % 4u];
     return a + (b - a) * f;
+}
+
+// The reflection probes' mip level whose prefiltering lobe has Blinn exponent e
+// (sidecar::reflection_level of roughness 1 / e).
+fn reflection_level_of_exponent(e: f32) -> f32 {
+    if e >= 64.0 {
+        return 64.0 / e;
+    }
+    return min(1.0 + 0.5 * log2(64.0 / e), 4.0);
+}
+
+// Directions of the Blinn lobe a glossy live fragment reads the reflection probes in
+// (sidecar::GLOSSY_SAMPLES).
+const GLOSSY_SAMPLES: u32 = 16u;
+
+// The reflection probes' radiance averaged over the ray tracer's Blinn lobe (`exponent`) at
+// world point p, unit normal n and unit direction to the eye v: the lobe's own directions
+// (importance-sampled, a fixed stratified set), each weighted by `f cos / pdf` and read at the
+// mip level whose prefiltering lobe is as wide as the solid angle the direction stands for
+// (Krivanek and Colbert 2008); the probe of the largest weight finds where each direction meets
+// the scene, and every probe is read toward those points. A port of
+// sidecar::ReflectionProbes::glossy_radiance. The split sum's single lookup toward the mirror
+// direction assumes the lobe centred there, as it is only at normal incidence; a wide lobe seen at a
+// grazing angle leans toward the normal and loses its part below the horizon, so it reflects
+// what lies under a sphere's lower half, not the horizon the mirror direction meets.
+fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> vec3<f32> {
+    let cos_o = max(dot(n, v), 1e-3);
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t = normalize(cross(helper, n));
+    let b = cross(n, t);
+    var directions: array<vec4<f32>, GLOSSY_SAMPLES>;
+    var weights: array<f32, GLOSSY_SAMPLES>;
+    var total = 0.0;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        weights[i] = 0.0;
+        directions[i] = vec4<f32>(n, 0.0);
+        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
+        let u2 = f32(reverseBits(i)) * 2.3283064365386963e-10;
+        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
+        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+        let phi = 2.0 * PI * u2;
+        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+        let o_dot_h = dot(v, h);
+        if o_dot_h <= 0.0 {
+            continue;
+        }
+        let l = 2.0 * o_dot_h * h - v;
+        let cos_l = dot(n, l);
+        if cos_l <= 0.0 {
+            continue;
+        }
+        // f cos / pdf of raytracer::bsdf's Blinn lobe sampled by its half vector.
+        let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+        weights[i] = g * o_dot_h / cos_o;
+        total += weights[i];
+        // The prefiltering lobe of exponent e spans about 8 pi / e steradians.
+        let pdf = (exponent + 1.0) * pow(cos_h, exponent) / (8.0 * PI * o_dot_h);
+        let omega = 1.0 / (f32(GLOSSY_SAMPLES) * max(pdf, 1e-6));
+        directions[i] = vec4<f32>(l, reflection_level_of_exponent(8.0 * PI / omega));
+    }
+    if !(total > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let grid = grid_cell(p, frame.reflection_origin.xyz, frame.reflection_spacing.xyz, frame.reflection_counts.xyz);
+    // The probes around p and their weights; the one with the largest weight that sees p
+    // finds where each direction meets the scene (its distance map, parallax-corrected).
+    var cells: array<vec3<u32>, 8>;
+    var probe_weights: array<f32, 8>;
+    var nearest = 0u;
+    var nearest_weight = -1.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let c = cell_corner(grid, corner);
+        cells[corner] = c.probe;
+        probe_weights[corner] = 0.0;
+        if c.trilinear <= 0.0 {
+            continue;
+        }
+        let sees = probe_sees(c.probe, p);
+        probe_weights[corner] = select(1e-3 * c.trilinear, c.trilinear, sees);
+        if probe_weights[corner] > nearest_weight {
+            nearest_weight = probe_weights[corner];
+            nearest = corner;
+        }
+    }
+    var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        if weights[i] > 0.0 {
+            hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
+        }
+    }
+    var sum = vec3<f32>(0.0);
+    var probes_total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let w = probe_weights[corner];
+        if w <= 0.0 {
+            continue;
+        }
+        let probe = probe_index(cells[corner]);
+        let origin = probe_position(cells[corner]);
+        var lobe = vec3<f32>(0.0);
+        for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+            if weights[i] > 0.0 {
+                let to_hit = hits[i] - origin;
+                let len = length(to_hit);
+                let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
+                lobe += weights[i] * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, directions[i].w).rgb;
+            }
+        }
+        sum += w * lobe;
+        probes_total += w;
+    }
+    if probes_total > 0.0 {
+        return sum / (probes_total * total);
+    }
+    return vec3<f32>(0.0);
+}
+
+// Where the ray p + t r meets the surface a probe's distance map describes (world space; the
+// fixed-point steps of sidecar::ReflectionProbes::hit_toward).
+fn probe_hit(cell: vec3<u32>, p: vec3<f32>, r: vec3<f32>) -> vec3<f32> {
+    let probe = probe_index(cell);
+    let origin = probe_position(cell);
+    let pc = p - origin;
+    var hit = pc;
+    var dir = r;
+    for (var step = 0; step < 3; step++) {
+        let radius = probe_distance_toward(probe, dir);
+        let b = dot(pc, r);
+        let disc = b * b - (dot(pc, pc) - radius * radius);
+        if disc < 0.0 {
+            break;
+        }
+        let t = max(-b + sqrt(disc), 0.0);
+        hit = pc + t * r;
+        let len = length(hit);
+        if !(len > 0.0) {
+            break;
+        }
+        dir = hit / len;
+    }
+    return origin + hit;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -598,14 +694,14 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
     // With the renderer's irradiance probes, the scene's indirect light at this fragment
     // (compositor/irradiance.rs) joins the lights', less what the shadows took.
     diffuse += probe_irradiance(p, n, loss.irradiance);
-    // With the reflection probes, the scene's prefiltered radiance in the reflected direction
-    // times the lobe's albedo (the split sum), less what the shadows took.
+    // With the reflection probes, the scene's radiance averaged over the lobe's own directions
+    // times the lobe's albedo, less what the shadows took.
     if reflections {
         let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
-        let r = reflect(view_dir, n);
-        let r_world = normalize((frame.world_from_camera * vec4<f32>(r, 0.0)).xyz);
+        let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
+        let v_world = normalize((frame.world_from_camera * vec4<f32>(v, 0.0)).xyz);
         let reflected = blinn_albedo(material, dot(n, v))
-            * reflection_radiance_at(p_world, r_world, material.specular_colour.w);
+            * glossy_reflection(p_world, n_world, v_world, exponent);
         specular += max(reflected - loss.glossy, vec3<f32>(0.0));
     }
     let cs = material.colour.rgb;
