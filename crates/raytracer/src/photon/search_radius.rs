@@ -13,6 +13,7 @@
 //! object changes it only if it holds photons enough to move that quantile, and then only to
 //! the radius its photons need. A search within it around a photon whose own radius is
 //! below the quantile meets about `SAFETY_FACTOR^2 k` photons of a surface of that density.
+//! The caller keeps it at most a tenth of the scene's bounding radius (the old default).
 
 use super::Photon;
 use super::kdtree::{KdTree, KnnHeap};
@@ -26,8 +27,10 @@ pub const SAMPLES_PER_MAP: usize = 2048;
 pub const QUANTILE: f32 = 0.9;
 /// The default over the quantile's radius: dim regions, corners (where the measured radius
 /// counts the photons of both walls, the estimate only those of one) and the surfaces between
-/// the sampled photons get a radius several times their measured one.
-pub const SAFETY_FACTOR: f32 = 2.0;
+/// the sampled photons get a radius several times their measured one. With 2 the room example's
+/// default fell from 0.93 to 0.54 and its error against a path-traced reference grew by 4% to
+/// 8% (docs/photon-mapping.md, "The default `maxdist`").
+pub const SAFETY_FACTOR: f32 = 3.0;
 
 /// What the default was measured from, for `--stats`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -114,7 +117,7 @@ mod tests {
         let expected = (k as f32 / (std::f32::consts::PI * n as f32)).sqrt();
         assert!((plain.median_radius / expected - 1.0).abs() < 0.15, "{plain:?} vs {expected}");
         let d = plain.max_dist().unwrap();
-        assert!(d > expected && d < 4.0 * expected, "{d} vs {expected}");
+        assert!(d > expected && d < 2.0 * SAFETY_FACTOR * expected, "{d} vs {expected}");
         let mut photons = floor(n, 3);
         photons.extend((0..40).map(|i| photon(Vec3::new(3000.0, i as f32 * 0.01, 0.0))));
         photons.push(photon(Vec3::splat(2.0f32.powi(31))));
