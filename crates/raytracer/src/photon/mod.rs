@@ -392,22 +392,7 @@ impl PhotonStats {
         out.push(map("direct", &self.direct));
         out.push(map("indirect", &self.indirect));
         out.push(map("radiance-photon", &self.radiance));
-        let source = match &self.max_dist_measured {
-            None => "maxdist given".to_string(),
-            Some(m) if m.max_dist().is_none() => {
-                "no photons to measure: a tenth of the scene's radius".into()
-            }
-            Some(m) if m.max_dist().is_some_and(|d| d > self.max_dist) => {
-                "a tenth of the scene's radius, less than what the photons ask for".into()
-            }
-            Some(m) => format!(
-                "{} x the {:.0}th percentile of the nused-nearest radius at {} photons; median {:.4}",
-                search_radius::SAFETY_FACTOR,
-                100.0 * search_radius::QUANTILE,
-                m.samples,
-                m.median_radius
-            ),
-        };
+        let source = search_radius::describe(self.max_dist_measured.as_ref(), self.max_dist);
         out.push(format!(
             "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4}: {source})",
             self.lookups, self.gather_rays, self.max_dist
@@ -604,14 +589,9 @@ impl PhotonMapper {
         stats.caustic = map_stats(&shot.caustic, shot.caustic_paths);
         stats.direct = map_stats(&shot.direct, shot.indirect_paths);
         stats.indirect = map_stats(&shot.indirect, shot.indirect_paths);
-        // Without a `maxdist`, the search radius comes from the stored photons
-        // (`search_radius`), at most a tenth of the scene's radius (the old default, which a far
-        // object only raises), or for want of any photons, that tenth (nothing is searched).
         let (_, scene_radius) = world.bounding_sphere();
-        let max_dist_of = |measured: &search_radius::Measured| {
-            let scene_tenth = 0.1 * scene_radius;
-            settings.max_dist.unwrap_or(measured.max_dist().map_or(scene_tenth, |d| d.min(scene_tenth)))
-        };
+        let max_dist_of =
+            |m: &search_radius::Measured| search_radius::chosen(settings.max_dist, m, scene_radius);
         let (caustic, direct, indirect, fixed, first_radii, measured) = if settings.progressive {
             let photons = [shot.caustic, shot.direct, shot.indirect];
             let maps =

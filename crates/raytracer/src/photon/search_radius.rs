@@ -52,6 +52,31 @@ impl Measured {
     }
 }
 
+/// The search radius: `maxdist` where the RIB gives it; otherwise the one measured on the
+/// photons, at most a tenth of the scene's bounding radius (the old default, which a far object
+/// only raises), or that tenth where there were no photons to measure (nothing is searched).
+pub fn chosen(explicit: Option<f32>, measured: &Measured, scene_radius: f32) -> f32 {
+    let scene_tenth = 0.1 * scene_radius;
+    explicit.unwrap_or(measured.max_dist().map_or(scene_tenth, |d| d.min(scene_tenth)))
+}
+
+/// Where the search radius `max_dist` came from, for `--stats` (`None`: the RIB gave it).
+pub fn describe(measured: Option<&Measured>, max_dist: f32) -> String {
+    match measured {
+        None => "maxdist given".to_string(),
+        Some(m) if m.max_dist().is_none() => "no photons to measure: a tenth of the scene's radius".into(),
+        Some(m) if m.max_dist().is_some_and(|d| d > max_dist) => {
+            "a tenth of the scene's radius, less than what the photons ask for".into()
+        }
+        Some(m) => format!(
+            "{SAFETY_FACTOR} x the {:.0}th percentile of the nused-nearest radius at {} photons; median {:.4}",
+            100.0 * QUANTILE,
+            m.samples,
+            m.median_radius
+        ),
+    }
+}
+
 /// Measures the `k`-nearest radii of the photons of `maps` (empty maps count for nothing).
 pub fn measure(maps: &[Option<&KdTree<Photon>>], k: usize) -> Measured {
     let mut out = Measured::default();
