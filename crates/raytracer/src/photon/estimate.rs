@@ -76,18 +76,32 @@ pub struct Query {
     pub max_d2: f32,
 }
 
-/// A `k`-nearest search's scratch: the heap of the photons found, and the photons of other
-/// surfaces (position, normal, squared distance) the normal test rejected on the way.
+/// Photons of any surface, per photon of an estimate, that its search may meet within its
+/// radius. Beyond that, the query's surface holds few of the photons around it (a small
+/// object beside a bright wall, a sparse surface under a large `maxdist`), and the search
+/// would read every photon within `maxdist`: it is redone within the distance of the
+/// `SEARCH_BUDGET_PER_K * k`-th nearest photon of any surface instead, so that no estimate
+/// costs more than that many photons. A search in the open meets about `3 k` (a plane's disc
+/// that shrinks as the heap fills), in a corner about `6 k`.
+pub const SEARCH_BUDGET_PER_K: usize = 16;
+
+/// A `k`-nearest search's scratch: the heap of the photons found, the photons of other
+/// surfaces (position, normal, squared distance) the normal test rejected on the way, and the
+/// heap of the nearest photons of any surface for a search over its budget.
 #[derive(Clone, Debug)]
 pub struct Nearest {
     pub heap: KnnHeap,
     rejected: Vec<(Vec3, Vec3, f32)>,
+    any: KnnHeap,
+    /// Searches redone within a smaller radius for being over their budget.
+    pub capped: u64,
 }
 
 impl Nearest {
     /// Scratch for estimates of `k` photons.
     pub fn new(k: usize) -> Nearest {
-        Nearest { heap: KnnHeap::new(k), rejected: Vec::new() }
+        let any = KnnHeap::new(k.saturating_mul(SEARCH_BUDGET_PER_K));
+        Nearest { heap: KnnHeap::new(k), rejected: Vec::new(), any, capped: 0 }
     }
 
     /// The part of the disc of squared radius `r2` around `q` that lies on `q`'s surface, read
@@ -113,18 +127,40 @@ impl Nearest {
 /// a box's side meeting its top) holds fewer photons than its area says: it grows to find its
 /// `k` photons, and the estimate would be dark along every edge without the cut.
 fn gather_photons(map: &KdTree<Photon>, q: &Query, nearest: &mut Nearest) -> (f32, f32) {
-    let Nearest { heap, rejected } = nearest;
-    rejected.clear();
-    map.knn(q.p, q.max_d2, heap, |ph| {
+    let r2 = nearest_on_surface(map, q, nearest);
+    (r2, nearest.area_fraction(q, r2))
+}
+
+/// The `k` nearest photons of `map` on `q`'s surface (normal within [`NORMAL_COSINE`]) into
+/// `nearest.heap`, and those of other surfaces met on the way into its rejected list. Returns
+/// the squared radius an estimate divides by: the farthest photon's when the heap filled,
+/// otherwise the search radius, `q.max_d2` or, for a search that met more than its budget of
+/// photons, the distance of the budget's nearest photon of any surface.
+pub fn nearest_on_surface(map: &KdTree<Photon>, q: &Query, nearest: &mut Nearest) -> f32 {
+    let Nearest { heap, rejected, any, capped } = nearest;
+    let on_surface = |rejected: &mut Vec<(Vec3, Vec3, f32)>, ph: &Photon| {
         let m = unpack_unit(ph.n);
         let aligned = m.dot(q.n) > NORMAL_COSINE;
         if !aligned {
             rejected.push((ph.p, m, (ph.p - q.p).length_squared()));
         }
         aligned
-    });
-    let r2 = if heap.is_full() { heap.max_d2() } else { q.max_d2 };
-    (r2, nearest.area_fraction(q, r2))
+    };
+    rejected.clear();
+    let budget = any.capacity();
+    let mut radius2 = q.max_d2;
+    if !map.knn_within_budget(q.p, q.max_d2, budget, heap, |ph| on_surface(rejected, ph)) {
+        // Fewer than `budget` photons lie within the distance of the `budget`-th nearest one,
+        // so the search within it stays within budget (ties on the rim aside).
+        map.knn(q.p, q.max_d2, any, |_| true);
+        if any.is_full() {
+            radius2 = any.max_d2();
+        }
+        *capped += 1;
+        rejected.clear();
+        map.knn(q.p, radius2, heap, |ph| on_surface(rejected, ph));
+    }
+    if heap.is_full() { heap.max_d2() } else { radius2 }
 }
 
 /// The photons an estimate sums: all those found within a fixed radius, but of a full heap
@@ -385,6 +421,42 @@ mod tests {
         let expected = f64::from(count as f32 * power);
         let mean = sum / f64::from(n);
         assert!((mean / expected - 1.0).abs() < 0.01, "{mean} vs {expected}");
+    }
+
+    /// A small patch (a wall's strip, normal `+x`, 20 photons) standing on a densely lit floor
+    /// (normal `+z`), searched with a huge `maxdist`: the search meets the floor's photons, not
+    /// its own, so it is redone within the distance of the budget's nearest photon of any
+    /// surface and meets no more than the budget; the estimate is the one an explicit radius of
+    /// that distance gives, and a search in the floor's open is not touched.
+    #[test]
+    fn a_sparse_surface_among_dense_photons_reads_a_bounded_number_of_them() {
+        let mut rng = Rng::new(3, 9);
+        let flat =
+            |p: Vec3, n: Vec3| Photon { p, power: Vec3::splat(1e-3), wi: pack_unit(n), n: pack_unit(n) };
+        let mut photons: Vec<Photon> = (0..100_000)
+            .map(|_| flat(Vec3::new(rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0, 0.0), Vec3::Z))
+            .collect();
+        photons.extend((0..20).map(|i| flat(Vec3::new(0.0, 0.001 * i as f32, 0.01), Vec3::X)));
+        let map = KdTree::build(photons);
+        let k = 50;
+        let budget = SEARCH_BUDGET_PER_K * k;
+        let mut nearest = Nearest::new(k);
+        let q = Query { p: Vec3::new(0.0, 0.01, 0.01), n: Vec3::X, max_d2: 1e6 };
+        let r2 = nearest_on_surface(&map, &q, &mut nearest);
+        assert_eq!(nearest.capped, 1);
+        assert!(nearest.heap.met() <= budget, "{}", nearest.heap.met());
+        assert_eq!(nearest.heap.len(), 20);
+        // The budget's nearest photon: about sqrt(800 / (pi 25000)) = 0.1 away on the floor.
+        assert!(r2 > 0.05f32.powi(2) && r2 < 0.2f32.powi(2), "{}", r2.sqrt());
+        let capped = irradiance(&map, &q, PhotonFilter::Box, &mut nearest);
+        let explicit = irradiance(&map, &Query { max_d2: r2, ..q }, PhotonFilter::Box, &mut nearest);
+        assert_eq!(capped, explicit);
+        assert!(capped.is_finite() && capped.x > 0.0);
+        // On the floor the heap fills long before the budget: no second search.
+        let (open, capped) = (Query { p: Vec3::new(0.5, 0.5, 0.0), n: Vec3::Z, max_d2: 1e6 }, nearest.capped);
+        nearest_on_surface(&map, &open, &mut nearest);
+        assert_eq!(nearest.capped, capped);
+        assert!(nearest.heap.met() < budget / 2, "{}", nearest.heap.met());
     }
 
     /// Each kernel integrates to `normalisation * pi` over the unit disc.

@@ -106,12 +106,28 @@ impl<T: Positioned> KdTree<T> {
 
     /// The (at most) `heap.capacity()` nearest items to `p` within distance `sqrt(max_d2)` that
     /// pass `accept`, into `heap` (cleared first).
-    pub fn knn(&self, p: Vec3, max_d2: f32, heap: &mut KnnHeap, mut accept: impl FnMut(&T) -> bool) {
-        heap.reset(max_d2);
+    pub fn knn(&self, p: Vec3, max_d2: f32, heap: &mut KnnHeap, accept: impl FnMut(&T) -> bool) {
+        self.knn_within_budget(p, max_d2, usize::MAX, heap, accept);
+    }
+
+    /// [`KdTree::knn`], but the search stops once it has met more than `budget` items within
+    /// its radius (accepted or not): a filter that rejects most items near `p` would otherwise
+    /// read every item within `sqrt(max_d2)`. Returns false when it stopped (the heap then holds
+    /// what was found so far and its radius is zero); [`KnnHeap::met`] counts the items met.
+    pub fn knn_within_budget(
+        &self,
+        p: Vec3,
+        max_d2: f32,
+        budget: usize,
+        heap: &mut KnnHeap,
+        mut accept: impl FnMut(&T) -> bool,
+    ) -> bool {
+        heap.reset(max_d2, budget);
         if heap.capacity() == 0 || !(max_d2 > 0.0) {
-            return;
+            return true;
         }
         self.search(0, self.items.len(), p, heap, &mut accept);
+        heap.met <= budget
     }
 
     fn search(&self, lo: usize, hi: usize, p: Vec3, heap: &mut KnnHeap, accept: &mut impl FnMut(&T) -> bool) {
@@ -136,8 +152,15 @@ impl<T: Positioned> KdTree<T> {
     #[inline]
     fn consider(&self, i: usize, p: Vec3, heap: &mut KnnHeap, accept: &mut impl FnMut(&T) -> bool) {
         let d2 = (self.items[i].position() - p).length_squared();
-        if d2 < heap.max_d2() && accept(&self.items[i]) {
-            heap.push(d2, i as u32);
+        if d2 < heap.max_d2() {
+            heap.met += 1;
+            if heap.met > heap.budget {
+                // Over budget: a zero radius ends the search (no item is nearer, no subtree is
+                // entered).
+                heap.max_d2 = 0.0;
+            } else if accept(&self.items[i]) {
+                heap.push(d2, i as u32);
+            }
         }
     }
 
@@ -256,20 +279,30 @@ pub struct KnnHeap {
     entries: Vec<(f32, u32)>,
     capacity: usize,
     max_d2: f32,
+    /// Items met within the search radius by the last search, and the most it may meet.
+    met: usize,
+    budget: usize,
 }
 
 impl KnnHeap {
     pub fn new(capacity: usize) -> KnnHeap {
-        KnnHeap { entries: Vec::with_capacity(capacity), capacity, max_d2: 0.0 }
+        KnnHeap { entries: Vec::with_capacity(capacity), capacity, max_d2: 0.0, met: 0, budget: usize::MAX }
     }
 
     pub fn capacity(&self) -> usize {
         self.capacity
     }
 
-    fn reset(&mut self, max_d2: f32) {
+    fn reset(&mut self, max_d2: f32, budget: usize) {
         self.entries.clear();
         self.max_d2 = max_d2;
+        (self.met, self.budget) = (0, budget);
+    }
+
+    /// Items the last search met within its radius, accepted or not: its work, which a
+    /// budget bounds.
+    pub fn met(&self) -> usize {
+        self.met
     }
 
     /// True when `capacity` items were found (the radius is then the farthest one's).
@@ -358,6 +391,27 @@ mod tests {
         d.sort_by(f32::total_cmp);
         d.truncate(k);
         d
+    }
+
+    /// A budget that the search never reaches changes nothing; one that it does stops it,
+    /// having met one item more than the budget.
+    #[test]
+    fn knn_within_budget_stops_at_its_budget() {
+        let pts = points(5_000, 2);
+        let tree = KdTree::build(pts.clone());
+        let (mut free, mut bounded) = (KnnHeap::new(20), KnnHeap::new(20));
+        let p = Vec3::new(0.5, 0.5, 0.05);
+        // A filter that rejects every point: the search reads all within its radius.
+        tree.knn(p, 0.04, &mut free, |_| false);
+        let within = pts.iter().filter(|q| (**q - p).length_squared() < 0.04).count();
+        assert_eq!(free.met(), within);
+        assert!(tree.knn_within_budget(p, 0.04, within, &mut bounded, |_| false));
+        assert!(!tree.knn_within_budget(p, 0.04, 100, &mut bounded, |_| false));
+        assert_eq!(bounded.met(), 101);
+        assert_eq!(bounded.max_d2(), 0.0);
+        tree.knn(p, 0.04, &mut free, |v| v.x > 0.5);
+        assert!(tree.knn_within_budget(p, 0.04, 10_000, &mut bounded, |v| v.x > 0.5));
+        assert_eq!(free.entries(), bounded.entries());
     }
 
     #[test]

@@ -39,6 +39,7 @@ pub mod kdtree;
 mod octahedral;
 pub mod progressive;
 mod render;
+pub mod search_radius;
 pub(crate) mod shoot;
 
 use crate::integrators::{Integrator, Radiance, RayCounters};
@@ -334,7 +335,10 @@ pub struct PhotonStats {
     pub photon_rays: u64,
     /// Spheres the caustic photons were aimed at (`None`: not aimed).
     pub caustic_aim_spheres: Option<usize>,
+    /// The search radius (`maxdist`) used, and what its default was measured from (`None`
+    /// where the RIB gave it).
     pub max_dist: f32,
+    pub max_dist_measured: Option<search_radius::Measured>,
     pub final_gather: bool,
     pub time_shoot: Duration,
     pub time_build: Duration,
@@ -388,8 +392,9 @@ impl PhotonStats {
         out.push(map("direct", &self.direct));
         out.push(map("indirect", &self.indirect));
         out.push(map("radiance-photon", &self.radiance));
+        let source = search_radius::describe(self.max_dist_measured.as_ref(), self.max_dist);
         out.push(format!(
-            "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4})",
+            "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4}: {source})",
             self.lookups, self.gather_rays, self.max_dist
         ));
         out.extend(self.irradiance_cache.as_ref().map(|c| c.line()));
@@ -469,10 +474,6 @@ impl PhotonMapper {
         let seed = if settings.progressive { progressive::pass_seed(render_seed, pass) } else { render_seed };
         let mut stats = PhotonStats { final_gather: settings.final_gather, ..PhotonStats::default() };
         let analysis = settings.scene_analysis;
-        let (_, radius) = world.bounding_sphere();
-        let max_dist = settings.max_dist.unwrap_or(0.1 * radius);
-        stats.max_dist = max_dist;
-        let max_d2 = max_dist * max_dist;
 
         // What the scene's surfaces can do (every attribute state's shader: conservative, an
         // unused one can only keep a map that the pilot then finds empty).
@@ -588,15 +589,29 @@ impl PhotonMapper {
         stats.caustic = map_stats(&shot.caustic, shot.caustic_paths);
         stats.direct = map_stats(&shot.direct, shot.indirect_paths);
         stats.indirect = map_stats(&shot.indirect, shot.indirect_paths);
-        let (caustic, direct, indirect, fixed, first_radii) = if settings.progressive {
-            let (photons, d2) = ([shot.caustic, shot.direct, shot.indirect], max_d2);
-            let maps = progressive::build_pass_maps(photons, gather, &settings, first_radii, d2, pass);
+        let (_, scene_radius) = world.bounding_sphere();
+        let max_dist_of =
+            |m: &search_radius::Measured| search_radius::chosen(settings.max_dist, m, scene_radius);
+        let (caustic, direct, indirect, fixed, first_radii, measured) = if settings.progressive {
+            let photons = [shot.caustic, shot.direct, shot.indirect];
+            let maps =
+                progressive::build_pass_maps(photons, gather, &settings, first_radii, &max_dist_of, pass);
             stats.progressive = Some((pass, maps.fixed.radii.clone()));
-            (None, None, maps.indirect, Some(maps.fixed), Some(maps.first))
+            let (max_dist, measured) = (maps.first.max_dist, maps.first.measured);
+            (None, None, maps.indirect, Some(maps.fixed), Some(maps.first), (max_dist, measured))
         } else {
             let tree = |photons: Vec<Photon>| (!photons.is_empty()).then(|| KdTree::build(photons));
-            (tree(shot.caustic), tree(shot.direct), tree(shot.indirect), None, None)
+            let (caustic, direct, indirect) = (tree(shot.caustic), tree(shot.direct), tree(shot.indirect));
+            let maps = [caustic.as_ref(), direct.as_ref(), indirect.as_ref()];
+            let measured =
+                settings.max_dist.is_none().then(|| search_radius::measure(&maps, settings.n_used as usize));
+            let max_dist = max_dist_of(&measured.unwrap_or_default());
+            (caustic, direct, indirect, None, None, (max_dist, measured))
         };
+        let (max_dist, measured) = measured;
+        stats.max_dist = max_dist;
+        stats.max_dist_measured = measured;
+        let max_d2 = max_dist * max_dist;
         for (m, t) in
             [(&mut stats.caustic, &caustic), (&mut stats.direct, &direct), (&mut stats.indirect, &indirect)]
         {

@@ -24,9 +24,10 @@
 //! read at the nearest of those sites. Later passes keep that field, scaled, so that the radius
 //! at a point depends only on the seed and the pass.
 
-use super::estimate::NORMAL_COSINE;
+use super::estimate::{Nearest, Query, nearest_on_surface};
 use super::grid::PhotonGrid;
-use super::kdtree::{KdTree, KnnHeap, Positioned};
+use super::kdtree::{KdTree, Positioned};
+use super::search_radius::{self, Measured};
 use super::{GatherSampling, Photon, PhotonMapSettings, unpack_unit};
 use crate::sampling::mix64;
 use glam::Vec3;
@@ -74,15 +75,14 @@ impl RadiusField {
         let map = map.filter(|m| !m.is_empty())?;
         let k = k.clamp(1, map.len());
         let step = map.len().div_ceil(RADIUS_SITES).max(1);
-        let mut heap = KnnHeap::new(k);
+        let mut nearest = Nearest::new(k);
         let sites: Vec<RadiusSite> = map
             .items()
             .iter()
             .step_by(step)
             .map(|ph| {
-                let n = unpack_unit(ph.n);
-                map.knn(ph.p, max_d2, &mut heap, |q| unpack_unit(q.n).dot(n) > NORMAL_COSINE);
-                let d2 = if heap.is_full() { heap.max_d2() } else { max_d2 };
+                let q = Query { p: ph.p, n: unpack_unit(ph.n), max_d2 };
+                let d2 = nearest_on_surface(map, &q, &mut nearest);
                 RadiusSite { p: ph.p, d2: if d2 > 0.0 && d2.is_finite() { d2 } else { max_d2 } }
             })
             .collect();
@@ -155,13 +155,14 @@ pub(super) struct PassMaps {
 /// grid is filled in the tree's order. The caustic map is put in tree order for its grid (as
 /// before, so that sums run in the same order and images stay bit-identical), then dropped.
 /// `first` is the first pass's radii; `None` in the first pass, which computes them from its
-/// photons with `nused` nearest neighbours within `sqrt(max_d2)`.
+/// photons with `nused` nearest neighbours within `max_dist_of` of what
+/// [`search_radius::measure`] measured on them (the search radius, kept for later passes).
 pub(super) fn build_pass_maps(
     [caustic, direct, indirect]: [Vec<Photon>; 3],
     gather: bool,
     settings: &PhotonMapSettings,
     first: Option<Radii>,
-    max_d2: f32,
+    max_dist_of: &dyn Fn(&Measured) -> f32,
     pass: u32,
 ) -> PassMaps {
     let keep_indirect_tree =
@@ -181,10 +182,17 @@ pub(super) fn build_pass_maps(
     let first = first.unwrap_or_else(|| {
         // The first pass's radii: k-nearest searches, which a kd-tree serves (built here once).
         let global_tree = global.clone().map(KdTree::build);
+        let global_tree = global_tree.as_ref().or(indirect.as_ref());
+        let measured =
+            settings.max_dist.is_none().then(|| search_radius::measure(&[global_tree, caustic.as_ref()], k));
+        let max_dist = max_dist_of(&measured.unwrap_or_default());
+        let max_d2 = max_dist * max_dist;
         Radii {
-            global: RadiusField::new(global_tree.as_ref().or(indirect.as_ref()), k, max_d2).map(Arc::new),
+            global: RadiusField::new(global_tree, k, max_d2).map(Arc::new),
             caustic: RadiusField::new(caustic.as_ref(), k, max_d2).map(Arc::new),
             scale: 1.0,
+            max_dist,
+            measured,
         }
     });
     let global_or_indirect = global.as_deref().or(indirect.as_ref().map(|t| t.items()));
@@ -206,12 +214,16 @@ pub struct Radii {
     pub caustic: Option<Arc<RadiusField>>,
     /// `r_pass^2 / r_0^2`.
     pub scale: f32,
+    /// The search radius of the first pass's `k`-nearest searches (`maxdist`), kept for the
+    /// photon-guided gathering of every pass, and what its default was measured from.
+    pub max_dist: f32,
+    pub measured: Option<Measured>,
 }
 
 impl Radii {
     /// The radii of pass `pass` (0-based) when the first pass used `self`.
     pub fn at_pass(&self, pass: u32, alpha: f32) -> Radii {
-        Radii { global: self.global.clone(), caustic: self.caustic.clone(), scale: reduction(pass, alpha) }
+        Radii { scale: reduction(pass, alpha), ..self.clone() }
     }
 
     #[inline]

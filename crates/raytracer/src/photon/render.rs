@@ -2,7 +2,7 @@
 
 use super::estimate::{self, NORMAL_COSINE, Query};
 use super::kdtree::KnnHeap;
-use super::{GatherSampling, PhotonMapper, unpack_unit};
+use super::{GatherSampling, Photon, PhotonMapper, unpack_unit};
 use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
 use crate::integrators::{
     DirectStrategy, Radiance, RayCounters, camera_escaped, direct_from_light, escaped, find_surface,
@@ -343,9 +343,13 @@ impl PhotonMapper {
         let Some(map) = &self.indirect else { return };
         let n = facing_normal(si);
         let mut r2 = self.max_d2;
+        // The budget of a density estimate's search bounds each try (a surface with few
+        // photons among many of others' keeps what the first try found).
+        let budget = estimate::SEARCH_BUDGET_PER_K * scratch.guide_heap.capacity();
         for _ in 0..4 {
-            map.knn(si.p, r2, &mut scratch.guide_heap, |ph| unpack_unit(ph.n).dot(n) > NORMAL_COSINE);
-            if scratch.guide_heap.is_full() {
+            let accept = |ph: &Photon| unpack_unit(ph.n).dot(n) > NORMAL_COSINE;
+            let within_budget = map.knn_within_budget(si.p, r2, budget, &mut scratch.guide_heap, accept);
+            if scratch.guide_heap.is_full() || !within_budget {
                 break;
             }
             r2 *= 2.0;
