@@ -393,6 +393,24 @@ impl ReflectionProbes {
     /// probe of grid cell `cell` describes: the three fixed-point steps of
     /// [`ReflectionProbes::radiance_from`], as a world point.
     pub fn hit_toward(&self, cell: [u32; 3], p: [f32; 3], r: [f32; 3]) -> [f32; 3] {
+        let c = self.probe_position(cell);
+        let (hit, _) = self.parallax_steps(cell, p, r);
+        std::array::from_fn(|a| c[a] + hit[a])
+    }
+
+    /// Parallax-corrected reflection from the probe of grid cell `cell` at world point `p` for
+    /// the unit reflected direction `r`: the probe is looked up toward the point where the ray
+    /// `p + t r` meets the surface its distance map describes, found by three fixed-point steps
+    /// (start at the probe's distance toward `r`; each step intersects the ray with the sphere
+    /// around the probe whose radius is the probe's distance toward the current estimate).
+    pub fn radiance_from(&self, cell: [u32; 3], p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
+        let (_, dir) = self.parallax_steps(cell, p, r);
+        self.sample(self.probe_index(cell), dir, roughness)
+    }
+
+    /// The fixed-point steps both lookups share: the hit relative to the probe (`p` itself when
+    /// the ray misses the first sphere) and the direction the probe is read in (`r` then).
+    fn parallax_steps(&self, cell: [u32; 3], p: [f32; 3], r: [f32; 3]) -> ([f32; 3], [f32; 3]) {
         let probe = self.probe_index(cell);
         let c = self.probe_position(cell);
         let pc: [f32; 3] = std::array::from_fn(|a| p[a] - c[a]);
@@ -400,6 +418,8 @@ impl ReflectionProbes {
         let mut dir = r;
         for _ in 0..3 {
             let radius = self.distance_toward(probe, dir);
+            // |pc + t r| = radius, the far root (p is inside the sphere when the probe sees
+            // past it).
             let b = dot(pc, r);
             let disc = b * b - (dot(pc, pc) - radius * radius);
             if disc < 0.0 {
@@ -413,37 +433,7 @@ impl ReflectionProbes {
             }
             dir = hit.map(|v| v / len);
         }
-        std::array::from_fn(|a| c[a] + hit[a])
-    }
-
-    /// Parallax-corrected reflection from the probe of grid cell `cell` at world point `p` for
-    /// the unit reflected direction `r`: the probe is looked up toward the point where the ray
-    /// `p + t r` meets the surface its distance map describes, found by three fixed-point steps
-    /// (start at the probe's distance toward `r`; each step intersects the ray with the sphere
-    /// around the probe whose radius is the probe's distance toward the current estimate).
-    pub fn radiance_from(&self, cell: [u32; 3], p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
-        let probe = self.probe_index(cell);
-        let c = self.probe_position(cell);
-        let pc: [f32; 3] = std::array::from_fn(|a| p[a] - c[a]);
-        let mut dir = r;
-        for _ in 0..3 {
-            let radius = self.distance_toward(probe, dir);
-            // |pc + t r| = radius, the far root (p is inside the sphere when the probe sees
-            // past it).
-            let b = dot(pc, r);
-            let disc = b * b - (dot(pc, pc) - radius * radius);
-            if disc < 0.0 {
-                break;
-            }
-            let t = (-b + disc.sqrt()).max(0.0);
-            let hit: [f32; 3] = std::array::from_fn(|a| pc[a] + t * r[a]);
-            let len = dot(hit, hit).sqrt();
-            if len.is_nan() || len <= 0.0 {
-                break;
-            }
-            dir = hit.map(|v| v / len);
-        }
-        self.sample(probe, dir, roughness)
+        (hit, dir)
     }
 }
 
