@@ -76,7 +76,7 @@ fn render(scene: &ViewerScene, live: &LiveObjects, mode: CompositeMode) -> (Vec<
 /// pixel keeps `LEVEL` exactly (the sphere's occlusion of indirect light leaves a specular
 /// reflection's light to the traced direction); at most 2 % of the pixels may disagree about
 /// the hit (the reflection's silhouette, where f32 and f64 rays part). Both compositing modes
-/// give the same colour.
+/// give the same colour, and so do a still frame and a frame after a move.
 #[test]
 fn a_mirror_floor_shows_the_sphere_it_reflects() {
     let l = 0.6f32;
@@ -114,4 +114,13 @@ fn a_mirror_floor_shows_the_sphere_it_reflects() {
     assert!(disagree * 50 <= hits, "{disagree} of {hits} pixels disagree about the reflection");
     let (points, _) = render(&s, &live, CompositeMode::Points);
     assert!(points == linear, "the two compositing paths differ");
+    // The pass keeps what it drew: a still frame copies it back, a frame after a move draws it
+    // again, and both equal a fresh compositor's frame.
+    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+    let mut c = Compositor::new(&gpu(), &s, settings).unwrap();
+    c.render(&white_matte(DVec3::new(-0.3, -0.4, 0.2), 0.2)).unwrap();
+    c.render(&live).unwrap();
+    assert!(c.read_back_linear().unwrap().rgba == linear, "a frame after a move differs from a fresh one");
+    c.render(&live).unwrap();
+    assert!(c.read_back_linear().unwrap().rgba == linear, "a still frame differs from the first");
 }

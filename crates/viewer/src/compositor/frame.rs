@@ -92,7 +92,7 @@ impl Compositor {
                 self.record_bounce(&mut encoder, rect);
             }
             // The spheres seen in mirrors and glass, after the bounce light they may reflect.
-            self.record_reflections(&mut encoder, &uniform, &loss_map_rows);
+            self.record_reflections(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
             self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
             self.record_shadow_bounce(&mut encoder, &uniform);
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
