@@ -483,7 +483,7 @@ fn whitted(
             crate::light_layers::end_primary();
         }
         if depth < max_depth {
-            for (wi, w, _) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
+            for (wi, w, flags) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
                 if w == Vec3::ZERO {
                     continue;
                 }
@@ -491,6 +491,9 @@ fn whitted(
                 let r = whitted(world, si.spawn_ray(wi), depth + 1, max_depth, sampler, counters, &mut sub);
                 counters.bounce += sub;
                 l += w * r.rgb;
+                if depth == 0 && flags.intersects(LobeFlags::REFLECTION) {
+                    crate::light_layers::primary_reflection(w * r.rgb);
+                }
             }
         }
     }
@@ -555,6 +558,8 @@ fn path(
     let mut beta = Vec3::ONE;
     let mut alpha = 0.0;
     let mut specular_bounce = true;
+    // The sample's colour when it left the primary vertex by its specular reflection.
+    let mut reflection_from: Option<Vec3> = None;
     let mut eta_scale = 1.0f32;
     // The previous vertex (for MIS of emitters hit by BSDF sampling).
     let mut prev: Option<(glam::DVec3, f32, rib_parser::scene::AttributesId)> = None;
@@ -631,6 +636,9 @@ fn path(
             break;
         }
         specular_bounce = bs.is_specular();
+        if depth == 0 && specular_bounce && bs.flags.intersects(LobeFlags::REFLECTION) {
+            reflection_from = Some(l);
+        }
         if bs.flags.intersects(LobeFlags::TRANSMISSION) {
             eta_scale *= bs.eta * bs.eta;
         }
@@ -647,6 +655,9 @@ fn path(
                 beta /= 1.0 - q;
             }
         }
+    }
+    if let Some(before) = reflection_from {
+        crate::light_layers::primary_reflection_weighted(l - before);
     }
     Radiance { rgb: sanitize(l), alpha }
 }

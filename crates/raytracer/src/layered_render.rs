@@ -14,8 +14,9 @@ use rib_parser::scene::Scene;
 use sidecar::{LightLayers, LightSource, depth_fingerprint, light_layer_count, light_layer_of};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Channels of a sample or pixel before the light layers: RGBA, emission, normal, albedo.
-const FIXED_CHANNELS: usize = 13;
+/// Channels of a sample or pixel before the light layers: RGBA, emission, normal, albedo,
+/// reflectance, reflected.
+const FIXED_CHANNELS: usize = 19;
 
 /// How a world's lights map to layers, and the channel layout of a layered sample.
 #[derive(Clone, Debug)]
@@ -53,8 +54,10 @@ impl LayerPlan {
             out[0..3].copy_from_slice(&t.emission.to_array());
             out[3..6].copy_from_slice(&t.normal.to_array());
             out[6..9].copy_from_slice(&t.albedo.to_array());
+            out[9..12].copy_from_slice(&t.reflectance.to_array());
+            out[12..15].copy_from_slice(&t.reflected.to_array());
             for (light, d) in t.direct.iter().enumerate() {
-                let k = 9 + 3 * self.layer_of_light[light];
+                let k = FIXED_CHANNELS - 4 + 3 * self.layer_of_light[light];
                 for c in 0..3 {
                     out[k + c] += d[c];
                 }
@@ -244,6 +247,8 @@ pub(crate) fn assemble(
         out.emission[p] = v3(4);
         out.normal[p] = v3(7);
         out.albedo[p] = v3(10);
+        out.reflectance[p] = v3(13);
+        out.reflected[p] = v3(16);
         let mut indirect = [f64::from(px[0]), f64::from(px[1]), f64::from(px[2])];
         for c in 0..3 {
             indirect[c] -= f64::from(px[4 + c]);

@@ -4,11 +4,12 @@
 //! vertex: [`primary_vertex`] when a camera ray's first surface is shaded, [`direct`] from
 //! [`crate::integrators::direct_from_light`], [`end_primary`] once the primary vertex's direct
 //! light is estimated, and [`direct_via_bsdf`] where a path tracer's BSDF sample from the
-//! primary vertex hits an emitter. Everything is recorded in a thread-local tally that only a
+//! primary vertex hits an emitter; [`primary_reflection`] (or [`primary_reflection_weighted`])
+//! with what the primary vertex's specular reflection brought. Everything is recorded in a thread-local tally that only a
 //! layered render (`layered_render`) arms, so a render without layers pays one
 //! thread-local flag test per call and nothing else.
 
-use crate::bsdf::{Bsdf, Lobe};
+use crate::bsdf::{Bsdf, Lobe, LobeFlags, TransportMode};
 use crate::integrators::surface_terms;
 use crate::materials::Material;
 use crate::world::{SurfaceInteraction, World};
@@ -26,6 +27,10 @@ pub(crate) struct Tally {
     pub normal: Vec3,
     /// Diffuse albedo at the primary vertex.
     pub albedo: Vec3,
+    /// The weight of the primary vertex's specular reflection (times its path weight).
+    pub reflectance: Vec3,
+    /// The radiance that specular reflection brought, weighted (a part of the sample's colour).
+    pub reflected: Vec3,
     /// The primary vertex's path weight (stochastic opacity), applied to its direct light.
     scale: Vec3,
 }
@@ -46,6 +51,8 @@ pub(crate) fn arm(light_count: usize) {
         t.emission = Vec3::ZERO;
         t.normal = Vec3::ZERO;
         t.albedo = Vec3::ZERO;
+        t.reflectance = Vec3::ZERO;
+        t.reflected = Vec3::ZERO;
         t.scale = Vec3::ZERO;
     });
     AT_PRIMARY.set(false);
@@ -80,11 +87,19 @@ pub fn primary_vertex(
     }
     let albedo = bsdf.lobes().iter().map(|l| if let Lobe::Lambert { r } = l { *r } else { Vec3::ZERO }).sum();
     let normal = if si.ns.dot(si.wo) < 0.0 { -si.ns } else { si.ns };
+    // The weight of the mirror direction, whichever branch a path tracer then samples.
+    let reflectance: Vec3 = bsdf
+        .specular_directions(si.wo, TransportMode::Radiance)
+        .into_iter()
+        .filter(|(_, _, flags)| flags.intersects(LobeFlags::REFLECTION))
+        .map(|(_, w, _)| w)
+        .sum();
     TALLY.with_borrow_mut(|t| {
         t.scale = weight;
         t.emission = emission * weight;
         t.normal = normal;
         t.albedo = albedo;
+        t.reflectance = reflectance * weight;
     });
 }
 
@@ -104,6 +119,25 @@ pub fn direct(light: u32, value: Vec3) {
                 *d += t.scale * value;
             }
         });
+    }
+}
+
+/// `value`: the radiance the primary vertex's specular reflection brings, times the direction's
+/// weight and before the vertex's path weight (integrators that follow every specular
+/// direction).
+#[inline]
+pub fn primary_reflection(value: Vec3) {
+    if ARMED.get() {
+        TALLY.with_borrow_mut(|t| t.reflected += t.scale * value);
+    }
+}
+
+/// `value` (path weight included): what a path that left the primary vertex by its specular
+/// reflection added to the sample (integrators that sample one direction).
+#[inline]
+pub fn primary_reflection_weighted(value: Vec3) {
+    if ARMED.get() {
+        TALLY.with_borrow_mut(|t| t.reflected += value);
     }
 }
 

@@ -110,3 +110,47 @@ fn normal_and_albedo_describe_the_primary_hit() {
             .is_none()
     );
 }
+
+/// A camera facing a tinted mirror that fills its view and reflects a matte wall behind the
+/// camera, lit by a point light between them.
+fn mirror_scene(integrator: &str) -> String {
+    format!(
+        "Format 8 6 1\nPixelSamples 2 2\nPixelFilter \"box\" 1 1\n\
+         Projection \"perspective\" \"fov\" [40]\nTranslate 0 0 4\n\
+         SurfaceIntegrator {integrator}\nWorldBegin\n\
+         LightSource \"pointlight\" 1 \"from\" [0 0 -6] \"intensity\" [4]\n\
+         AttributeBegin\nColor [0.9 0.8 0.7]\nSurface \"mirror\"\n\
+         Polygon \"P\" [-5 -5 0  5 -5 0  5 5 0  -5 5 0]\nAttributeEnd\n\
+         AttributeBegin\nSurface \"matte\"\n\
+         Polygon \"P\" [-20 -20 -8  20 -20 -8  20 20 -8  -20 20 -8]\nAttributeEnd\n\
+         WorldEnd\n"
+    )
+}
+
+/// Every pixel sees the mirror alone: `reflectance` is its `Kr * Color` and `reflected` all of
+/// its light (the whole `indirect` layer, the image), for every integrator; a scene without
+/// specular surfaces has no reflection at all.
+#[test]
+fn reflectance_and_reflected_describe_the_primary_specular_reflection() {
+    for integrator in [PATH, PHOTONS, DIRECT] {
+        let out = run(&mirror_scene(integrator));
+        let layers = out.layers.unwrap();
+        assert!(layers.has_reflection(), "{integrator}");
+        for p in 0..layers.pixel_count() {
+            let (r, reflected, indirect) = (layers.reflectance[p], layers.reflected[p], layers.indirect[p]);
+            for c in 0..3 {
+                assert!(
+                    (r[c] - [0.9, 0.8, 0.7][c]).abs() < 1e-5,
+                    "{integrator} pixel {p}: reflectance {r:?}"
+                );
+                let tolerance = 1e-4 * (1.0 + indirect[c].abs());
+                assert!(
+                    (reflected[c] - indirect[c]).abs() <= tolerance && indirect[c] > 0.0,
+                    "{integrator} pixel {p}: reflected {reflected:?}, indirect {indirect:?}"
+                );
+            }
+        }
+    }
+    let plain = run(&scene(DIRECT, [1.0; 3]).replace("Surface \"mirror\"", "Surface \"matte\""));
+    assert!(!plain.layers.unwrap().has_reflection());
+}

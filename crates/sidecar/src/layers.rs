@@ -22,6 +22,10 @@ pub fn light_layer_of(light: usize, light_count: usize) -> usize {
     ((light as u128 * layers as u128) / light_count as u128) as usize
 }
 
+/// The optional layers of a frame whose primary hits include specular reflections (mirrors,
+/// glass): `reflectance` and `reflected`, both present or both absent (absent: zero).
+pub const REFLECTION_LAYERS: [&str; 2] = ["reflectance", "reflected"];
+
 /// One light of the scene as the layers refer to it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LightSource {
@@ -73,6 +77,13 @@ pub struct LightLayers {
     /// `albedo`: the pixel-filtered diffuse albedo (`Kd * Color` for matte and plastic) at the
     /// primary hit; zero where the ray misses or the surface has no diffuse lobe.
     pub albedo: Vec<[f32; 3]>,
+    /// `reflectance`: the pixel-filtered weight of the primary hit's specular reflection (a
+    /// mirror's `Kr * Color`, a dielectric's Fresnel reflectance), times the hit's opacity; zero
+    /// where the surface has no specular reflection. Written only when some pixel has one.
+    pub reflectance: Vec<[f32; 3]>,
+    /// `reflected`: the radiance that specular reflection brings toward the camera, weighted by
+    /// `reflectance` (a part of `indirect`). Written with `reflectance`.
+    pub reflected: Vec<[f32; 3]>,
 }
 
 impl LightLayers {
@@ -89,7 +100,9 @@ impl LightLayers {
             emission: zero.clone(),
             indirect: zero.clone(),
             normal: zero.clone(),
-            albedo: zero,
+            albedo: zero.clone(),
+            reflectance: zero.clone(),
+            reflected: zero,
         }
     }
 
@@ -124,7 +137,14 @@ impl LightLayers {
         sum
     }
 
-    /// Every buffer with its EXR layer name, in the order the format lists them.
+    /// Whether some pixel sees a specular reflection at its primary hit: the file then holds
+    /// the optional [`REFLECTION_LAYERS`].
+    pub fn has_reflection(&self) -> bool {
+        self.reflectance.iter().any(|p| p.iter().any(|&v| v != 0.0))
+    }
+
+    /// Every buffer with its EXR layer name, in the order the format lists them (the
+    /// [`REFLECTION_LAYERS`] only when [`LightLayers::has_reflection`]).
     pub fn named_buffers(&self) -> Vec<(String, &[[f32; 3]])> {
         let mut out: Vec<(String, &[[f32; 3]])> = Vec::new();
         for (k, layer) in self.light.iter().enumerate() {
@@ -134,9 +154,14 @@ impl LightLayers {
         out.push(("indirect".into(), &self.indirect));
         out.push(("normal".into(), &self.normal));
         out.push(("albedo".into(), &self.albedo));
+        if self.has_reflection() {
+            out.push((REFLECTION_LAYERS[0].into(), &self.reflectance));
+            out.push((REFLECTION_LAYERS[1].into(), &self.reflected));
+        }
         out
     }
 
+    /// Every buffer with its EXR layer name, the optional [`REFLECTION_LAYERS`] last.
     pub(crate) fn named_buffers_mut(&mut self) -> Vec<(String, &mut Vec<[f32; 3]>)> {
         let mut out: Vec<(String, &mut Vec<[f32; 3]>)> = Vec::new();
         for (k, layer) in self.light.iter_mut().enumerate() {
@@ -146,6 +171,8 @@ impl LightLayers {
         out.push(("indirect".into(), &mut self.indirect));
         out.push(("normal".into(), &mut self.normal));
         out.push(("albedo".into(), &mut self.albedo));
+        out.push((REFLECTION_LAYERS[0].into(), &mut self.reflectance));
+        out.push((REFLECTION_LAYERS[1].into(), &mut self.reflected));
         out
     }
 }

@@ -2,7 +2,9 @@
 //! (`light.K.R`, ..., `normal.X`, ...) with the sidecar's metadata as header attributes.
 
 use crate::error::{SidecarError, SidecarErrorKind};
-use crate::layers::{LayerExpectation, LightLayers, LightSource, channel_suffixes, light_layer_count};
+use crate::layers::{
+    LayerExpectation, LightLayers, LightSource, REFLECTION_LAYERS, channel_suffixes, light_layer_count,
+};
 use exr::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
@@ -187,10 +189,22 @@ fn read_layers_inner(
     let mut layers = LightLayers::new(expect.width, expect.height, fingerprint, lights);
     let width = expect.width.max(1) as usize;
     let expected_names = channel_names(layers.light.len());
-    if let Some(extra) = channels.keys().find(|name| !expected_names.contains(name)) {
+    let optional_names: Vec<String> = REFLECTION_LAYERS
+        .iter()
+        .flat_map(|layer| channel_suffixes(layer).map(|c| format!("{layer}.{c}")))
+        .collect();
+    if let Some(extra) =
+        channels.keys().find(|name| !expected_names.contains(name) && !optional_names.contains(name))
+    {
         return Err(SidecarErrorKind::UnexpectedChannel { name: extra.clone() });
     }
+    // The reflection layers are optional (older files, frames without specular surfaces): all
+    // of their channels or none.
+    let has_reflection = optional_names.iter().any(|name| channels.contains_key(name));
     for (name, buffer) in layers.named_buffers_mut() {
+        if !has_reflection && REFLECTION_LAYERS.contains(&name.as_str()) {
+            continue;
+        }
         for (c, suffix) in channel_suffixes(&name).iter().enumerate() {
             let channel = format!("{name}.{suffix}");
             let Some(values) = channels.get(&channel) else {

@@ -191,3 +191,39 @@ fn writer_refuses_non_finite_values_and_keeps_the_old_file() {
     assert_eq!(read_layers(&path, &expectation(&good), Default::default()).unwrap().albedo, good.albedo);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
+
+#[test]
+fn reflection_layers_are_written_when_a_pixel_reflects_and_read_all_or_none() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = SidecarPaths::for_depth(&dir.path().join("out.depth")).layers;
+    let channel_count = |path: &Path| {
+        let image = read_all_data_from_file(path).unwrap();
+        image.layer_data[0].channel_data.list.len()
+    };
+    // Without a specular reflection the file is what it was before the optional layers.
+    let mut plain = sample_layers(2);
+    for l in &mut plain.lights {
+        l.description = l.description.replace('é', "?");
+    }
+    write_layers(&plain, &path).unwrap();
+    assert_eq!(channel_count(&path), channel_names(2).len());
+    assert_eq!(read_layers(&path, &expectation(&plain), Default::default()).unwrap(), plain);
+    // With one, both layers are written and read back exactly.
+    let mut mirror = plain.clone();
+    mirror.reflectance[3] = [0.95, 0.9, 0.85];
+    mirror.reflected[3] = [1.5, 0.25, 0.125];
+    write_layers(&mirror, &path).unwrap();
+    assert_eq!(channel_count(&path), channel_names(2).len() + 6);
+    assert_eq!(read_layers(&path, &expectation(&mirror), Default::default()).unwrap(), mirror);
+    // Half of them is refused, naming a missing channel.
+    let mut channels: Vec<(String, f32)> = channel_names(2).into_iter().map(|c| (c, 0.0)).collect();
+    channels.extend(["reflectance.R", "reflectance.G", "reflectance.B"].map(|c| (c.to_string(), 0.5)));
+    let refs: Vec<(&str, f32)> = channels.iter().map(|(c, v)| (c.as_str(), *v)).collect();
+    write_raw(&path, (3, 2), &refs, &good_attrs(2));
+    let expect = LayerExpectation { width: 3, height: 2, depth_fingerprint: None };
+    let err = read_layers(&path, &expect, Default::default()).unwrap_err();
+    assert!(
+        matches!(&err.kind, SidecarErrorKind::MissingChannel { name, .. } if name.starts_with("reflected.")),
+        "{err}"
+    );
+}

@@ -231,12 +231,15 @@ impl PhotonMapper {
                 }
             }
             if depth < self.settings.max_depth {
-                for (wi, w, _) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
+                for (wi, w, flags) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
                     if w == Vec3::ZERO {
                         continue;
                     }
                     let r = self.li_depth(world, si.spawn_ray(wi), depth + 1, sampler, counters, scratch);
                     l += w * r.rgb;
+                    if depth == 0 && flags.intersects(LobeFlags::REFLECTION) {
+                        crate::light_layers::primary_reflection(w * r.rgb);
+                    }
                 }
             }
         }

@@ -104,6 +104,8 @@ impl Compositor {
                 self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
                 self.record_bounce(&mut encoder, rect);
             }
+            // The spheres seen in mirrors and glass, after the bounce light they may reflect.
+            self.record_reflections(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
             self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
             self.record_shadow_bounce(&mut encoder, &uniform);
             // A frame whose second bounce is partly from earlier inputs (amortised) is no copy

@@ -1,6 +1,7 @@
 //! The light layers on the GPU: one half-float texture array (the light layers of the kept
 //! lights, then `indirect`, then the camera-space shading normal, then the diffuse albedo when
-//! the layers hold one) and a uniform block of
+//! the layers hold one, then the specular reflection's reflectance and reflected radiance when
+//! some pixel has one) and a uniform block of
 //! area-light samples in camera space, with each kept light's slice and samples.
 
 use super::lighting::vec4;
@@ -35,6 +36,9 @@ pub(super) struct GpuLayers {
     /// no albedo anywhere (older files, or no diffuse surface): the bounce light then has nothing
     /// to reflect it with.
     pub(super) albedo_slice: Option<u32>,
+    /// The specular reflection's slices (`reflectance`, then `reflected` in the next slice) and
+    /// the pixels that have one (`[x, y, width, height]`); `None` when no pixel has one.
+    pub(super) reflection: Option<(u32, [u32; 4])>,
     /// Whether two kept lights share a layer (the shaders then weigh them).
     pub(super) shared: bool,
     /// Per kept light, the world-space emitter samples the shaders integrate it over (each
@@ -65,6 +69,7 @@ pub(super) fn upload(
     let mut info = [0u32; 4];
     let mut world_samples = vec![Vec::new(); kept.len()];
     let mut albedo_slice = None;
+    let mut reflection = None;
     if let Some(bound) = layers {
         let mut slice_of_layer = vec![None; bound.layers.light.len()];
         let area_lights = kept.iter().filter(|&&k| !bound.area_samples[k].is_empty()).count().max(1);
@@ -119,6 +124,11 @@ pub(super) fn upload(
             albedo_slice = Some(slices.len() as u32);
             slices.push(bound.layers.albedo.clone());
         }
+        if let Some(rect) = reflecting_pixels(&bound.layers.reflectance, width as usize) {
+            reflection = Some((slices.len() as u32, rect));
+            slices.push(bound.layers.reflectance.clone());
+            slices.push(bound.layers.reflected.clone());
+        }
     }
     let (w, h) = if layers.is_some() { (width, height) } else { (1, 1) };
     let count = slices.len().max(2) as u32;
@@ -170,5 +180,20 @@ pub(super) fn upload(
         slices.dedup();
         slices.len() != n
     };
-    GpuLayers { view, samples: buffer, light_slots, info, albedo_slice, shared, world_samples }
+    GpuLayers { view, samples: buffer, light_slots, info, albedo_slice, reflection, shared, world_samples }
+}
+
+/// The bounding rectangle `[x, y, width, height]` of the pixels whose `reflectance` (rows of
+/// `width`) is not zero, `None` when there are none.
+fn reflecting_pixels(reflectance: &[[f32; 3]], width: usize) -> Option<[u32; 4]> {
+    let mut bounds: Option<[usize; 4]> = None;
+    for (i, r) in reflectance.iter().enumerate() {
+        if r.iter().all(|&v| v <= 0.0) {
+            continue;
+        }
+        let (x, y) = (i % width.max(1), i / width.max(1));
+        let b = bounds.get_or_insert([x, y, x, y]);
+        *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+    }
+    bounds.map(|[x0, y0, x1, y1]| [x0 as u32, y0 as u32, (x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32])
 }

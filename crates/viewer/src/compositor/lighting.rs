@@ -99,6 +99,9 @@ pub(super) struct FrameUniform {
     /// the shadows' scissor as `x | y << 16` and `width | height << 16`, the albedo layer's
     /// slice. Set by `Compositor::render` from the shadows' scissor.
     pub(super) shadow_bounce: [u32; 4],
+    /// The live spheres seen in the scene's specular reflections (`bounce.wgsl`): 1 when on
+    /// (with the bounce light), the `reflectance` slice, the `reflected` slice.
+    pub(super) reflection: [u32; 4],
 }
 
 #[repr(C)]
@@ -274,6 +277,12 @@ impl Compositor {
                 _ => [0; 4],
             },
             shadow_bounce: [0; 4],
+            reflection: match self.layers.reflection {
+                Some((slice, _)) if self.settings.bounce_light && shadow_on == 1 && sphere_count > 0 => {
+                    [1, slice, slice + 1, 0]
+                }
+                _ => [0; 4],
+            },
         }
     }
 }

@@ -410,6 +410,7 @@ impl Compositor {
                 linear_format,
                 mask_format: MASK_FORMAT,
                 depth_format,
+                reflection_rect: gpu_layers.reflection.map(|(_, rect)| rect),
             },
         );
         let shadow_bounce = shadow_bounce::ShadowBounce::new(

@@ -87,6 +87,9 @@ struct Frame {
     // The light the shadows take from the rest of the scene (shadow_bounce.wgsl): 1 when on,
     // the shadows' scissor (x | y << 16, width | height << 16), the albedo layer's slice.
     shadow_bounce: vec4<u32>,
+    // The live spheres seen in the scene's specular reflections (bounce.wgsl): 1 when on, the
+    // reflectance layer's slice, the reflected layer's slice.
+    reflection: vec4<u32>,
 }
 
 const NO_LAYER: u32 = 0xffffffffu;

@@ -236,8 +236,13 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
     } else {
         removed = shared_layer_shadow(pixel, p, n);
     }
-    return (removed + indirect_occlusion(p, n) * textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb)
-        * frame.tone.x;
+    // A specular reflection's light is not hidden evenly: the reflection pass traces its one
+    // direction (bounce.wgsl, fs_reflection), so only the rest of the indirect light is.
+    var indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+    if frame.reflection.x == 1u {
+        indirect -= textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
+    }
+    return (removed + indirect_occlusion(p, n) * indirect) * frame.tone.x;
 }
 
 // Layers that hold several lights (scenes with more than 16): each light's share weighted by
