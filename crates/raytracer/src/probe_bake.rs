@@ -41,10 +41,12 @@ pub struct ProbeLimits {
 }
 
 impl Default for ProbeLimits {
-    /// 8 probes along the longest axis, 64 radiance rays each, at most 512 probes: a few
-    /// percent of a 256x256, 16-sample render.
+    /// 16 probes along the longest axis, 64 radiance rays each, at most 4096 probes. With 8,
+    /// the lowest layer of a room-sized scene sat half a 1.5-unit cell above its floor, so a
+    /// live object resting there read probes from above its own height (docs/sidecar.md,
+    /// "Probes"); 16 costs about a second more of a 256x256, 64-sample render.
     fn default() -> Self {
-        ProbeLimits { probes_along_longest: 8, radiance_rays: 64, max_probes: 512 }
+        ProbeLimits { probes_along_longest: 16, radiance_rays: 64, max_probes: 4096 }
     }
 }
 

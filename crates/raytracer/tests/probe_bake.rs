@@ -18,7 +18,7 @@ fn probes_do_not_leak_light_through_a_wall() {
     let options = RenderOptions { depth: true, layers: true, threads: Some(2), ..Default::default() };
     let out = render(&scene, &options).unwrap();
     let grid = out.probes.expect("probes are baked with the layers");
-    assert_eq!(grid.counts, [8, 5, 8]);
+    assert_eq!(grid.counts, [16, 11, 16]);
     assert_eq!(grid.depth_fingerprint, sidecar::depth_fingerprint(&out.depth.unwrap().values));
     let up = [0.0, 1.0, 0.0];
     let lit = grid.irradiance([-0.05, -1.0, 0.0], up)[0];
