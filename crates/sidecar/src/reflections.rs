@@ -284,18 +284,9 @@ impl ReflectionProbes {
     /// map does not reach `p` (a wall between them) only by `1e-3` of that, so light does not
     /// leak through walls; with no probe seeing `p`, the trilinear mean.
     pub fn radiance(&self, p: [f32; 3], r: [f32; 3], roughness: f32) -> [f32; 3] {
-        let (base, alpha) = self.grid_cell(p);
         let mut sum = [0.0f32; 3];
         let mut total = 0.0f32;
-        for corner in 0..8u32 {
-            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let trilinear: f32 =
-                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
-            if trilinear <= 0.0 {
-                continue;
-            }
-            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
-            let w = if self.sees(cell, p) { trilinear } else { 1e-3 * trilinear };
+        for (cell, w) in self.corner_weights(p) {
             let l = self.radiance_from(cell, p, r, roughness);
             for c in 0..3 {
                 sum[c] += w * l[c];
@@ -336,18 +327,7 @@ impl ReflectionProbes {
         if lobe_total.is_nan() || lobe_total <= 0.0 {
             return [0.0; 3];
         }
-        let (base, alpha) = self.grid_cell(p);
-        let mut corners = Vec::with_capacity(8);
-        for corner in 0..8u32 {
-            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let trilinear: f32 =
-                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
-            if trilinear <= 0.0 {
-                continue;
-            }
-            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
-            corners.push((cell, if self.sees(cell, p) { trilinear } else { 1e-3 * trilinear }));
-        }
+        let corners = self.corner_weights(p);
         // The first of the largest, as the shader's strict comparison keeps it.
         let Some(&(nearest, _)) = corners.iter().fold(None, |best: Option<&([u32; 3], f32)>, c| match best {
             Some(b) if b.1 >= c.1 => Some(b),
@@ -372,6 +352,24 @@ impl ReflectionProbes {
             total += w;
         }
         if total > 0.0 { sum.map(|x| x / (total * lobe_total)) } else { [0.0; 3] }
+    }
+
+    /// The probes of the grid cell around `p` (fewer at the grid's edges) with their weights:
+    /// trilinear, and `1e-3` of that for a probe that does not see `p` (a wall between them).
+    fn corner_weights(&self, p: [f32; 3]) -> Vec<([u32; 3], f32)> {
+        let (base, alpha) = self.grid_cell(p);
+        let mut corners = Vec::with_capacity(8);
+        for corner in 0..8u32 {
+            let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+            let trilinear: f32 =
+                (0..3).map(|a| if offset[a] == 1 { alpha[a] } else { 1.0 - alpha[a] }).product();
+            if trilinear <= 0.0 {
+                continue;
+            }
+            let cell: [u32; 3] = std::array::from_fn(|a| (base[a] + offset[a]).min(self.counts[a] - 1));
+            corners.push((cell, if self.sees(cell, p) { trilinear } else { 1e-3 * trilinear }));
+        }
+        corners
     }
 
     /// The grid cell below `p` and `p`'s fractions across it, clamped to the grid.
