@@ -18,6 +18,7 @@
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use super::overlay::Overlay;
 use super::shadows::{AO_REACH, merge};
 use super::sphere_atlas::SphereMapAtlas;
 use glam::DVec3;
@@ -87,57 +88,26 @@ impl Bounce {
             cache: None,
         });
         // Into the frame's colour target (the mask and depth stay as the backdrop left them).
-        let frame_targets = [
-            Some(wgpu::ColorTargetState {
-                format: setup.linear_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::COLOR,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: setup.mask_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::empty(),
-            }),
-        ];
-        let bounce_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("bounce light"),
-            layout: Some(setup.frame_only),
-            vertex,
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: setup.depth_format,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(fragment("fs_bounce", &frame_targets)),
-            multiview_mask: None,
-            cache: None,
-        });
-        let reflection_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("spheres in specular reflections"),
-            layout: Some(setup.with_mesh),
-            vertex: wgpu::VertexState {
-                module: setup.module,
-                entry_point: Some("vs_reflection"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: setup.depth_format,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(fragment("fs_reflection", &frame_targets)),
-            multiview_mask: None,
-            cache: None,
-        });
+        let overlay = Overlay {
+            module: setup.module,
+            linear_format: setup.linear_format,
+            mask_format: setup.mask_format,
+            depth_format: setup.depth_format,
+        };
+        let bounce_pipeline = overlay.pipeline(device, "bounce light", setup.frame_only, vertex, "fs_bounce");
+        let reflection_vertex = wgpu::VertexState {
+            module: setup.module,
+            entry_point: Some("vs_reflection"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        };
+        let reflection_pipeline = overlay.pipeline(
+            device,
+            "spheres in specular reflections",
+            setup.with_mesh,
+            reflection_vertex,
+            "fs_reflection",
+        );
         let reflection_cache = setup.reflection_rect.map(|[_, _, width, height]| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("spheres in specular reflections, last drawn"),

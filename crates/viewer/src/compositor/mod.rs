@@ -12,6 +12,7 @@ mod layers;
 mod lighting;
 mod live_objects;
 mod loss_map;
+mod overlay;
 mod readback;
 mod reflections;
 mod scene_shadows;

@@ -22,6 +22,7 @@
 
 use super::Compositor;
 use super::lighting::FrameUniform;
+use super::overlay::Overlay;
 
 /// Fine clusters along each side of the shadows' scissor, and coarse ones (4x4 fine ones each;
 /// `shadow_bounce.wgsl` SHADOW_BOUNCE_FINE and SHADOW_BOUNCE_COARSE).
@@ -179,12 +180,6 @@ impl ShadowBounce {
         textures: ShadowBounceTextures,
         setup: &ShadowBounceSetup<'_>,
     ) -> ShadowBounce {
-        let fragment = |entry: &'static str, targets| wgpu::FragmentState {
-            module: setup.module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            targets,
-        };
         let vertex = wgpu::VertexState {
             module: setup.module,
             entry_point: Some("vs_fullscreen"),
@@ -215,35 +210,14 @@ impl ShadowBounce {
             alone("shadow bounce clusters", "fs_shadow_bounce_clusters", setup.linear_format);
         let taken_pipeline = alone("shadow bounce taken", "fs_shadow_bounce_taken", TAKEN_FORMAT);
         // Into the frame's colour target (the mask and depth stay as the backdrop left them).
-        let frame_targets = [
-            Some(wgpu::ColorTargetState {
-                format: setup.linear_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::COLOR,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: setup.mask_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::empty(),
-            }),
-        ];
-        let apply_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("shadow bounce"),
-            layout: Some(setup.frame_only),
-            vertex,
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: setup.depth_format,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(fragment("fs_shadow_bounce", &frame_targets)),
-            multiview_mask: None,
-            cache: None,
-        });
+        let overlay = Overlay {
+            module: setup.module,
+            linear_format: setup.linear_format,
+            mask_format: setup.mask_format,
+            depth_format: setup.depth_format,
+        };
+        let apply_pipeline =
+            overlay.pipeline(device, "shadow bounce", setup.frame_only, vertex, "fs_shadow_bounce");
         ShadowBounce {
             textures,
             cluster_pipeline,

@@ -1,0 +1,59 @@
+//! Pipelines that draw over the frame's colour target in place (the bounce light, the spheres
+//! seen in specular reflections, the shadows' second bounce): the mask and depth stay as the
+//! backdrop left them, so the depth test always passes and nothing but colour is written.
+
+/// The shader module and the frame's target formats an overlay pipeline draws with.
+pub(super) struct Overlay<'a> {
+    pub(super) module: &'a wgpu::ShaderModule,
+    pub(super) linear_format: wgpu::TextureFormat,
+    pub(super) mask_format: wgpu::TextureFormat,
+    pub(super) depth_format: wgpu::TextureFormat,
+}
+
+impl Overlay<'_> {
+    /// A pipeline of `layout` running `vertex` and the fragment entry point `fragment` over the
+    /// frame's colour target.
+    pub(super) fn pipeline(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        layout: &wgpu::PipelineLayout,
+        vertex: wgpu::VertexState<'_>,
+        fragment: &str,
+    ) -> wgpu::RenderPipeline {
+        let targets = [
+            Some(wgpu::ColorTargetState {
+                format: self.linear_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::COLOR,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: self.mask_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::empty(),
+            }),
+        ];
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(layout),
+            vertex,
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: self.depth_format,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: self.module,
+                entry_point: Some(fragment),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+}
