@@ -9,8 +9,8 @@ use common::*;
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 use viewer::{
-    Backdrop, CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, SceneLayers,
-    Sphere, ToneMap, ViewerScene,
+    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, SceneLayers, Sphere,
+    ViewerScene,
 };
 
 const LEVEL: f32 = 0.5;
@@ -24,12 +24,8 @@ const REACH: f64 = 8.0;
 /// `ALBEDO` everywhere (`albedo` false: no albedo layer, as older files).
 fn scene(lights: Vec<LiveLight>, albedo: bool) -> ViewerScene {
     let (w, h) = (512u32, 512u32);
-    let n = (w * h) as usize;
-    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
     let light_count = lights.len();
-    let mut s =
-        ViewerScene::with_backdrop(cornell_camera(), backdrop, cornell_depth(), lights, ToneMap::default())
-            .unwrap();
+    let mut s = flat_cornell(LEVEL, lights);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let sources = (0..light_count as u32).map(|k| sidecar::LightSource::new(k, "pointlight")).collect();
     let mut layers = sidecar::LightLayers::new(w, h, fingerprint, sources);
@@ -283,11 +279,7 @@ fn the_bounce_is_the_same_in_both_modes_and_after_a_move() {
 #[test]
 fn the_light_a_sphere_hides_is_the_light_behind_it() {
     let (w, h) = (512u32, 512u32);
-    let n = (w * h) as usize;
-    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
-    let mut s =
-        ViewerScene::with_backdrop(cornell_camera(), backdrop, cornell_depth(), vec![], ToneMap::default())
-            .unwrap();
+    let mut s = flat_cornell(LEVEL, vec![]);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
     layers.normal.iter_mut().for_each(|v| *v = [0.0, 1.0, 0.0]);

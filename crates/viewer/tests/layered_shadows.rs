@@ -8,8 +8,8 @@ mod common;
 use common::*;
 use glam::{DVec3, Vec3};
 use viewer::{
-    Backdrop, CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, SceneLayers,
-    Sphere, ToneMap, ViewerScene,
+    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, SceneLayers, Sphere,
+    ViewerScene,
 };
 
 const LEVEL: f32 = 0.5;
@@ -123,7 +123,6 @@ fn mismatched_layers_are_refused() {
 fn an_area_light_layer_loses_the_occluded_share_of_the_emitter() {
     let gpu = gpu();
     let (w, h) = (512u32, 512u32);
-    let n = (w * h) as usize;
     let corners = [
         DVec3::new(-0.23, 0.99, -0.19),
         DVec3::new(0.23, 0.99, -0.19),
@@ -133,15 +132,7 @@ fn an_area_light_layer_loses_the_occluded_share_of_the_emitter() {
     let triangles = [[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]];
     let samples = viewer::light_layers::area_samples(&triangles, 64);
     assert!(samples.iter().all(|s| (s.normal - DVec3::NEG_Y).length() < 1e-9));
-    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
-    let mut s = ViewerScene::with_backdrop(
-        cornell_camera(),
-        backdrop,
-        cornell_depth(),
-        vec![cornell_light()],
-        ToneMap::default(),
-    )
-    .unwrap();
+    let mut s = flat_cornell(LEVEL, vec![cornell_light()]);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers =
         sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
@@ -185,19 +176,10 @@ fn an_area_light_layer_loses_the_occluded_share_of_the_emitter() {
 fn an_area_light_lights_a_live_sphere_over_its_samples() {
     let gpu = gpu();
     let (w, h) = (512u32, 512u32);
-    let n = (w * h) as usize;
     let samples = cornell_emitter_samples();
     let light = cornell_light();
     let LiveLight::Area { radiance, area, .. } = light else { unreachable!() };
-    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
-    let mut s = ViewerScene::with_backdrop(
-        cornell_camera(),
-        backdrop,
-        cornell_depth(),
-        vec![light],
-        ToneMap::default(),
-    )
-    .unwrap();
+    let mut s = flat_cornell(LEVEL, vec![light]);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let layers =
         sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);

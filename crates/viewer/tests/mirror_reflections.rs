@@ -9,8 +9,7 @@ mod common;
 use common::*;
 use glam::{DVec3, Vec3};
 use viewer::{
-    Backdrop, CompositeMode, Compositor, CompositorSettings, LiveObjects, Material, SceneLayers, Sphere,
-    ToneMap, ViewerScene,
+    CompositeMode, Compositor, CompositorSettings, LiveObjects, Material, SceneLayers, Sphere, ViewerScene,
 };
 
 const LEVEL: f32 = 0.5;
@@ -23,10 +22,7 @@ const REFLECTANCE: f32 = 0.8;
 fn mirror_floor_scene(probe_radiance: f32) -> (ViewerScene, Vec<bool>) {
     let (w, h) = (512u32, 512u32);
     let n = (w * h) as usize;
-    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
-    let mut s =
-        ViewerScene::with_backdrop(cornell_camera(), backdrop, cornell_depth(), vec![], ToneMap::default())
-            .unwrap();
+    let mut s = flat_cornell(LEVEL, vec![]);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
     let mut floor = vec![false; n];

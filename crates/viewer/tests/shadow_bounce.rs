@@ -10,8 +10,8 @@ use common::*;
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 use viewer::{
-    Backdrop, CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, SceneLayers,
-    Sphere, ToneMap, ViewerScene,
+    CompositeMode, Compositor, CompositorSettings, LiveLight, LiveObjects, Material, SceneLayers, Sphere,
+    ViewerScene,
 };
 
 const LEVEL: f32 = 0.5;
@@ -49,16 +49,8 @@ fn world_point(scene: &ViewerScene, i: u32, j: u32) -> Option<DVec3> {
 fn scene() -> ViewerScene {
     let (w, h) = (512u32, 512u32);
     let n = (w * h) as usize;
-    let backdrop = Backdrop::from_linear(w, h, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
     let light = LiveLight::Point { position: LIGHT, colour: Vec3::splat(1.0) };
-    let mut s = ViewerScene::with_backdrop(
-        cornell_camera(),
-        backdrop,
-        cornell_depth(),
-        vec![light],
-        ToneMap::default(),
-    )
-    .unwrap();
+    let mut s = flat_cornell(LEVEL, vec![light]);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers =
         sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "pointlight")]);

@@ -209,23 +209,23 @@ pub fn inside_mask(mask: &[u8], width: usize, k: usize) -> bool {
     !any_in_block(mask, width, k, |m| m != 255)
 }
 
+/// The Cornell camera and depth, 512x512, over a flat backdrop of linear `level`, lit by
+/// `lights`.
+pub fn flat_cornell(level: f32, lights: Vec<LiveLight>) -> ViewerScene {
+    let (w, h) = (512u32, 512u32);
+    let linear = [level, level, level, 1.0].repeat((w * h) as usize);
+    let backdrop = viewer::Backdrop::from_linear(w, h, linear, 1.0).unwrap();
+    ViewerScene::with_backdrop(cornell_camera(), backdrop, cornell_depth(), lights, ToneMap::default())
+        .unwrap()
+}
+
 /// The Cornell camera and depth with a flat backdrop of `level`, one white point light at
 /// `light` and light layers: all of the backdrop in `light.0` (or in `indirect` when
 /// `indirect`), normals facing up.
 pub fn layered_cornell(light: DVec3, indirect: bool, level: f32) -> ViewerScene {
     let (w, h) = (512u32, 512u32);
-    let n = (w * h) as usize;
-    let linear = [level, level, level, 1.0].repeat(n);
-    let backdrop = viewer::Backdrop::from_linear(w, h, linear, 1.0).unwrap();
     let point = LiveLight::Point { position: light, colour: Vec3::splat(1.0) };
-    let mut s = ViewerScene::with_backdrop(
-        cornell_camera(),
-        backdrop,
-        cornell_depth(),
-        vec![point],
-        ToneMap::default(),
-    )
-    .unwrap();
+    let mut s = flat_cornell(level, vec![point]);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers =
         sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "pointlight")]);
