@@ -75,15 +75,6 @@ fn cap_integral(p: DVec3, centre: DVec3, radius: f64, rings: usize, integrand: i
     sum * 2.0 * PI * one_minus_cos / (rings * sectors) as f64
 }
 
-/// The world-space surface point of pixel (i, j) of the Cornell depth, when it is on the floor.
-fn floor_point(scene: &ViewerScene, i: u32, j: u32) -> Option<DVec3> {
-    let r = scene.depth().get(i, j).filter(|r| r.is_finite())?;
-    let camera = scene.camera();
-    let ray = camera.pixel_centre_ray(i, j);
-    let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-    ((p.y + 1.0).abs() < 1e-3).then_some(p)
-}
-
 /// Whether the segment from `p` to `q` crosses a triangle (Moller-Trumbore in f64).
 fn segment_blocked(p: DVec3, q: DVec3, triangles: &[[DVec3; 3]]) -> bool {
     let (dir, len) = ((q - p).normalize(), (q - p).length());

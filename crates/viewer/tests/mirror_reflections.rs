@@ -45,15 +45,6 @@ fn mirror_floor_scene(probe_radiance: f32) -> (ViewerScene, Vec<bool>) {
     (s, floor)
 }
 
-/// The world-space surface point of pixel (i, j) of the Cornell depth, when it is on the floor.
-fn floor_point(scene: &ViewerScene, i: u32, j: u32) -> Option<DVec3> {
-    let r = scene.depth().get(i, j).filter(|r| r.is_finite())?;
-    let camera = scene.camera();
-    let ray = camera.pixel_centre_ray(i, j);
-    let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
-    ((p.y + 1.0).abs() < 1e-3).then_some(p)
-}
-
 fn white_matte(centre: DVec3, radius: f64) -> LiveObjects {
     let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
     LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() }

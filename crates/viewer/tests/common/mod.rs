@@ -209,6 +209,15 @@ pub fn inside_mask(mask: &[u8], width: usize, k: usize) -> bool {
     !any_in_block(mask, width, k, |m| m != 255)
 }
 
+/// The world-space surface point of pixel (i, j) of the Cornell depth, when it is on the floor.
+pub fn floor_point(scene: &ViewerScene, i: u32, j: u32) -> Option<DVec3> {
+    let r = scene.depth().get(i, j).filter(|r| r.is_finite())?;
+    let camera = scene.camera();
+    let ray = camera.pixel_centre_ray(i, j);
+    let p = camera.world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
+    ((p.y + 1.0).abs() < 1e-3).then_some(p)
+}
+
 /// The Cornell camera and depth, 512x512, over a flat backdrop of linear `level`, lit by
 /// `lights`.
 pub fn flat_cornell(level: f32, lights: Vec<LiveLight>) -> ViewerScene {
