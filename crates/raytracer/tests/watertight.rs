@@ -212,6 +212,31 @@ fn leaks(scene: &Scene, probes: &[Probe], length: f64, tol: f64, eye: DVec3) -> 
     (world_leaks, proxy_leaks)
 }
 
+/// Counts the probes that, started `back` before their aim point, meet no surface within `reach`:
+/// in the ray tracer's world and on the haptic proxy's collision triangles.
+fn leaks_before(scene: &Scene, probes: &[Probe], (back, reach): (f64, f64), eye: DVec3) -> (usize, usize) {
+    let mut diagnostics = Diagnostics::default();
+    let footprint = PixelFootprint::Perspective { radians_per_pixel: 1e-3 };
+    let world = World::build(scene, eye, footprint, &mut diagnostics).expect("world builds");
+    let geometry = scene_geometry(scene, &tessellation_tolerance(None));
+    let triangles: Vec<[Vec3; 3]> =
+        (0..geometry.mesh.triangle_count()).map(|t| geometry.mesh.triangle_f32(t)).collect();
+    let (mut world_leaks, mut proxy_leaks) = (0, 0);
+    for probe in probes {
+        let origin = probe.aim - probe.direction * back;
+        let ray = Ray::new((origin - eye).as_vec3(), probe.direction.as_vec3());
+        if !world.intersect(&ray).is_some_and(|h| f64::from(h.t) <= reach) {
+            world_leaks += 1;
+        }
+        let local = geometry.mesh.local_from_world(origin);
+        let shear = RayShear::new(local.as_vec3(), probe.direction.as_vec3()).expect("a ray");
+        if !triangles.iter().any(|&[a, b, c]| intersect_triangle(&shear, a, b, c, reach as f32).is_some()) {
+            proxy_leaks += 1;
+        }
+    }
+    (world_leaks, proxy_leaks)
+}
+
 fn assert_watertight(name: &str, scene: &Scene, surfaces: &[Surface], seams: &[Seam], per_seam: usize) {
     let (centre, size) = bounds_size(surfaces);
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
@@ -578,25 +603,7 @@ WorldEnd
     }
     // The target is inside, so an intact surface is met before it: at most `length` along.
     let eye = DVec3::new(1.0, -2.0, 8.0);
-    let mut diagnostics = Diagnostics::default();
-    let footprint = PixelFootprint::Perspective { radians_per_pixel: 1e-3 };
-    let world = World::build(&scene, eye, footprint, &mut diagnostics).expect("world builds");
-    let geometry = scene_geometry(&scene, &tessellation_tolerance(None));
-    let triangles: Vec<[Vec3; 3]> =
-        (0..geometry.mesh.triangle_count()).map(|t| geometry.mesh.triangle_f32(t)).collect();
-    let (mut world_leaks, mut proxy_leaks) = (0, 0);
-    for probe in &probes {
-        let origin = probe.aim - probe.direction * length;
-        let ray = Ray::new((origin - eye).as_vec3(), probe.direction.as_vec3());
-        if !world.intersect(&ray).is_some_and(|h| f64::from(h.t) <= length) {
-            world_leaks += 1;
-        }
-        let local = geometry.mesh.local_from_world(origin);
-        let shear = RayShear::new(local.as_vec3(), probe.direction.as_vec3()).unwrap();
-        if !triangles.iter().any(|&[a, b, c]| intersect_triangle(&shear, a, b, c, length as f32).is_some()) {
-            proxy_leaks += 1;
-        }
-    }
+    let (world_leaks, proxy_leaks) = leaks_before(&scene, &probes, (length, length), eye);
     eprintln!("subdivision: {} probes: {world_leaks} world leaks, {proxy_leaks} proxy leaks", probes.len());
     assert_eq!((world_leaks, proxy_leaks), (0, 0));
 }
@@ -743,26 +750,7 @@ fn two_subdivision_meshes_sharing_a_boundary_at_different_levels_have_no_crack()
     let cap_first = format!("WorldBegin\n{}{}WorldEnd\n", mesh(&cap, true), mesh(&dome, false));
     let mut leaks_by_order = Vec::new();
     for (order, scene) in [("dome first", scene), ("cap first", load("cap-first.rib", cap_first))] {
-        let mut diagnostics = Diagnostics::default();
-        let footprint = PixelFootprint::Perspective { radians_per_pixel: 1e-3 };
-        let world = World::build(&scene, eye, footprint, &mut diagnostics).expect("world builds");
-        let geometry = scene_geometry(&scene, &tolerance);
-        let triangles: Vec<[Vec3; 3]> =
-            (0..geometry.mesh.triangle_count()).map(|t| geometry.mesh.triangle_f32(t)).collect();
-        let (mut world_leaks, mut proxy_leaks) = (0, 0);
-        for probe in &probes {
-            let origin = probe.aim - probe.direction * length;
-            let ray = Ray::new((origin - eye).as_vec3(), probe.direction.as_vec3());
-            if !world.intersect(&ray).is_some_and(|h| f64::from(h.t) <= length + slack) {
-                world_leaks += 1;
-            }
-            let local = geometry.mesh.local_from_world(origin);
-            let shear = RayShear::new(local.as_vec3(), probe.direction.as_vec3()).expect("a ray");
-            let reach = (length + slack) as f32;
-            if !triangles.iter().any(|&[a, b, c]| intersect_triangle(&shear, a, b, c, reach).is_some()) {
-                proxy_leaks += 1;
-            }
-        }
+        let (world_leaks, proxy_leaks) = leaks_before(&scene, &probes, (length, length + slack), eye);
         eprintln!(
             "two subdivision meshes, {order}: {} probes: {world_leaks} world leaks, {proxy_leaks} proxy leaks",
             probes.len()
