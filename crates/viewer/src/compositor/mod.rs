@@ -291,13 +291,13 @@ impl Compositor {
             projection.camera().camera_from_world(),
         );
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-        let loss_map_textures = sphere_atlas::SphereMapAtlas::new(
+        let loss_map_textures = sphere_atlas::sphere_map_atlas(
             device,
             "own-shadow loss maps",
             loss_map::ATLAS_FORMAT,
             loss_map::LOSS_MAP_TEXELS,
         );
-        let radiosity_map_textures = sphere_atlas::SphereMapAtlas::new(
+        let radiosity_map_textures = sphere_atlas::sphere_map_atlas(
             device,
             "radiosity maps",
             bounce::ATLAS_FORMAT,

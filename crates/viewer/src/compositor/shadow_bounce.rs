@@ -23,6 +23,7 @@
 use super::Compositor;
 use super::lighting::FrameUniform;
 use super::overlay::Overlay;
+use super::sphere_atlas::DrawnAndRead;
 
 /// Fine clusters along each side of the shadows' scissor, and coarse ones (4x4 fine ones each;
 /// `shadow_bounce.wgsl` SHADOW_BOUNCE_FINE and SHADOW_BOUNCE_COARSE).
@@ -74,52 +75,6 @@ fn band_rect(k: u32, (width, height): (u32, u32)) -> [u32; 4] {
     let top = k * height / TAKEN_BANDS;
     let bottom = (k + 1) * height / TAKEN_BANDS;
     [0, top, width, bottom - top]
-}
-
-/// A texture a pass draws into and the copy the frame bind group reads, so that no pass reads
-/// the texture it draws into.
-#[derive(Debug)]
-pub(super) struct DrawnAndRead {
-    drawn: wgpu::Texture,
-    drawn_view: wgpu::TextureView,
-    read: wgpu::Texture,
-    /// The copy's view, for the frame bind group.
-    pub(super) read_view: wgpu::TextureView,
-}
-
-impl DrawnAndRead {
-    fn new(
-        device: &wgpu::Device,
-        label: &str,
-        format: wgpu::TextureFormat,
-        (width, height): (u32, u32),
-    ) -> Self {
-        let texture = |label: &str, usage: wgpu::TextureUsages| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        use wgpu::TextureUsages as U;
-        let drawn = texture(&format!("{label}, drawn"), U::RENDER_ATTACHMENT | U::COPY_SRC);
-        let read = texture(label, U::TEXTURE_BINDING | U::COPY_DST);
-        let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-        DrawnAndRead { drawn_view: view(&drawn), read_view: view(&read), drawn, read }
-    }
-
-    fn copy_drawn_to_read(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.copy_texture_to_texture(
-            self.drawn.as_image_copy(),
-            self.read.as_image_copy(),
-            self.drawn.size(),
-        );
-    }
 }
 
 /// The textures of the shadows' second bounce: the clusters (binding 16) and what each pixel

@@ -1,33 +1,32 @@
-//! An atlas of square maps over live spheres, a row per shadow-casting sphere: the texture a
-//! pass draws the maps into and the copy the shading passes read, so that no pass reads the
-//! texture it draws into. The own-shadow loss maps (`loss_map.rs`) and the radiosity maps
-//! (`bounce.rs`) are both kept this way.
+//! A texture a pass draws into and the copy the shading passes read, so that no pass reads the
+//! texture it draws into; and the atlas of square maps over live spheres kept that way, a row
+//! per shadow-casting sphere. The own-shadow loss maps (`loss_map.rs`), the radiosity maps
+//! (`bounce.rs`) and the shadows' second bounce (`shadow_bounce.rs`) use them.
 
 use super::lighting::MAX_SHADOW_SPHERES;
 
 #[derive(Debug)]
-pub(super) struct SphereMapAtlas {
-    drawn: wgpu::Texture,
-    read: wgpu::Texture,
-    /// The view the maps are drawn through.
+pub(super) struct DrawnAndRead {
+    pub(super) drawn: wgpu::Texture,
+    pub(super) read: wgpu::Texture,
+    /// The view the pass draws through.
     pub(super) drawn_view: wgpu::TextureView,
     /// The view of the copy, for the frame bind group.
     pub(super) read_view: wgpu::TextureView,
-    size: wgpu::Extent3d,
 }
 
-impl SphereMapAtlas {
-    /// Maps of `texels`^2 in `format`, one row for each of `MAX_SHADOW_SPHERES`.
-    pub(super) fn new(device: &wgpu::Device, label: &str, format: wgpu::TextureFormat, texels: u32) -> Self {
-        let size = wgpu::Extent3d {
-            width: texels,
-            height: texels * MAX_SHADOW_SPHERES as u32,
-            depth_or_array_layers: 1,
-        };
+impl DrawnAndRead {
+    /// A pair of `width` x `height` textures in `format`.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        label: &str,
+        format: wgpu::TextureFormat,
+        (width, height): (u32, u32),
+    ) -> Self {
         let texture = |label: &str, usage: wgpu::TextureUsages| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
-                size,
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -39,13 +38,29 @@ impl SphereMapAtlas {
         use wgpu::TextureUsages as U;
         let drawn = texture(&format!("{label}, drawn"), U::RENDER_ATTACHMENT | U::COPY_SRC);
         let read = texture(label, U::TEXTURE_BINDING | U::COPY_DST);
-        let drawn_view = drawn.create_view(&wgpu::TextureViewDescriptor::default());
-        let read_view = read.create_view(&wgpu::TextureViewDescriptor::default());
-        SphereMapAtlas { drawn, read, drawn_view, read_view, size }
+        let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        DrawnAndRead { drawn_view: view(&drawn), read_view: view(&read), drawn, read }
     }
 
     /// Records the copy of what was drawn into the texture the shading passes read.
     pub(super) fn copy_drawn_to_read(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.copy_texture_to_texture(self.drawn.as_image_copy(), self.read.as_image_copy(), self.size);
+        encoder.copy_texture_to_texture(
+            self.drawn.as_image_copy(),
+            self.read.as_image_copy(),
+            self.drawn.size(),
+        );
     }
+}
+
+/// An atlas of square maps over live spheres, a row per shadow-casting sphere.
+pub(super) type SphereMapAtlas = DrawnAndRead;
+
+/// Maps of `texels`^2 in `format`, one row for each of `MAX_SHADOW_SPHERES`.
+pub(super) fn sphere_map_atlas(
+    device: &wgpu::Device,
+    label: &str,
+    format: wgpu::TextureFormat,
+    texels: u32,
+) -> SphereMapAtlas {
+    DrawnAndRead::new(device, label, format, (texels, texels * MAX_SHADOW_SPHERES as u32))
 }
