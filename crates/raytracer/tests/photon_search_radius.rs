@@ -100,3 +100,24 @@ fn scenes_without_photons_render() {
     assert!(stats.max_dist.is_finite() && stats.max_dist > 0.0, "{}", stats.max_dist);
     assert!(out.image.pixels.iter().flatten().all(|v| v.is_finite()));
 }
+
+/// A plate under the floor, in view below its front edge, gathers from the floor's underside,
+/// where no photon lands (the light is above it) while the photons of the floor's top side
+/// lie at the same heights: each such lookup would read every radiance photon within
+/// `maxdist` (most of the floor's under a `maxdist` of 0.5). It stops at its budget and says
+/// so in the statistics; the image stays finite and the same for 1 and 3 threads. Under a
+/// small `maxdist` the lookups stay under the budget.
+#[test]
+fn a_radiance_lookup_on_a_surface_without_photons_stops_at_its_budget() {
+    let plate = "Polygon \"P\" [-3 -2 -1  3 -2 -1  3 -2 3  -3 -2 3]";
+    for (maxdist, capped) in [(0.5, true), (0.05, false)] {
+        let params = format!("\"float maxdist\" [{maxdist}]");
+        let text = rib(&params, plate).replace("Format 8 8 1", "Format 24 24 1");
+        let one = render_rib(&text, 1);
+        let stats = photon_stats(&one);
+        assert_eq!(stats.capped_radiance_lookups > 0, capped, "{maxdist}: {}", stats.capped_radiance_lookups);
+        assert!(stats.capped_radiance_lookups < stats.gather_rays);
+        assert!(one.image.pixels.iter().flatten().all(|v| v.is_finite()));
+        assert_eq!(one.image.pixels, render_rib(&text, 3).image.pixels, "{maxdist}");
+    }
+}

@@ -166,14 +166,29 @@ impl<T: Positioned> KdTree<T> {
 
     /// The nearest item to `p` within distance `sqrt(max_d2)` that passes `accept` (of equally
     /// near items, the first the search meets, as [`KdTree::knn`] with one entry keeps).
-    pub fn nearest(&self, p: Vec3, max_d2: f32, mut accept: impl FnMut(&T) -> bool) -> Option<&T> {
+    pub fn nearest(&self, p: Vec3, max_d2: f32, accept: impl FnMut(&T) -> bool) -> Option<&T> {
+        self.nearest_within_budget(p, max_d2, usize::MAX, accept).0
+    }
+
+    /// [`KdTree::nearest`], but the search stops once it has met more than `budget` items
+    /// within its current radius (accepted or not): a filter that rejects most items near `p`
+    /// (the far side of a thin wall under a large `maxdist`) would otherwise read every item
+    /// within `sqrt(max_d2)`. When it stopped (the second value is false), the item is the
+    /// nearest passing one of those met, or none.
+    pub fn nearest_within_budget(
+        &self,
+        p: Vec3,
+        max_d2: f32,
+        budget: usize,
+        mut accept: impl FnMut(&T) -> bool,
+    ) -> (Option<&T>, bool) {
         if !(max_d2 > 0.0) {
-            return None;
+            return (None, true);
         }
         // A bounded search without a heap: it runs once per final-gather ray.
-        let mut best = (max_d2, u32::MAX);
-        self.search_nearest(0, self.items.len(), p, &mut best, &mut accept);
-        self.items.get(best.1 as usize)
+        let mut search = NearestSearch { best_d2: max_d2, best: u32::MAX, met: 0, budget };
+        self.search_nearest(0, self.items.len(), p, &mut search, &mut accept);
+        (self.items.get(search.best as usize), search.met <= budget)
     }
 
     fn search_nearest(
@@ -181,12 +196,12 @@ impl<T: Positioned> KdTree<T> {
         lo: usize,
         hi: usize,
         p: Vec3,
-        best: &mut (f32, u32),
+        search: &mut NearestSearch,
         accept: &mut impl FnMut(&T) -> bool,
     ) {
         if hi - lo <= 4 {
             for i in lo..hi {
-                self.consider_nearest(i, p, best, accept);
+                self.consider_nearest(i, p, search, accept);
             }
             return;
         }
@@ -194,10 +209,10 @@ impl<T: Positioned> KdTree<T> {
         let axis = self.axes[m] as usize;
         let d = p[axis] - self.items[m].position()[axis];
         let (near, far) = if d < 0.0 { ((lo, m), (m + 1, hi)) } else { ((m + 1, hi), (lo, m)) };
-        self.search_nearest(near.0, near.1, p, best, accept);
-        self.consider_nearest(m, p, best, accept);
-        if d * d < best.0 {
-            self.search_nearest(far.0, far.1, p, best, accept);
+        self.search_nearest(near.0, near.1, p, search, accept);
+        self.consider_nearest(m, p, search, accept);
+        if d * d < search.radius_d2() {
+            self.search_nearest(far.0, far.1, p, search, accept);
         }
     }
 
@@ -206,12 +221,16 @@ impl<T: Positioned> KdTree<T> {
         &self,
         i: usize,
         p: Vec3,
-        best: &mut (f32, u32),
+        search: &mut NearestSearch,
         accept: &mut impl FnMut(&T) -> bool,
     ) {
         let d2 = (self.items[i].position() - p).length_squared();
-        if d2 < best.0 && accept(&self.items[i]) {
-            *best = (d2, i as u32);
+        if d2 < search.radius_d2() {
+            search.met += 1;
+            if search.met <= search.budget && accept(&self.items[i]) {
+                search.best_d2 = d2;
+                search.best = i as u32;
+            }
         }
     }
 
@@ -268,6 +287,24 @@ impl<T: Positioned> KdTree<T> {
     #[inline]
     pub fn get(&self, index: u32) -> &T {
         &self.items[index as usize]
+    }
+}
+
+/// The state of a [`KdTree::nearest_within_budget`] search: the best item so far and its
+/// squared distance (the search radius), and the items met within the radius.
+struct NearestSearch {
+    best_d2: f32,
+    best: u32,
+    met: usize,
+    budget: usize,
+}
+
+impl NearestSearch {
+    /// The radius within which items still count; zero once over budget, which ends the
+    /// search (no item is nearer, no subtree is entered).
+    #[inline]
+    fn radius_d2(&self) -> f32 {
+        if self.met > self.budget { 0.0 } else { self.best_d2 }
     }
 }
 
@@ -473,6 +510,46 @@ mod tests {
             tree.knn(p, 0.05, &mut heap, accept);
             let via_heap = heap.entries().first().map(|&(_, i)| tree.get(i) as *const Vec3);
             assert_eq!(tree.nearest(p, 0.05, accept).map(|v| v as *const Vec3), via_heap);
+        }
+    }
+
+    /// A budget that the nearest search never reaches changes nothing; one that it does stops
+    /// it after one item more than the budget, with the nearest passing item of those met.
+    #[test]
+    fn nearest_within_budget_stops_at_its_budget() {
+        let pts = points(5_000, 5);
+        let tree = KdTree::build(pts.clone());
+        let p = Vec3::new(0.5, 0.5, 0.05);
+        // A filter that rejects all but one far point: without a budget the search reads
+        // every point nearer than it.
+        let far = *pts
+            .iter()
+            .max_by(|a, b| (**a - p).length_squared().total_cmp(&(**b - p).length_squared()))
+            .unwrap();
+        let mut calls = 0;
+        let found = tree.nearest(p, f32::INFINITY, |v| {
+            calls += 1;
+            *v == far
+        });
+        assert_eq!(found, Some(&far));
+        assert_eq!(calls, pts.len());
+        let mut calls = 0;
+        let (found, within) = tree.nearest_within_budget(p, f32::INFINITY, 64, |v| {
+            calls += 1;
+            *v == far
+        });
+        assert!(!within);
+        assert_eq!(found, None);
+        assert_eq!(calls, 64);
+        // A filter the search satisfies early: the same item as without a budget.
+        let mut rng = Rng::new(9, 9);
+        for _ in 0..200 {
+            let q = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform() * 0.1);
+            let accept = |v: &Vec3| v.x > 0.3;
+            let (bounded, within) = tree.nearest_within_budget(q, 0.05, 64, accept);
+            if within {
+                assert_eq!(bounded, tree.nearest(q, 0.05, accept));
+            }
         }
     }
 

@@ -346,6 +346,10 @@ pub struct PhotonStats {
     /// Filled after rendering: gather rays and density lookups.
     pub gather_rays: u64,
     pub lookups: u64,
+    /// Density estimates and radiance-photon lookups that met more photons than their search
+    /// budget and were cut short.
+    pub capped_estimates: u64,
+    pub capped_radiance_lookups: u64,
     /// Light evaluations skipped per reason.
     pub culled: Vec<(CullReason, u64)>,
     /// What the analysis skipped and why.
@@ -394,8 +398,8 @@ impl PhotonStats {
         out.push(map("radiance-photon", &self.radiance));
         let source = search_radius::describe(self.max_dist_measured.as_ref(), self.max_dist);
         out.push(format!(
-            "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4}: {source})",
-            self.lookups, self.gather_rays, self.max_dist
+            "photon lookups: {} density estimates, {} final-gather rays (max distance {:.4}: {source}); cut at their search budget: {} density estimates, {} radiance-photon lookups",
+            self.lookups, self.gather_rays, self.max_dist, self.capped_estimates, self.capped_radiance_lookups
         ));
         out.extend(self.irradiance_cache.as_ref().map(|c| c.line()));
         if let Some((pass, r)) = &self.progressive {
@@ -422,6 +426,8 @@ impl PhotonStats {
 struct SharedCounters {
     gather_rays: AtomicU64,
     lookups: AtomicU64,
+    capped_estimates: AtomicU64,
+    capped_radiance_lookups: AtomicU64,
     culled: [AtomicU64; 3],
 }
 
@@ -700,6 +706,8 @@ impl PhotonMapper {
         let mut s = self.stats.clone();
         s.gather_rays = self.counters.gather_rays.load(Ordering::Relaxed);
         s.lookups = self.counters.lookups.load(Ordering::Relaxed);
+        s.capped_estimates = self.counters.capped_estimates.load(Ordering::Relaxed);
+        s.capped_radiance_lookups = self.counters.capped_radiance_lookups.load(Ordering::Relaxed);
         s.culled = CullReason::ALL
             .iter()
             .zip(&self.counters.culled)

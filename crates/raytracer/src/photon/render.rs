@@ -61,6 +61,13 @@ enum VisibleMap {
     Indirect,
 }
 
+/// Radiance photons a final-gather ray's lookup may meet within its shrinking radius. One
+/// in an open surface meets a handful; one on a surface that holds few of the photons around
+/// it (the far side of a thin wall under a large `maxdist`) would read every photon within
+/// `maxdist`, and stops here with the nearest of its own surface met so far, or none (dark
+/// rather than light from the other side).
+const RADIANCE_SEARCH_BUDGET: usize = 512;
+
 /// Per-camera-ray scratch space and counts.
 struct Scratch {
     nearest: estimate::Nearest,
@@ -68,6 +75,9 @@ struct Scratch {
     guide_dirs: Vec<Vec3>,
     gather_rays: u64,
     lookups: u64,
+    /// Radiance-photon lookups cut at their budget (density estimates count theirs in
+    /// `nearest.capped`).
+    capped_radiance: u64,
     culled: [u64; 3],
     /// While an irradiance-cache record gathers: the sum of the inverse lengths of its gather
     /// rays' first segments and their count (misses count with length infinity).
@@ -85,6 +95,7 @@ impl Scratch {
             guide_dirs: Vec::new(),
             gather_rays: 0,
             lookups: 0,
+            capped_radiance: 0,
             culled: [0; 3],
             hit_distances: None,
             cache_interpolated: 0,
@@ -139,6 +150,12 @@ impl PhotonMapper {
         }
         if scratch.lookups > 0 {
             c.lookups.fetch_add(scratch.lookups, Ordering::Relaxed);
+        }
+        if scratch.nearest.capped > 0 {
+            c.capped_estimates.fetch_add(scratch.nearest.capped, Ordering::Relaxed);
+        }
+        if scratch.capped_radiance > 0 {
+            c.capped_radiance_lookups.fetch_add(scratch.capped_radiance, Ordering::Relaxed);
         }
         for (a, n) in c.culled.iter().zip(scratch.culled) {
             if n > 0 {
@@ -609,7 +626,11 @@ impl PhotonMapper {
             return estimate::radiance_within(grid, &q, bsdf, si.wo, self.settings.filter);
         }
         if let Some(rp) = &self.radiance {
-            return match rp.nearest(si.p, self.max_d2, |r| unpack_unit(r.n).dot(n) > NORMAL_COSINE) {
+            let (found, within) = rp.nearest_within_budget(si.p, self.max_d2, RADIANCE_SEARCH_BUDGET, |r| {
+                unpack_unit(r.n).dot(n) > NORMAL_COSINE
+            });
+            scratch.capped_radiance += u64::from(!within);
+            return match found {
                 Some(r) => non_specular_albedo(bsdf) * FRAC_1_PI * r.irradiance,
                 None => Vec3::ZERO,
             };
