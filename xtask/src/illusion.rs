@@ -1,4 +1,4 @@
-//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse] [--viewer-arg ARG]... [--frame-sizes 512,2048]`: how well a live object passes
+//! `cargo xtask illusion [--spp N] [--size N] [--scenes a,b] [--reuse] [--viewer-arg ARG]... [--frame-sizes 512,2048] [--placements SCENE:X,Y,Z,R;...]`: how well a live object passes
 //! for part of the ray-traced scene (issue 10).
 //!
 //! For each scene (the Cornell box, the caustics scene, the room), each placement and each
@@ -19,7 +19,10 @@
 //! picks the sizes, an empty list none).
 //! Writes `docs/illusion.md` and one picture per scene, `docs/illusion-SCENE.png` (truth,
 //! composite, render without the object and 4x the absolute error, for each material at the
-//! first placement).
+//! first placement). With `--placements SCENE:X,Y,Z,R;...` the given spheres replace the
+//! scenes' own placements (scenes without one are left out) and the table goes to
+//! `target/illusion/placements.md`, without pictures or frame times: a check on placements
+//! nobody tuned for.
 
 use crate::bench_error::{Rgb, load_average, read_exr};
 use crate::measure::run_measured;
@@ -29,11 +32,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// A sphere placed in a scene, in world coordinates.
+#[derive(Debug)]
 struct Placement {
     centre: [f64; 3],
     radius: f64,
     /// What the placement tests, for the table.
-    what: &'static str,
+    what: String,
 }
 
 struct IllusionScene {
@@ -49,7 +53,7 @@ const MATERIALS: &[(&str, &str)] = &[
 ];
 
 fn scenes(root: &Path) -> Vec<IllusionScene> {
-    let p = |centre: [f64; 3], radius: f64, what: &'static str| Placement { centre, radius, what };
+    let p = |centre: [f64; 3], radius: f64, what: &str| Placement { centre, radius, what: what.to_string() };
     vec![
         IllusionScene {
             name: "cornell",
@@ -355,11 +359,39 @@ fn frame_time(
         .ok_or_else(|| format!("no frame time in hybrid-view's --stats:\n{}", r.stderr))
 }
 
+/// What a placement given with `--placements` is called in the table.
+const GIVEN: &str = "given";
+
+/// `--placements SCENE:X,Y,Z,R;...`: spheres (centre and radius in the scene's world space)
+/// to measure instead of the scenes' own placements, for placements nobody tuned for.
+fn parse_placements(text: &str) -> Result<Vec<(String, Placement)>, String> {
+    text.split(';')
+        .filter(|s| !s.trim().is_empty())
+        .map(|item| {
+            let (scene, numbers) =
+                item.split_once(':').ok_or_else(|| format!("--placements: '{item}' is not SCENE:X,Y,Z,R"))?;
+            let v: Vec<f64> = numbers
+                .split(',')
+                .map(|n| n.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+                .collect::<Option<_>>()
+                .ok_or_else(|| format!("--placements: '{numbers}' is not four numbers X,Y,Z,R"))?;
+            match v[..] {
+                [x, y, z, r] if r > 0.0 => Ok((
+                    scene.trim().to_string(),
+                    Placement { centre: [x, y, z], radius: r, what: GIVEN.to_string() },
+                )),
+                _ => Err(format!("--placements: '{numbers}' is not X,Y,Z and a positive radius R")),
+            }
+        })
+        .collect()
+}
+
 pub fn illusion(args: &[String]) -> Result<(), String> {
     let (mut spp, mut size, mut only): (u32, u32, Option<Vec<String>>) = (64, 256, None);
     let mut reuse = false;
     let mut viewer_args = Vec::new();
     let mut frame_sizes = vec![512u32, 2048];
+    let mut given: Option<Vec<(String, Placement)>> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or(format!("{a} needs a value"));
@@ -368,6 +400,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
             "--size" => size = value()?.parse().map_err(|_| "--size needs a pixel count")?,
             "--scenes" => only = Some(value()?.split(',').map(str::to_string).collect()),
             "--reuse" => reuse = true,
+            "--placements" => given = Some(parse_placements(value()?)?),
             "--viewer-arg" => viewer_args.push(value()?.clone()),
             "--frame-sizes" => {
                 frame_sizes = value()?
@@ -391,7 +424,25 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     let mut table = String::new();
     let mut pictures = Vec::new();
     let mut frames = String::new();
-    for scene in scenes(&root) {
+    let mut all = scenes(&root);
+    if let Some(given) = given.take() {
+        // Given placements replace the scene's own; scenes without any are left out, and so
+        // are the pictures and frame times, which belong to the table in docs/.
+        for scene in &mut all {
+            scene.placements.clear();
+        }
+        for (name, placement) in given {
+            let scene = all
+                .iter_mut()
+                .find(|s| s.name == name)
+                .ok_or_else(|| format!("--placements: no scene '{name}' (cornell, caustics, room)"))?;
+            scene.placements.push(placement);
+        }
+        all.retain(|s| !s.placements.is_empty());
+        frame_sizes.clear();
+    }
+    let custom = all.iter().any(|s| s.placements.iter().any(|p| p.what == GIVEN));
+    for scene in all {
         if only.as_ref().is_some_and(|o| !o.iter().any(|s| s == scene.name)) {
             continue;
         }
@@ -404,7 +455,11 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
         let mut rows = Vec::new();
         for (pi, placement) in scene.placements.iter().enumerate() {
             for (material, lines) in MATERIALS {
-                let slug = format!("{}-p{pi}-{material}", scene.name);
+                let slug = if custom {
+                    format!("{}-given{pi}-{material}", scene.name)
+                } else {
+                    format!("{}-p{pi}-{material}", scene.name)
+                };
                 let live = dir.join(format!("{slug}-live.rib"));
                 let live_text = live_rib(placement, lines);
                 write(&live, &live_text)?;
@@ -460,9 +515,11 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
                 }
             }
         }
-        let picture = root.join(format!("docs/illusion-{}.png", scene.name));
-        contact_sheet(&rows, &picture)?;
-        pictures.push(scene.name);
+        if !custom {
+            let picture = root.join(format!("docs/illusion-{}.png", scene.name));
+            contact_sheet(&rows, &picture)?;
+            pictures.push(scene.name);
+        }
         for &frame_size in &frame_sizes {
             let ms = frame_time(&viewer, &viewer_args, &lrt, &dir, &scene, frame_size)?;
             let _ = writeln!(frames, "| {} | {frame_size} | {ms:.2} |", scene.name);
@@ -496,7 +553,8 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     for name in pictures {
         let _ = writeln!(doc, "![{name}](illusion-{name}.png)\n");
     }
-    let path = root.join("docs/illusion.md");
+    // A table of given placements goes next to the renders, not over the one in docs/.
+    let path = if custom { dir.join("placements.md") } else { root.join("docs/illusion.md") };
     let tmp = path.with_extension("md.tmp");
     write(&tmp, &doc)?;
     std::fs::rename(&tmp, &path).map_err(|e| format!("cannot rename to {}: {e}", path.display()))?;
@@ -507,6 +565,17 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn placements_are_parsed_or_refused_with_the_item() {
+        let p = parse_placements("room:1,1.6,-0.6,0.3; cornell:-0.2,0,0.1,0.25;").unwrap();
+        assert_eq!(p.len(), 2);
+        assert_eq!((p[0].0.as_str(), p[0].1.centre, p[0].1.radius), ("room", [1.0, 1.6, -0.6], 0.3));
+        assert_eq!((p[1].0.as_str(), p[1].1.centre, p[1].1.radius), ("cornell", [-0.2, 0.0, 0.1], 0.25));
+        for bad in ["room", "room:1,2,3", "room:1,2,3,0", "room:1,2,x,1", "room:1,2,3,nan"] {
+            assert!(parse_placements(bad).unwrap_err().contains("--placements"), "{bad}");
+        }
+    }
 
     #[test]
     fn the_rib_gets_photon_mapping_a_size_and_the_live_archive() {
