@@ -359,9 +359,6 @@ fn frame_time(
         .ok_or_else(|| format!("no frame time in hybrid-view's --stats:\n{}", r.stderr))
 }
 
-/// What a placement given with `--placements` is called in the table.
-const GIVEN: &str = "given";
-
 /// `--placements SCENE:X,Y,Z,R;...`: spheres (centre and radius in the scene's world space)
 /// to measure instead of the scenes' own placements, for placements nobody tuned for.
 fn parse_placements(text: &str) -> Result<Vec<(String, Placement)>, String> {
@@ -378,7 +375,11 @@ fn parse_placements(text: &str) -> Result<Vec<(String, Placement)>, String> {
             match v[..] {
                 [x, y, z, r] if r > 0.0 => Ok((
                     scene.trim().to_string(),
-                    Placement { centre: [x, y, z], radius: r, what: GIVEN.to_string() },
+                    Placement {
+                        centre: [x, y, z],
+                        radius: r,
+                        what: format!("given: centre {x} {y} {z}, radius {r}"),
+                    },
                 )),
                 _ => Err(format!("--placements: '{numbers}' is not X,Y,Z and a positive radius R")),
             }
@@ -392,6 +393,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     let mut viewer_args = Vec::new();
     let mut frame_sizes = vec![512u32, 2048];
     let mut given: Option<Vec<(String, Placement)>> = None;
+    let mut given_text = String::new();
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or(format!("{a} needs a value"));
@@ -400,7 +402,10 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
             "--size" => size = value()?.parse().map_err(|_| "--size needs a pixel count")?,
             "--scenes" => only = Some(value()?.split(',').map(str::to_string).collect()),
             "--reuse" => reuse = true,
-            "--placements" => given = Some(parse_placements(value()?)?),
+            "--placements" => {
+                given_text = value()?.clone();
+                given = Some(parse_placements(&given_text)?);
+            }
             "--viewer-arg" => viewer_args.push(value()?.clone()),
             "--frame-sizes" => {
                 frame_sizes = value()?
@@ -425,7 +430,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
     let mut pictures = Vec::new();
     let mut frames = String::new();
     let mut all = scenes(&root);
-    if let Some(given) = given.take() {
+    if let Some(given) = given {
         // Given placements replace the scene's own; scenes without any are left out, and so
         // are the pictures and frame times, which belong to the table in docs/.
         for scene in &mut all {
@@ -441,7 +446,7 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
         all.retain(|s| !s.placements.is_empty());
         frame_sizes.clear();
     }
-    let custom = all.iter().any(|s| s.placements.iter().any(|p| p.what == GIVEN));
+    let custom = !given_text.is_empty();
     for scene in all {
         if only.as_ref().is_some_and(|o| !o.iter().any(|s| s == scene.name)) {
             continue;
@@ -486,7 +491,8 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
                     .iter()
                     .map(|&r| {
                         let (e, n) = region_error(&comp, &truth, &reg, r);
-                        format!("{e:.2e} ({n})")
+                        // A region without pixels (a sphere hidden from the camera) has no error.
+                        if n == 0 { "- (0)".to_string() } else { format!("{e:.2e} ({n})") }
                     })
                     .collect();
                 let _ = writeln!(
@@ -537,21 +543,29 @@ pub fn illusion(args: &[String]) -> Result<(), String> {
          viewer's mask), the region the sphere changes (other pixels where the truth differs from the \
          render without it by more than 3% of the local level, 5x5 means) and everywhere else. \
          Issue 10's targets: inside <= 1e-2, changed <= 5e-3, elsewhere <= 1.5e-3.\n",
-        viewer_args.iter().map(|a| format!(" --viewer-arg {a}")).collect::<String>(),
+        viewer_args
+            .iter()
+            .map(|a| format!(" --viewer-arg {a}"))
+            .chain(custom.then(|| format!(" --placements \"{given_text}\"")))
+            .collect::<String>(),
         load_average()
     );
     doc.push_str(
         "| scene | placement | material | inside | changed | elsewhere |\n|---|---|---|---|---|---|\n",
     );
     doc.push_str(&table);
-    doc.push_str(
+    if !frames.is_empty() {
+        doc.push_str(
         "\nThe viewer's median frame time over 20 headless frames (render + wait, lavapipe on this \
          machine's CPU), the plastic sphere at the first placement:\n\n| scene | image size | frame ms |\n|---|---|---|\n",
     );
-    doc.push_str(&frames);
-    doc.push_str("\nPictures (truth, composite, render without the sphere, 4x the absolute error; matte row, then plastic; sRGB):\n\n");
-    for name in pictures {
-        let _ = writeln!(doc, "![{name}](illusion-{name}.png)\n");
+        doc.push_str(&frames);
+    }
+    if !pictures.is_empty() {
+        doc.push_str("\nPictures (truth, composite, render without the sphere, 4x the absolute error; matte row, then plastic; sRGB):\n\n");
+        for name in pictures {
+            let _ = writeln!(doc, "![{name}](illusion-{name}.png)\n");
+        }
     }
     // A table of given placements goes next to the renders, not over the one in docs/.
     let path = if custom { dir.join("placements.md") } else { root.join("docs/illusion.md") };
