@@ -119,6 +119,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/composite.wgsl"),
     include_str!("../shaders/shadow_loss.wgsl"),
     include_str!("../shaders/shadows.wgsl"),
+    include_str!("../shaders/shadow_footprint.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
