@@ -221,7 +221,7 @@ fn each_fragment_takes_the_probe_field_at_its_own_point_and_normal() {
 /// lost 0.5. Each fragment facing away from the light loses 0.5 times the share of its 16
 /// cosine-distributed gather directions that reach the shadowed floor: checked against the same
 /// directions traced to the exact floor plane on the CPU (a direction grazing the shadow's edge
-/// may fall either way).
+/// may fall either way, or meet a floor pixel that lost part of the light).
 #[test]
 fn a_sphere_s_underside_sees_its_own_shadow() {
     let light = DVec3::new(-0.2, 0.9, 0.1);
@@ -248,17 +248,15 @@ fn a_sphere_s_underside_sees_its_own_shadow() {
         }
         let in_shadow = directions_in_shadow(&scene, (light, centre, radius), p, n, 16);
         let got = linear[4 * k];
-        // The GPU's count of directions reaching the shadow, from the fragment's radiance.
-        let gpu_count = (1.0 - got) / 0.5 * 16.0;
-        assert!(
-            (gpu_count - gpu_count.round()).abs() < 0.01,
-            "pixel ({i}, {j}): {got} is not a whole number of directions"
-        );
-        let off = (gpu_count.round() as i64 - in_shadow as i64).abs();
+        // The GPU's count of directions reaching the shadow, from the fragment's radiance: a
+        // whole number, but for a direction that meets a floor pixel on the shadow's edge, which
+        // lost the share of its footprint in the shadow (shadow_footprint.wgsl).
+        let gpu_count = f64::from((1.0 - got) / 0.5 * 16.0);
+        let off = (gpu_count - in_shadow as f64).abs();
         checked += 1;
         darkened += usize::from(got < 0.97);
-        wrong += usize::from(off == 1);
-        far_off += usize::from(off > 1);
+        wrong += usize::from(off > 0.01 && off <= 1.01);
+        far_off += usize::from(off > 1.01);
     }
     eprintln!("checked {checked}, darkened {darkened}, off by one direction {wrong}, by more {far_off}");
     assert!(checked > 500 && darkened > 300, "checked {checked}, darkened {darkened}");

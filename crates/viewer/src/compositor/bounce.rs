@@ -12,6 +12,11 @@
 //! directions by the sphere's size in view, rings of equal solid angle times sectors, each
 //! reading the map and tracing a shadow ray), from the sidecar's `albedo` and `normal` layers;
 //! optionally the light the sphere hides is taken from behind it (`occlusion_from_behind`).
+//! A glossy sphere also sends its lights' highlights, which depend on the direction: the pass
+//! integrates the Blinn lobe of each light toward the pixel over 16 or 64 of the sphere's normals
+//! facing it, scaled by the share of the lights the scene lets reach each point (the maps'
+//! alpha) and by the share of the cap's directions the scene lets the pixel see; the sphere's
+//! `Ks` colour and exponent sit in an extra column of the atlas.
 //! Pixels that change by nothing are discarded and keep their value bit for bit. The pass
 //! writes the frame after shadows and then copies what it touched into the backdrop after
 //! shadows, which the live objects' edges blend with.
@@ -26,6 +31,19 @@ use glam::DVec3;
 /// Texels along each side of a sphere's map (`bounce.wgsl` RADIOSITY_MAP_TEXELS).
 pub(super) const RADIOSITY_MAP_TEXELS: u32 = 32;
 pub(super) const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// The radiosity maps' atlas: a row of `RADIOSITY_MAP_TEXELS`^2 texels per shadow-casting
+/// sphere, and one more column whose first texel in each row holds the sphere's specular lobe
+/// (`Ks` times its specular colour, and the Blinn exponent), which the bounce pass cannot read
+/// from the sphere's material (it draws every sphere at once).
+pub(super) fn radiosity_atlas(device: &wgpu::Device) -> SphereMapAtlas {
+    SphereMapAtlas::new(
+        device,
+        "radiosity maps",
+        ATLAS_FORMAT,
+        (RADIOSITY_MAP_TEXELS + 1, RADIOSITY_MAP_TEXELS * MAX_SHADOW_SPHERES as u32),
+    )
+}
 
 /// The radiosity maps' pass, the bounce pass and what the maps were last drawn from.
 #[derive(Debug)]
@@ -143,11 +161,12 @@ impl Compositor {
         } else if self.layers.albedo_slice.is_none() {
             "off (the light layers hold no diffuse albedo)"
         } else if self.settings.occlusion_from_behind {
-            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays; \
-             the light they hide taken from behind them (live meshes add none)"
+            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays, \
+             and their lights' highlights over 16 or 64 of their normals; the light they hide taken \
+             from behind them (live meshes add none)"
         } else {
-            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays \
-             (live meshes add none)"
+            "live spheres' diffuse light, 4 to 32 directions over each sphere's cap with shadow rays, \
+             and their lights' highlights over 16 or 64 of their normals (live meshes add none)"
         }
     }
 
@@ -195,7 +214,7 @@ impl Compositor {
                 pass.set_scissor_rect(
                     0,
                     row * RADIOSITY_MAP_TEXELS,
-                    RADIOSITY_MAP_TEXELS,
+                    RADIOSITY_MAP_TEXELS + 1,
                     RADIOSITY_MAP_TEXELS,
                 );
                 pass.draw(0..3, 0..1);

@@ -119,6 +119,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/composite.wgsl"),
     include_str!("../shaders/shadow_loss.wgsl"),
     include_str!("../shaders/shadows.wgsl"),
+    include_str!("../shaders/shadow_footprint.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
@@ -297,12 +298,7 @@ impl Compositor {
             loss_map::ATLAS_FORMAT,
             loss_map::LOSS_MAP_TEXELS,
         );
-        let radiosity_map_textures = sphere_atlas::sphere_map_atlas(
-            device,
-            "radiosity maps",
-            bounce::ATLAS_FORMAT,
-            bounce::RADIOSITY_MAP_TEXELS,
-        );
+        let radiosity_map_textures = bounce::radiosity_atlas(device);
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -9,6 +9,10 @@
 // for the k-th shadow-casting sphere: compositor/bounce.rs), and each pixel near a sphere
 // integrates the sphere's visible cap over BOUNCE_RINGS x BOUNCE_SECTORS directions reading that
 // map: `albedo / pi * sum L cos_p * solid angle / N` (the sidecar's albedo and normal layers).
+// A glossy sphere also reflects its lights' highlights toward the receiver, which depends on
+// the direction: each direction adds the Blinn lobe of the lights toward the receiver, scaled
+// by the share of their light the scene lets reach that point of the sphere (the map's alpha),
+// with the sphere's specular colour and lobe from the map's last column (glossy_toward).
 
 const RADIOSITY_MAP_TEXELS: u32 = 32u;
 // Directions over a sphere's cap: rings of equal solid angle, each with evenly spaced sectors
@@ -18,7 +22,10 @@ const RADIOSITY_MAP_TEXELS: u32 = 32u;
 const BOUNCE_RINGS: u32 = 4u;
 const BOUNCE_SECTORS: u32 = 8u;
 
-// Per texel: the sphere's outgoing diffuse radiance (rgb, radiance units) at the texel's normal.
+// Per texel: the sphere's outgoing diffuse radiance (rgb, radiance units) at the texel's normal
+// and the share of its lights' direct light the scene lets reach that point (a). Column
+// RADIOSITY_MAP_TEXELS, first texel of each row: the sphere's `Ks * specular colour` (rgb) and
+// Blinn exponent (a).
 @group(0) @binding(15) var radiosity_maps: texture_2d<f32>;
 
 // The unit direction of octahedral coordinates `uv` in [0, 1]^2 (the inverse of octahedral_uv).
@@ -36,19 +43,113 @@ fn octahedral_direction(uv: vec2<f32>) -> vec3<f32> {
     return normalize(d);
 }
 
-// The outgoing diffuse radiance of the sphere of row `row` at camera-space unit normal `m`,
-// bilinear in its map (clamped at the map's edges, where the octahedral fold meets itself).
-fn radiosity_lookup(row: u32, m: vec3<f32>) -> vec3<f32> {
+// The outgoing diffuse radiance of the sphere of row `row` at camera-space unit normal `m` (rgb)
+// and the share of its lights' light reaching it there (a), bilinear in its map (clamped at the
+// map's edges, where the octahedral fold meets itself).
+fn radiosity_lookup(row: u32, m: vec3<f32>) -> vec4<f32> {
     let size = f32(RADIOSITY_MAP_TEXELS);
     let texel = octahedral_uv(m) * size - 0.5;
     let base = clamp(floor(texel), vec2<f32>(0.0), vec2<f32>(size - 2.0));
     let f = clamp(texel - base, vec2<f32>(0.0), vec2<f32>(1.0));
     let at = vec2<i32>(base) + vec2<i32>(0, i32(row * RADIOSITY_MAP_TEXELS));
-    let l00 = textureLoad(radiosity_maps, at, 0).rgb;
-    let l10 = textureLoad(radiosity_maps, at + vec2<i32>(1, 0), 0).rgb;
-    let l01 = textureLoad(radiosity_maps, at + vec2<i32>(0, 1), 0).rgb;
-    let l11 = textureLoad(radiosity_maps, at + vec2<i32>(1, 1), 0).rgb;
+    let l00 = textureLoad(radiosity_maps, at, 0);
+    let l10 = textureLoad(radiosity_maps, at + vec2<i32>(1, 0), 0);
+    let l01 = textureLoad(radiosity_maps, at + vec2<i32>(0, 1), 0);
+    let l11 = textureLoad(radiosity_maps, at + vec2<i32>(1, 1), 0);
     return mix(mix(l00, l10, f.x), mix(l01, l11, f.x), f.y);
+}
+
+// The texel of the sphere of row `row` nearest camera-space unit normal `m`.
+fn radiosity_texel(row: u32, m: vec3<f32>) -> vec2<i32> {
+    let size = f32(RADIOSITY_MAP_TEXELS);
+    let texel = clamp(vec2<i32>(octahedral_uv(m) * size), vec2<i32>(0), vec2<i32>(i32(RADIOSITY_MAP_TEXELS) - 1));
+    return texel + vec2<i32>(0, i32(row * RADIOSITY_MAP_TEXELS));
+}
+
+// The irradiance light k (not ambient) brings to camera-space point q, unshadowed, and the unit
+// direction toward it: as `direct_light` takes point, spot and distant lights; an area light as
+// a point at its centroid with its intensity toward q (its samples cost too much per direction).
+struct LightToward {
+    e: vec3<f32>,
+    l: vec3<f32>,
+}
+
+fn light_toward(k: u32, q: vec3<f32>) -> LightToward {
+    let light = frame.lights[k];
+    let kind = u32(light.position.w + 0.5);
+    if kind == LIGHT_DISTANT {
+        return LightToward(light.colour.rgb, -light.direction.xyz);
+    }
+    let to_light = light.position.xyz - q;
+    let dist2 = max(dot(to_light, to_light), 1e-30);
+    let l = to_light * inverseSqrt(dist2);
+    var intensity = light.colour.rgb;
+    if kind == LIGHT_SPOT {
+        let cos_angle = dot(-l, light.direction.xyz);
+        intensity *= pow(max(cos_angle, 0.0), light.params.z) * smoothstep(light.params.x, light.params.y, cos_angle);
+    } else if kind == LIGHT_AREA {
+        var lobe = 0.25;
+        if light.colour.w > 0.5 {
+            let c = dot(light.direction.xyz, -l);
+            lobe = select(max(c, 0.0), abs(c), light.direction.w > 0.5);
+        }
+        intensity *= lobe;
+    }
+    return LightToward(intensity / dist2, l);
+}
+
+// The share of the lights' direct irradiance at camera-space point p (unit normal n) that the
+// scene lets through: `direct_light`'s shadowed diffuse irradiance over the same sum unshadowed
+// (1 where no light reaches p).
+fn lights_let_through(p: vec3<f32>, n: vec3<f32>) -> f32 {
+    var unshadowed = 0.0;
+    for (var k = 0u; k < min(frame.counts.x, MAX_LIGHTS); k++) {
+        let kind = u32(frame.lights[k].position.w + 0.5);
+        let slot = frame.shadow_slots[k];
+        if kind == LIGHT_AMBIENT {
+            continue;
+        }
+        if kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u {
+            let radiance = luminance(frame.lights[k].params.rgb);
+            for (var i = 0u; i < min(slot.z, MAX_AREA_SAMPLES); i++) {
+                let sample = area_samples.samples[2u * (slot.y + i)];
+                let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
+                let to_sample = sample.xyz - p;
+                let dist2 = max(dot(to_sample, to_sample), 1e-30);
+                let l = to_sample * inverseSqrt(dist2);
+                let c = dot(sample_normal.xyz, -l);
+                let cos_e = select(max(c, 0.0), abs(c), sample_normal.w > 0.5);
+                unshadowed += radiance * sample.w * cos_e / dist2 * max(dot(n, l), 0.0);
+            }
+            continue;
+        }
+        let toward = light_toward(k, p);
+        unshadowed += luminance(toward.e) * max(dot(n, toward.l), 0.0);
+    }
+    if unshadowed <= 0.0 {
+        return 1.0;
+    }
+    return clamp(luminance(direct_light(p, n, n, 1.0, false).diffuse) / unshadowed, 0.0, 1.0);
+}
+
+// The radiance the lights' highlights on the sphere of row `row` send from its camera-space
+// point q (unit normal m) along unit direction v: `Ks * specular colour` times the Blinn lobe
+// of each light (the ray tracer's, as `shade` takes it), times the share `let_through` of their
+// light the scene lets reach q. Zero for a sphere without a specular lobe.
+fn glossy_toward(row: u32, q: vec3<f32>, m: vec3<f32>, v: vec3<f32>, let_through: f32) -> vec3<f32> {
+    let lobe = textureLoad(radiosity_maps, vec2<i32>(i32(RADIOSITY_MAP_TEXELS), i32(row * RADIOSITY_MAP_TEXELS)), 0);
+    if all(lobe.rgb <= vec3<f32>(0.0)) || let_through <= 0.0 || dot(m, v) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    var specular = vec3<f32>(0.0);
+    for (var k = 0u; k < min(frame.counts.x, MAX_LIGHTS); k++) {
+        if u32(frame.lights[k].position.w + 0.5) == LIGHT_AMBIENT {
+            continue;
+        }
+        let toward = light_toward(k, q);
+        specular += toward.e * blinn_lobe_cos(m, v, toward.l, lobe.a);
+    }
+    return lobe.rgb * specular * let_through;
 }
 
 // One texel of the atlas: the diffuse radiance the sphere of its row sends out at the texel's
@@ -60,15 +161,23 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     if frame.layer_info.x != 1u || row >= min(frame.layer_info.w, 8u) {
         return vec4<f32>(0.0);
     }
-    let s = frame.shadow_spheres[row];
-    let uv = (vec2<f32>(texel % vec2<u32>(RADIOSITY_MAP_TEXELS)) + vec2<f32>(0.5)) / f32(RADIOSITY_MAP_TEXELS);
-    let n = octahedral_direction(uv);
-    let p = s.xyz + s.w * n;
     // The cursor sphere is the first row when it is drawn; the others are live meshes.
     var material = mesh.material;
     if row == 0u && frame.counts.z == 1u {
         material = frame.sphere_material;
     }
+    // The last column: the specular lobe (none for an unlit sphere).
+    if texel.x >= RADIOSITY_MAP_TEXELS {
+        if material.colour.w > 0.5 || material.coefficients.z <= 0.0 {
+            return vec4<f32>(0.0);
+        }
+        let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
+        return vec4<f32>(material.specular_colour.rgb * material.coefficients.z, exponent);
+    }
+    let s = frame.shadow_spheres[row];
+    let uv = (vec2<f32>(texel % vec2<u32>(RADIOSITY_MAP_TEXELS)) + vec2<f32>(0.5)) / f32(RADIOSITY_MAP_TEXELS);
+    let n = octahedral_direction(uv);
+    let p = s.xyz + s.w * n;
     // The own-shadow loss from the sphere's loss map on the half the map covers (as the
     // sphere's shading reads it), gathered here on the half turned from the eye.
     var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
@@ -76,7 +185,58 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
         toward_eye = -normalize(s.xyz);
     }
     loss_map_row = select(-1, i32(row), dot(n, toward_eye) >= 0.0);
-    return vec4<f32>(diffuse_radiance(material, p, n), 1.0);
+    var let_through = 1.0;
+    if material.colour.w < 0.5 && material.coefficients.z > 0.0 {
+        let_through = lights_let_through(p, n);
+    }
+    return vec4<f32>(diffuse_radiance(material, p, n), let_through);
+}
+
+// The light the highlights of the sphere of row `row` send to the surface at p (unit normal n),
+// the integral of glossy_toward times cos_p over the sphere's cap, unhidden. A highlight is a
+// patch of the sphere's normals about the half vector (a tenth of those facing p for roughness
+// 0.1), which the cap's directions, dense at its centre and sparse at its rim where a grazing
+// reflection sends most, would miss: so the integral runs over the normals facing p, rings of
+// equal solid angle times sectors (`side` x `side`), with
+// `d omega = r^2 cos_o / t^2 d omega_m` (t from p to the point, cos_o at the point).
+fn glossy_cap(row: u32, p: vec3<f32>, n: vec3<f32>, side: u32) -> vec3<f32> {
+    let lobe = textureLoad(radiosity_maps, vec2<i32>(i32(RADIOSITY_MAP_TEXELS), i32(row * RADIOSITY_MAP_TEXELS)), 0);
+    if all(lobe.rgb <= vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let sphere = frame.shadow_spheres[row];
+    let r = sphere.w;
+    let to_p = p - sphere.xyz;
+    let d = length(to_p);
+    let axis = to_p / d;
+    // Normals m with m . axis >= r / d face p.
+    let one_minus_cos = 1.0 - r / d;
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(axis.x) > 0.9);
+    let tangent = normalize(cross(helper, axis));
+    let bitangent = cross(axis, tangent);
+    let ring_count = side;
+    let sectors = side;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < ring_count * sectors; k = k + 1u) {
+        let ring = k / sectors;
+        let u = (f32(ring) + 0.5) / f32(ring_count);
+        let cos_t = 1.0 - u * one_minus_cos;
+        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+        let phi = (f32(k % sectors) + 0.5 * f32(ring % 2u)) * (2.0 * PI / f32(sectors));
+        let m = tangent * (sin_t * cos(phi)) + bitangent * (sin_t * sin(phi)) + axis * cos_t;
+        let q = sphere.xyz + r * m;
+        let to_q = q - p;
+        let t2 = dot(to_q, to_q);
+        let w = to_q * inverseSqrt(t2);
+        let cos_p = dot(n, w);
+        let cos_o = -dot(m, w);
+        if cos_p <= 0.0 || cos_o <= 0.0 {
+            continue;
+        }
+        let shadowed = textureLoad(radiosity_maps, radiosity_texel(row, m), 0).a;
+        sum += glossy_toward(row, q, m, -w, shadowed) * (cos_p * cos_o / t2);
+    }
+    return sum * (r * r * 2.0 * PI * one_minus_cos / f32(ring_count * sectors));
 }
 
 // The light the shadow-casting spheres reflect onto the surface at p (camera space) with unit
@@ -120,6 +280,9 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             sectors = 4u;
         }
         var cap = vec3<f32>(0.0);
+        // Of the directions above the surface's horizon, those the scene lets through.
+        var tried = 0u;
+        var let_through = 0u;
         for (var k = 0u; k < rings * sectors; k = k + 1u) {
             // The midpoint of cell k: rings uniform in solid angle, sectors uniform in angle.
             let ring = k / sectors;
@@ -139,15 +302,22 @@ fn bounce_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             // panel a centimetre below the ceiling). (A cone traversal as the live objects'
             // area lights use cannot skip these rays here: the receiver's own triangle always
             // meets the cone at its apex.)
+            tried += 1u;
             if !scene_lets_light(p, n, w, t, 0.0) {
                 continue;
             }
+            let_through += 1u;
             let m = normalize(p + t * w - sphere.xyz);
-            cap += radiosity_lookup(i, m) * cos_p;
+            cap += radiosity_lookup(i, m).rgb * cos_p;
         }
         let solid_angle = 2.0 * PI * one_minus_cos;
         let fade = 1.0 - smoothstep(0.75 * AO_REACH * r, AO_REACH * r, d);
         sum += cap * (solid_angle / f32(rings * sectors) * fade);
+        // The lights' highlights, hidden by the scene as the diffuse directions are.
+        if let_through > 0u {
+            // A highlight covers few of the normals: 8 x 8 within 4 radii, 4 x 4 beyond.
+            sum += glossy_cap(i, p, n, select(4u, 8u, sin_a >= 0.25)) * (f32(let_through) / f32(tried) * fade);
+        }
     }
     return sum;
 }

@@ -137,9 +137,11 @@ fn luminance(c: vec3<f32>) -> f32 {
     return (c.r + c.g + c.b) / 3.0;
 }
 
-// The share of light i's direct light at p (normal n, zero if unknown) that live objects hide,
-// and the light's unshadowed irradiance there (to weigh lights that share a layer).
-fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
+// The share of light i's direct light at p, the surface point at the centre of `pixel` (normal
+// n, zero if unknown), that live objects hide, and the light's unshadowed irradiance there (to
+// weigh lights that share a layer). Hard shadows are taken over the pixel's footprint
+// (shadow_footprint.wgsl).
+fn hidden_share(i: u32, pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     let light = frame.lights[i];
     let kind = u32(light.position.w + 0.5);
     let has_n = dot(n, n) > 0.0;
@@ -147,14 +149,14 @@ fn hidden_share(i: u32, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     if kind == LIGHT_DISTANT {
         let dir = -light.direction.xyz;
         let cos_s = select(1.0, max(dot(n, dir), 0.0), has_n);
-        return vec2<f32>(select(0.0, 1.0, live_blocks(p, dir, 3.0e38)), power * cos_s);
+        return vec2<f32>(footprint_hidden(pixel, p, n, has_n, dir, true), power * cos_s);
     }
     if kind == LIGHT_POINT || kind == LIGHT_SPOT {
         let v = light.position.xyz - p;
         let d = length(v);
         let dir = v / d;
         let cos_s = select(1.0, max(dot(n, dir), 0.0), has_n);
-        return vec2<f32>(select(0.0, 1.0, live_blocks(p, dir, d)), power * cos_s / (d * d));
+        return vec2<f32>(footprint_hidden(pixel, p, n, has_n, light.position.xyz, false), power * cos_s / (d * d));
     }
     if kind == LIGHT_AREA {
         // The ray tracer's integral over the emitter, on its fixed samples: the occluded share
@@ -228,7 +230,7 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
             if slice == NO_LAYER {
                 continue;
             }
-            let s = hidden_share(i, p, n).x;
+            let s = hidden_share(i, pixel, p, n).x;
             if s > 0.0 {
                 removed += s * textureLoad(light_layers, pixel, i32(slice), 0).rgb;
             }
@@ -257,7 +259,7 @@ fn shared_layer_shadow(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32
         if slice == NO_LAYER {
             continue;
         }
-        let h = hidden_share(i, p, n);
+        let h = hidden_share(i, pixel, p, n);
         numerator[slice] += h.x * h.y;
         weight[slice] += h.y;
         share[slice] = h.x;

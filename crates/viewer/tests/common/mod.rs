@@ -218,6 +218,87 @@ pub fn floor_point(scene: &ViewerScene, i: u32, j: u32) -> Option<DVec3> {
     ((p.y + 1.0).abs() < 1e-3).then_some(p)
 }
 
+/// The share of the floor (the plane y = -1) under pixel (i, j) where `blocked(point)`, over the
+/// pixel's area in f64 (32 x 32 points): the renderer filters each pixel over its area, so a hard
+/// shadow's edge is a ramp about a pixel wide in its light layers.
+pub fn floor_footprint_share(scene: &ViewerScene, i: u32, j: u32, blocked: impl Fn(DVec3) -> bool) -> f64 {
+    let cells = 32;
+    let mut hidden = 0;
+    for b in 0..cells {
+        for a in 0..cells {
+            let raster = glam::DVec2::new(
+                f64::from(i) + (f64::from(a) + 0.5) / f64::from(cells),
+                f64::from(j) + (f64::from(b) + 0.5) / f64::from(cells),
+            );
+            let ray = scene.camera().world_ray_through_raster(raster);
+            hidden +=
+                usize::from(blocked(ray.origin + ray.direction * ((-1.0 - ray.origin.y) / ray.direction.y)));
+        }
+    }
+    hidden as f64 / f64::from(cells * cells)
+}
+
+/// How a hard shadow on the Cornell floor compares with the f64 footprint shares: pixels wholly
+/// in or out of it, the pixels on its edge, how many of the former are off, the worst error and
+/// the mean error on the edge.
+#[derive(Debug, Default)]
+pub struct FootprintShadow {
+    pub shadowed: usize,
+    pub edge: usize,
+    pub wrong: usize,
+    pub worst: f64,
+    pub mean_edge_error: f64,
+}
+
+/// Compares the floor pixels of `linear` (a `level` backdrop whose point-light layer holds it
+/// all) away from the live objects' mask with `level` times one less the share of each pixel's
+/// footprint where `blocked(point)` ([`floor_footprint_share`]).
+pub fn footprint_shadow(
+    scene: &ViewerScene,
+    linear: &[f32],
+    mask: &[u8],
+    level: f32,
+    blocked: impl Fn(DVec3) -> bool,
+) -> FootprintShadow {
+    let mut out = FootprintShadow::default();
+    // Pixels next to the live object's mask hold part of its antialiased edge.
+    for_each_backdrop_point(scene, mask, 1, Skip::NearMask, |i, j, k, p| {
+        if (p.y + 1.0).abs() > 1e-3 {
+            return; // The floor: the layer's normal (up) is its own.
+        }
+        let share = floor_footprint_share(scene, i, j, &blocked);
+        let error = (f64::from(linear[4 * k]) - f64::from(level) * (1.0 - share)).abs();
+        out.shadowed += usize::from(share == 1.0);
+        out.worst = out.worst.max(error);
+        if share > 0.0 && share < 1.0 {
+            out.edge += 1;
+            out.mean_edge_error += error;
+        } else if error > 1e-6 {
+            out.wrong += 1;
+        }
+    });
+    out.mean_edge_error /= out.edge.max(1) as f64;
+    eprintln!("{out:?}");
+    out
+}
+
+/// Asserts that a hard shadow on the floor follows the pixels' footprints ([`footprint_shadow`]):
+/// exact wholly in or out of it but for footprints an outline grazes between the f64 points, and
+/// on its edge within what 4 x 4 points of each footprint resolve (a sixteenth of the level per
+/// point), where one ray through each pixel's centre was on average a fifth of the level off.
+/// At least `shadowed` pixels lie wholly in the shadow.
+pub fn assert_footprint_shadow(f: &FootprintShadow, level: f32, shadowed: usize) {
+    assert!(f.shadowed > shadowed && f.edge > 80, "{f:?}");
+    assert!(
+        f.wrong * 200 <= f.shadowed,
+        "{} of {} pixels wholly in or out of the shadow wrong",
+        f.wrong,
+        f.shadowed
+    );
+    assert!(f.worst <= 0.15 * f64::from(level), "{f:?}");
+    assert!(f.mean_edge_error <= 0.08 * f64::from(level), "{f:?}");
+}
+
 /// The Cornell camera and depth, 512x512, over a flat backdrop of linear `level`, lit by
 /// `lights`.
 pub fn flat_cornell(level: f32, lights: Vec<LiveLight>) -> ViewerScene {
