@@ -28,10 +28,13 @@ pub struct ReflectionLimits {
 }
 
 impl Default for ReflectionLimits {
-    /// 3 probes along the longest axis (a probe at the centre of a room-like scene and one near
-    /// each wall; at most 27), 1 ray per texel: about 1000 integrator estimates a probe.
+    /// 6 probes along the longest axis (at most 216, under the viewer's 256), 1 ray per texel:
+    /// about 1000 integrator estimates a probe. With 3 (until 2026-11-27) the room example had
+    /// one layer of probes, 3 units above its floor and 4 apart, and a glossy sphere on the floor
+    /// reflected its neighbours and the floor blurred and too dark; 5 (an odd count, a probe at
+    /// the centre) did worse than 6 in the Cornell box (docs/sidecar.md, "Reflection probes").
     fn default() -> Self {
-        ReflectionLimits { probes_along_longest: 3, rays_per_texel: 1, max_probes: 27 }
+        ReflectionLimits { probes_along_longest: 6, rays_per_texel: 1, max_probes: 216 }
     }
 }
 

@@ -44,41 +44,47 @@ fn run_with(wall: &str, threads: usize) -> RenderOutput {
 fn a_probe_in_a_box_sees_the_luminous_wall_where_it_is_and_how_far() {
     let out = run(2);
     let probes = out.reflections.clone().expect("reflection probes are baked with the layers");
-    assert_eq!(probes.counts, [3, 3, 3]);
+    assert_eq!(probes.counts, [6, 6, 6]);
     assert_eq!(probes.depth_fingerprint, sidecar::depth_fingerprint(&out.depth.as_ref().unwrap().values));
     for a in 0..3 {
-        assert!((probes.origin[a] + 2.0 / 3.0).abs() < 1e-4, "{:?}", probes.origin);
-        assert!((probes.spacing[a] - 2.0 / 3.0).abs() < 1e-4, "{:?}", probes.spacing);
+        assert!((probes.origin[a] + 5.0 / 6.0).abs() < 1e-4, "{:?}", probes.origin);
+        assert!((probes.spacing[a] - 1.0 / 3.0).abs() < 1e-4, "{:?}", probes.spacing);
     }
     let wall = [2.0f32, 1.0, 0.5];
     let n = REFLECTION_TEXELS * REFLECTION_TEXELS;
-    let centre = probes.probe_index([1, 1, 1]);
+    // The probe nearest the box's centre, at (-1/6, -1/6, -1/6).
+    let centre = probes.probe_index([2, 2, 2]);
+    let at = -1.0f32 / 6.0;
     let (mut lit, mut dark) = (0, 0);
     for t in 0..n {
         let d = octahedral_texel_center(REFLECTION_TEXELS, t);
-        let largest = d.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-        // The distance map is the cube's: 1 / max |d_i| from the centre.
+        // How far the box's face across each axis is along d (infinite along an axis d does not
+        // move along).
+        let face = |a: usize| if d[a] == 0.0 { f32::INFINITY } else { (d[a].signum() - at) / d[a] };
+        let (to_x, to_other) = (face(0), face(1).min(face(2)));
+        // The distance map is the cube's, seen from the probe.
         let distance = probes.distance[centre * n + t];
-        assert!((distance - 1.0 / largest).abs() < 1e-3, "texel {t}: {distance} vs {}", 1.0 / largest);
-        // Texels whose whole footprint (about 6 degrees) lies on the lit wall see its radiance
-        // exactly; texels well away from it see black walls.
+        let want = to_x.min(to_other);
+        assert!((distance - want).abs() < 1e-3, "texel {t}: {distance} vs {want}");
+        // Texels whose whole footprint (about 6 degrees) lies on the lit wall (x = 1) see its
+        // radiance exactly; texels well away from it see black walls.
         let radiance = probes.radiance[0][centre * n + t];
-        let others = d[1].abs().max(d[2].abs());
-        if d[0] > 1.25 * others {
+        if d[0] > 0.0 && to_x < 0.8 * to_other {
             lit += 1;
             for c in 0..3 {
                 assert!((radiance[c] - wall[c]).abs() < 1e-4 * wall[c], "texel {t} {d:?}: {radiance:?}");
             }
-        } else if d[0] < 0.75 * others {
+        } else if d[0] <= 0.0 || to_x > 1.25 * to_other {
             dark += 1;
             assert_eq!(radiance, [0.0; 3], "texel {t} {d:?}");
         }
     }
-    assert!(lit > n / 8 && dark > n / 2, "{lit} lit, {dark} dark texels");
+    // From 7/6 away the lit wall covers less of the map than from the centre (1 away).
+    assert!(lit > n / 10 && dark > n / 2, "{lit} lit, {dark} dark texels");
     // A probe nearer the wall sees it nearer.
-    let near = probes.probe_index([2, 1, 1]);
-    assert!((probes.distance_toward(near, [1.0, 0.0, 0.0]) - 1.0 / 3.0).abs() < 1e-3);
-    assert!((probes.distance_toward(near, [-1.0, 0.0, 0.0]) - 5.0 / 3.0).abs() < 1e-3);
+    let near = probes.probe_index([5, 2, 2]);
+    assert!((probes.distance_toward(near, [1.0, 0.0, 0.0]) - 1.0 / 6.0).abs() < 1e-3);
+    assert!((probes.distance_toward(near, [-1.0, 0.0, 0.0]) - 11.0 / 6.0).abs() < 1e-3);
     // The lookup: a mirror and a moderately glossy surface facing the wall see its radiance, a
     // surface facing away none; the broadest lobe toward the wall sees part of it.
     for roughness in [0.0, 1.0 / 64.0] {
@@ -112,6 +118,6 @@ fn an_emitter_seen_directly_is_left_out() {
     for level in &probes.radiance {
         assert!(level.iter().all(|t| *t == [0.0; 3]), "a texel holds emitted light");
     }
-    let centre = probes.probe_index([1, 1, 1]);
-    assert!((probes.distance_toward(centre, [1.0, 0.0, 0.0]) - 1.0).abs() < 1e-3);
+    let centre = probes.probe_index([2, 2, 2]);
+    assert!((probes.distance_toward(centre, [1.0, 0.0, 0.0]) - 7.0 / 6.0).abs() < 1e-3);
 }

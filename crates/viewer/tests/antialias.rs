@@ -261,3 +261,109 @@ fn a_mesh_sphere_s_edges_are_the_exact_sphere_s() {
     assert!(edge > 200, "{edge} edge pixels");
     assert!(differ <= centres_differ, "{differ} pixels differ ({centres_differ} centres)");
 }
+
+/// The first hit of a camera-space ray with world triangles `tris` (f64), if any.
+fn first_hit(scene: &ViewerScene, origin: DVec3, direction: DVec3, tris: &[[DVec3; 3]]) -> Option<f64> {
+    let world = scene.camera().world_from_camera();
+    let (o, d) = (world.transform_point3(origin), world.transform_vector3(direction));
+    tris.iter()
+        .filter_map(|t| {
+            let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+            let pv = d.cross(e2);
+            let det = e1.dot(pv);
+            let tv = o - t[0];
+            let (u, qv) = (tv.dot(pv) / det, tv.cross(e1));
+            let v = d.dot(qv) / det;
+            let hit = e2.dot(qv) / det;
+            (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && hit > 0.0).then_some(hit)
+        })
+        .reduce(f64::min)
+}
+
+/// Where the slanted edge of a pre-rendered board crosses pixels whose centre shows a live sphere
+/// behind it, the samples the board hides show the board, not the sphere nor what lies behind
+/// it: with a box filter each such pixel holds the sphere's colour for the samples that see it,
+/// the board's (its neighbour's) for those the board hides, and the backdrop's for the rest.
+/// Before the samples were traced through the scene's triangles, all of them counted as live.
+#[test]
+fn samples_behind_a_pre_rendered_edge_show_the_edge() {
+    let (w, h) = (512u32, 512u32);
+    let camera = cornell_camera();
+    // A board at z = 0.6 in front of the sphere, its right edge slanting across it.
+    let c = [
+        DVec3::new(-1.0, -1.0, 0.6),
+        DVec3::new(-0.1, -1.0, 0.6),
+        DVec3::new(0.3, 1.0, 0.6),
+        DVec3::new(-1.0, 1.0, 0.6),
+    ];
+    let board = vec![[c[0], c[1], c[2]], [c[0], c[2], c[3]]];
+    let (board_colour, back_colour) = ([0.2f32, 0.6, 0.1], [0.5f32; 3]);
+    let mut depth = Vec::with_capacity((w * h) as usize);
+    let mut linear = Vec::with_capacity((4 * w * h) as usize);
+    let probe = grey_cornell(vec![], 0);
+    for j in 0..h {
+        for i in 0..w {
+            let ray = camera.pixel_centre_ray(i, j);
+            // Behind the board, a wall at world z = -1 (camera-space z = 4.9).
+            let (d, colour) = match first_hit(&probe, ray.origin, ray.direction, &board) {
+                Some(t) => (t, board_colour),
+                None => (4.9 / ray.direction.z, back_colour),
+            };
+            depth.push(d as f32);
+            linear.extend_from_slice(&[colour[0], colour[1], colour[2], 1.0]);
+        }
+    }
+    let backdrop = viewer::Backdrop::from_linear(w, h, linear, 1.0).unwrap();
+    let table = depth_remap::DepthTable::new(w, h, depth).unwrap();
+    let mut scene =
+        ViewerScene::with_backdrop(camera, backdrop, table, vec![], viewer::ToneMap::default()).unwrap();
+    scene.set_pixel_filter(PixelFilter::BOX);
+    scene.set_occluders(viewer::occluders::SceneOccluders { triangles: board.clone() });
+    let (centre_world, radius) = (DVec3::new(0.1, 0.0, 0.0), 0.3);
+    let live = LiveObjects {
+        sphere: Some(Sphere { centre: centre_world, radius, material: Material::unlit(COLOUR) }),
+        meshes: Vec::new(),
+    };
+    let settings =
+        CompositorSettings { mode: CompositeMode::Fullscreen, shadows: None, ..Default::default() };
+    let mut c = Compositor::new(&gpu(), &scene, settings).unwrap();
+    c.render(&live).unwrap();
+    let (got, mask) = (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask);
+    let centre = scene.camera().camera_from_world().transform_point3(centre_world);
+    let (mut partly_hidden, mut checked, mut wrong) = (0, 0, 0);
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            if mask[k] != 255 {
+                continue;
+            }
+            let mut want = [0.0f32; 3];
+            let mut hidden = 0;
+            for [sx, sy] in SAMPLE_POSITIONS {
+                let ray = scene.camera().ray_through_raster(DVec2::new(
+                    f64::from(i) + f64::from(sx),
+                    f64::from(j) + f64::from(sy),
+                ));
+                let sphere = ray_sphere(ray.origin, ray.direction, centre, radius);
+                let wall = first_hit(&scene, ray.origin, ray.direction, &board);
+                let colour = match (sphere, wall) {
+                    (Some(s), Some(b)) if b < s => {
+                        hidden += 1;
+                        board_colour
+                    }
+                    (Some(_), _) => COLOUR.to_array(),
+                    (None, _) => back_colour,
+                };
+                for ch in 0..3 {
+                    want[ch] += 0.25 * colour[ch];
+                }
+            }
+            checked += 1;
+            partly_hidden += usize::from(hidden > 0);
+            wrong += usize::from((0..3).any(|ch| (got[4 * k + ch] - want[ch]).abs() > 2e-3));
+        }
+    }
+    eprintln!("{checked} live pixels, {partly_hidden} partly behind the board, {wrong} off");
+    assert!(partly_hidden > 30, "pixels partly behind the board: {partly_hidden}");
+    assert!(wrong * 100 <= partly_hidden, "{wrong} pixels off the sampled colours");
+}

@@ -31,11 +31,50 @@ struct CoverageOut {
 // The sphere covers the samples whose rays hit it; it is shaded at the first covered sample's
 // hit where the centre ray misses it (elsewhere the resolve uses the centre frame's colour).
 // Which of a pixel's samples the rays through them hit `sphere`, and where: the centre ray's hit,
-// else the first covered sample's (its raster position in `raster`).
+// else the first covered sample's (its raster position in `raster`). `hidden`: the samples whose
+// rays meet the sphere but a pre-rendered surface first, and `occluder` the neighbouring pixel
+// (0..8, row-major over the 3x3 around it) that shows the nearest such surface.
 struct SphereSamples {
     hit: vec4<f32>,
     raster: vec2<f32>,
     samples: u32,
+    hidden: u32,
+    occluder: u32,
+}
+
+// The nearest pre-rendered surface among the 3x3 pixels around `position`: its distance (radial
+// for a perspective camera, planar for an orthographic one, as the depth table's) and which
+// pixel (0..8, row-major).
+fn nearest_neighbour_surface(position: vec2<f32>) -> vec2<f32> {
+    let size = vec2<i32>(textureDimensions(backdrop_radial_depth));
+    let pixel = vec2<i32>(position);
+    var nearest = vec2<f32>(3.0e38, 4.0);
+    for (var k = 0; k < 9; k++) {
+        let q = clamp(pixel + vec2<i32>(k % 3 - 1, k / 3 - 1), vec2<i32>(0), size - 1);
+        let d = textureLoad(backdrop_radial_depth, q, 0).r;
+        if d < nearest.x {
+            nearest = vec2<f32>(d, f32(k));
+        }
+    }
+    return nearest;
+}
+
+// Whether a pre-rendered surface lies between the eye and live point `p` seen through raster
+// position `at`, given the nearest surface the image shows around the pixel (`nearest`, from
+// nearest_neighbour_surface). The depth test compares every sample with the depth at the
+// pixel's centre, so where the edge of a nearer pre-rendered object crosses a pixel whose centre
+// shows the live object, the samples behind that object counted as live (in `cargo xtask
+// illusion`, the Cornell box's sphere resting behind a box: all of its error inside). Such an
+// object is one the image shows among the pixel's neighbours, nearer than `p`: only then is the
+// sample's ray traced through the tessellated scene, and only from just before that surface.
+fn scene_hides_sample(at: vec2<f32>, p: vec3<f32>, nearest: f32) -> bool {
+    let distance = select(p.z, length(p), frame.raster.w > 0.5);
+    if frame.scene_occluders.z == 0u || !(nearest < distance) {
+        return false;
+    }
+    let ray = ray_through_raster(at);
+    let t = dot(p - ray.origin, ray.direction);
+    return bvh_blocks(frame.scene_occluders, ray.origin, ray.direction, 0.99 * nearest, t * (1.0 - 1e-4));
 }
 
 fn sphere_samples(position: vec2<f32>, sphere: vec4<f32>) -> SphereSamples {
@@ -48,18 +87,34 @@ fn sphere_samples(position: vec2<f32>, sphere: vec4<f32>) -> SphereSamples {
     var hit = sphere_hit_of(position, sphere);
     var raster = position;
     var samples = 0u;
+    var hidden = 0u;
+    let nearest = nearest_neighbour_surface(position);
     for (var i = 0u; i < 4u; i = i + 1u) {
         let at = corner + positions[i];
         let sample_hit = sphere_hit_of(at, sphere);
-        if sample_hit.w >= 0.0 {
-            samples = samples | (1u << i);
-            if hit.w < 0.0 {
-                hit = sample_hit;
-                raster = at;
-            }
+        if sample_hit.w < 0.0 {
+            continue;
+        }
+        if scene_hides_sample(at, sample_hit.xyz, nearest.x) {
+            hidden = hidden | (1u << i);
+            continue;
+        }
+        samples = samples | (1u << i);
+        if hit.w < 0.0 {
+            hit = sample_hit;
+            raster = at;
         }
     }
-    return SphereSamples(hit, raster, samples);
+    return SphereSamples(hit, raster, samples, hidden, u32(nearest.y));
+}
+
+// The samples of a pixel whose centre is live carry, instead of a colour (the resolve takes the
+// centre frame's), which of the pixel's samples a pre-rendered surface hides (red, a 4-bit mask)
+// and the neighbouring pixel that shows it (green, 0..8), marked by a negative blue (live colours
+// are never negative): the resolve gives those samples that pixel's colour, the surface in front,
+// not the pixel's own backdrop, which is partly what the live object hides.
+fn centre_live_samples(covered: SphereSamples) -> vec4<f32> {
+    return vec4<f32>(f32(covered.hidden), f32(covered.occluder), -1.0, 1.0);
 }
 
 @fragment
@@ -77,7 +132,7 @@ fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
         let surface = textureLoad(backdrop_radial_depth, vec2<i32>(position.xy), 0).r;
         let distance = select(hit.z, length(hit.xyz), frame.raster.w > 0.5);
         if distance < surface * (1.0 - 1e-5) {
-            return CoverageOut(vec4<f32>(0.0, 0.0, 0.0, 1.0), hit.w, samples);
+            return CoverageOut(centre_live_samples(covered), hit.w, samples);
         }
     }
     let p = hit.xyz;
@@ -124,7 +179,7 @@ fn fs_mesh_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOu
     }
     // Where the centre-sampled frame shows a live object the resolve takes its colour.
     if textureLoad(coverage_centre_mask, vec2<i32>(position.xy), 0).r > 0.5 {
-        return CoverageOut(vec4<f32>(0.0, 0.0, 0.0, 1.0), covered.hit.w, covered.samples);
+        return CoverageOut(centre_live_samples(covered), covered.hit.w, covered.samples);
     }
     let p = covered.hit.xyz;
     let n = (p - sphere.xyz) / sphere.w;

@@ -4,7 +4,8 @@
 // filter's weight: a live sample with its colour, any other with the pixel's own backdrop after
 // shadows (what the scene shows there without the live object), so that an edge pixel blends
 // the two by the share of the filter the live object covers, as in the ray tracer's image.
-// Samples of a pixel whose centre is live take the centre frame's colour.
+// Samples of a pixel whose centre is live take the centre frame's colour; those of its samples
+// that a nearer pre-rendered surface hides take the colour of the neighbour that shows it.
 
 struct Resolve {
     // The filter's kind (pixel_filter.rs FilterKind::code), reach in pixels along x and y.
@@ -87,6 +88,9 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
     var live_weight = 0.0;
     var live = vec3<f32>(0.0);
     var any_live = false;
+    // Samples where a pre-rendered surface hides a live object whose centre sample it does not.
+    var hidden_weight = 0.0;
+    var in_front = vec3<f32>(0.0);
     for (var dy = -reach.y; dy <= reach.y; dy = dy + 1) {
         for (var dx = -reach.x; dx <= reach.x; dx = dx + 1) {
             let q = pixel + vec2<i32>(dx, dy);
@@ -97,6 +101,23 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
             // (the samples are half floats, and the sphere leaves them unshaded there).
             let q_live = textureLoad(centre_mask, q, 0).r > 0.5;
             let q_colour = textureLoad(centre_frame, q, 0).rgb;
+            // A live centre's covered samples say which of its samples a pre-rendered surface
+            // hides, and which neighbour shows that surface (live_coverage.wgsl,
+            // centre_live_samples).
+            var hidden = 0u;
+            var occluder = vec3<f32>(0.0);
+            if q_live {
+                for (var s = 0u; s < 4u; s = s + 1u) {
+                    let sample = textureLoad(live_samples, q, i32(s));
+                    if sample.a > 0.5 && sample.b < 0.0 {
+                        hidden = u32(sample.r + 0.5);
+                        let k = i32(sample.g + 0.5);
+                        let o = clamp(q + vec2<i32>(k % 3 - 1, k / 3 - 1), vec2<i32>(0), size - 1);
+                        occluder = textureLoad(backdrop_shadowed, o, 0).rgb;
+                        break;
+                    }
+                }
+            }
             for (var s = 0u; s < 4u; s = s + 1u) {
                 let offset = vec2<f32>(f32(dx), f32(dy)) + positions[s] - vec2<f32>(0.5);
                 let w = filter_weight(offset.x, offset.y);
@@ -109,6 +130,9 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
                     any_live = true;
                     live_weight = live_weight + w;
                     live = live + w * select(sample.rgb, q_colour, q_live);
+                } else if (hidden & (1u << s)) != 0u {
+                    hidden_weight = hidden_weight + w;
+                    in_front = in_front + w * occluder;
                 }
             }
         }
@@ -116,8 +140,8 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
     if !any_live || abs(total) < 1e-6 {
         return centre;
     }
-    let live_colour = live / live_weight;
-    let share = live_weight / total;
     let backdrop = textureLoad(backdrop_shadowed, pixel, 0).rgb;
-    return vec4<f32>(max(share * live_colour + (1.0 - share) * backdrop, vec3<f32>(0.0)), centre.a);
+    let rest = (total - live_weight - hidden_weight) / total;
+    let colour = (live + in_front) / total + rest * backdrop;
+    return vec4<f32>(max(colour, vec3<f32>(0.0)), centre.a);
 }
