@@ -421,7 +421,7 @@ impl Compositor {
             device,
             &overlay::Overlay { module: &module, linear_format, mask_format: MASK_FORMAT, depth_format },
             &with_mesh,
-            gpu_layers.reflection.map(|(_, rect)| rect),
+            gpu_layers.specular_rect(),
         );
         let shadow_bounce = shadow_bounce::ShadowBounce::new(
             device,

@@ -25,6 +25,9 @@ fn vs_reflection(@builtin(vertex_index) index: u32, @builtin(instance_index) row
 @fragment
 fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(in.position.xy);
+    if frame.reflection.x != 1u || frame.reflection.y == NO_LAYER {
+        discard;
+    }
     let reflectance = textureLoad(light_layers, pixel, i32(frame.reflection.y), 0).rgb;
     let centre = surface_point(pixel);
     let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
@@ -78,4 +81,153 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     let reflected = textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
     let before = textureLoad(backdrop_shadowed, pixel, 0);
     return vec4<f32>(max(before.rgb + reflectance * seen * frame.tone.x - reflected, vec3<f32>(0.0)), before.a);
+}
+
+// A live sphere seen in the pixel's glossy lobe (the ray tracer's Blinn lobe of metal and
+// plastic: the sidecar's `glossy` weight Ks and `glossy_exponent`). The render's indirect light
+// at the pixel is the lobe's integral of the scene's radiance; where some of the lobe's
+// directions meet a sphere first, the sphere shows there instead of what it hides. The lobe is
+// integrated with GLOSSY_SAMPLES directions importance-sampled by its half vector (the set the
+// live surfaces read the reflection probes in, turned about the normal per pixel so that its
+// stratification shows as noise rather than as bands), each weighted `f cos / pdf`; a direction
+// that meets the sphere of this draw first (and that the scene lets through) changes the pixel
+// by its weight times the sphere's radiance less the radiance hidden (hidden_radiance). Drawn
+// once per sphere, each draw adding its share to the backdrop after shadows as the draws before
+// it left it (compositor/specular.rs copies the frame there between draws).
+@fragment
+fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(in.position.xy);
+    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+        discard;
+    }
+    let ks = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
+    let exponent = textureLoad(light_layers, pixel, i32(frame.reflection.w) + 1, 0).r;
+    let centre = surface_point(pixel);
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    if all(ks <= vec3<f32>(0.0)) || !(exponent >= 1.0) || centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
+        discard;
+    }
+    let p = centre.xyz;
+    let n = normalize(n_raw);
+    var view = vec3<f32>(0.0, 0.0, 1.0);
+    if frame.raster.w > 0.5 {
+        view = normalize(p);
+    }
+    let v = -view;
+    let cos_o = max(dot(n, v), 1e-3);
+    let sphere = frame.shadow_spheres[in.row];
+    // The sphere wholly below the surface's horizon: no direction of the lobe meets it.
+    let to_sphere = sphere.xyz - p;
+    if dot(to_sphere, n) <= -sphere.w {
+        discard;
+    }
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t = normalize(cross(helper, n));
+    let b = cross(n, t);
+    var material = mesh.material;
+    if in.row == 0u && frame.counts.z == 1u {
+        material = frame.sphere_material;
+    }
+    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
+    if frame.raster.w > 0.5 {
+        toward_eye = -normalize(sphere.xyz);
+    }
+    // The lobe's directional albedo per unit Ks, estimated with the same directions: the
+    // fallback for the radiance a direction hides (the lobe's mean incoming radiance).
+    let turn = fract(f32((u32(pixel.x) * 1973u + u32(pixel.y) * 9277u) % 4096u) * 0.6180339887);
+    var change = vec3<f32>(0.0);
+    var albedo = 0.0;
+    var met = false;
+    var weights: array<f32, GLOSSY_SAMPLES>;
+    var distances: array<vec2<f32>, GLOSSY_SAMPLES>;
+    var directions: array<vec3<f32>, GLOSSY_SAMPLES>;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        weights[i] = 0.0;
+        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
+        let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
+        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
+        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+        let phi = 2.0 * PI * u2;
+        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+        let o_dot_h = dot(v, h);
+        if o_dot_h <= 0.0 {
+            continue;
+        }
+        let l = 2.0 * o_dot_h * h - v;
+        let cos_l = dot(n, l);
+        if cos_l <= 0.0 {
+            continue;
+        }
+        // f cos / pdf of raytracer::bsdf's Blinn lobe sampled by its half vector, per unit Ks:
+        // D G / (4 cos_o) over (e + 1) cos_h^e / (8 pi o_dot_h).
+        let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+        weights[i] = (exponent + 2.0) / (exponent + 1.0) * g * o_dot_h / cos_o;
+        albedo += weights[i];
+        directions[i] = l;
+        // The nearest sphere along l; only the one of this draw counts here.
+        var nearest = -1.0;
+        var nearest_row = 0u;
+        var exit = 0.0;
+        for (var k = 0u; k < min(frame.layer_info.w, 8u); k = k + 1u) {
+            let s = frame.shadow_spheres[k];
+            let to_s = s.xyz - p;
+            let bb = dot(to_s, l);
+            let disc = s.w * s.w - (dot(to_s, to_s) - bb * bb);
+            if disc < 0.0 {
+                continue;
+            }
+            let root = sqrt(disc);
+            if bb - root > 0.0 && (nearest < 0.0 || bb - root < nearest) {
+                nearest = bb - root;
+                nearest_row = k;
+                exit = bb + root;
+            }
+        }
+        distances[i] = vec2<f32>(-1.0, 0.0);
+        if nearest > 0.0 && nearest_row == in.row && scene_lets_light(p, n, l, nearest, 0.0) {
+            distances[i] = vec2<f32>(nearest, exit);
+            met = true;
+        }
+    }
+    if !met {
+        discard;
+    }
+    albedo /= f32(GLOSSY_SAMPLES);
+    let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+    let mean = indirect / max(ks * albedo, vec3<f32>(1e-6));
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        if distances[i].x <= 0.0 {
+            continue;
+        }
+        let l = directions[i];
+        let q = p + distances[i].x * l;
+        let m = normalize(q - sphere.xyz);
+        loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
+        let seen = shade(material, q, m, l) * frame.tone.x;
+        change += weights[i] * (seen - hidden_radiance(p, l, distances[i].y, mean));
+    }
+    change *= ks / f32(GLOSSY_SAMPLES);
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + change, vec3<f32>(0.0)), before.a);
+}
+
+// The radiance (image units, without what emitters emit: their light hidden is their light
+// layer's share, which the shadows take) that the pre-rendered scene sends toward p from
+// unit direction `dir` beyond distance `beyond` (past a sphere): the image's light layers where
+// a march through the depth finds the surface there (a Lambertian surface sends p what it sends
+// the eye); `fallback` where the march finds none (off screen, or hidden from the eye).
+fn hidden_radiance(p: vec3<f32>, dir: vec3<f32>, beyond: f32, fallback: vec3<f32>) -> vec3<f32> {
+    let far = bitcast<f32>(frame.bounce.z);
+    if frame.bounce.x != 1u || beyond >= far {
+        return fallback;
+    }
+    let at = march_to_surface(p, dir, beyond, far);
+    if at.x < 0 {
+        return fallback;
+    }
+    var behind = vec3<f32>(0.0);
+    for (var slice = 0u; slice <= frame.layer_info.y; slice = slice + 1u) {
+        behind += textureLoad(light_layers, at, i32(slice), 0).rgb;
+    }
+    return behind;
 }
