@@ -87,13 +87,65 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
 // plastic: the sidecar's `glossy` weight Ks and `glossy_exponent`). The render's indirect light
 // at the pixel is the lobe's integral of the scene's radiance; where some of the lobe's
 // directions meet a sphere first, the sphere shows there instead of what it hides. The lobe is
-// integrated with GLOSSY_SAMPLES directions importance-sampled by its half vector (the set the
-// live surfaces read the reflection probes in, turned about the normal per pixel so that its
-// stratification shows as noise rather than as bands), each weighted `f cos / pdf`; a direction
-// that meets the sphere of this draw first (and that the scene lets through) changes the pixel
-// by its weight times the sphere's radiance less the radiance hidden (hidden_radiance). Drawn
-// once per sphere, each draw adding its share to the backdrop after shadows as the draws before
-// it left it (compositor/specular.rs copies the frame there between draws).
+// integrated with GLOSSY_TRACED directions importance-sampled by its half vector (turned about
+// the normal per pixel, so that the stratification shows as fine noise rather than as bands),
+// each weighted `f cos / pdf`. Every direction is tested against the spheres (which share of the
+// lobe meets this draw's sphere); up to GLOSSY_SHADED of those that do, evenly spread, are shaded
+// (the sphere's radiance less what it hides, hidden_radiance, where the scene lets the direction
+// through). And in the first sphere's draw, every fourth direction that meets no sphere reads,
+// where a march finds the surface it meets, what the live objects' shadows took from that
+// surface: a metal reflects the spheres' shadows on the scene too. Surfaces with a diffuse
+// albedo as well (plastic) are left to the shadow pass's occlusion of indirect light, which
+// takes what the sphere hides from the whole of their indirect light (the layers do not split
+// it into the two lobes' shares): adding the sphere's radiance on top made the room's rows
+// worse (docs/viewer.md). Drawn once per sphere, each draw adding its
+// share to the backdrop after shadows as the draws before it left it (compositor/specular.rs
+// copies the frame there between draws).
+const GLOSSY_TRACED: u32 = 64u;
+const GLOSSY_SHADED: u32 = 8u;
+
+// Direction `i` of GLOSSY_TRACED of the Blinn lobe of exponent `e` at normal n (tangents t, b)
+// seen from v, the strata turned by `turn`: xyz the direction, w its `f cos / pdf` per unit Ks
+// (0 when it leaves the hemisphere): raytracer::bsdf's D G / (4 cos_o) over the half vector's
+// density (e + 1) cos_h^e / (8 pi o_dot_h).
+fn glossy_direction(i: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v: vec3<f32>, turn: f32) -> vec4<f32> {
+    let u1 = (f32(i) + 0.5) / f32(GLOSSY_TRACED);
+    let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
+    let cos_h = pow(u1, 1.0 / (e + 1.0));
+    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+    let phi = 2.0 * PI * u2;
+    let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+    let o_dot_h = dot(v, h);
+    let l = 2.0 * o_dot_h * h - v;
+    let cos_l = dot(n, l);
+    let cos_o = max(dot(n, v), 1e-3);
+    if o_dot_h <= 0.0 || cos_l <= 0.0 {
+        return vec4<f32>(l, 0.0);
+    }
+    let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+    return vec4<f32>(l, (e + 2.0) / (e + 1.0) * g * o_dot_h / cos_o);
+}
+
+// The first sphere along unit `l` from p: x its row (8 for none), y the entry distance, z the
+// exit distance.
+fn first_sphere(p: vec3<f32>, l: vec3<f32>) -> vec3<f32> {
+    var out = vec3<f32>(8.0, -1.0, 0.0);
+    for (var k = 0u; k < min(frame.layer_info.w, 8u); k = k + 1u) {
+        let s = frame.shadow_spheres[k];
+        let to_s = s.xyz - p;
+        let bb = dot(to_s, l);
+        let disc = s.w * s.w - (dot(to_s, to_s) - bb * bb);
+        if disc < 0.0 {
+            continue;
+        }
+        let root = sqrt(disc);
+        if bb - root > 0.0 && (out.y < 0.0 || bb - root < out.y) {
+            out = vec3<f32>(f32(k), bb - root, bb + root);
+        }
+    }
+    return out;
+}
+
 @fragment
 fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(in.position.xy);
@@ -114,99 +166,87 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
         view = normalize(p);
     }
     let v = -view;
-    let cos_o = max(dot(n, v), 1e-3);
     let sphere = frame.shadow_spheres[in.row];
-    // The sphere wholly below the surface's horizon: no direction of the lobe meets it.
-    let to_sphere = sphere.xyz - p;
-    if dot(to_sphere, n) <= -sphere.w {
-        discard;
-    }
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let t = normalize(cross(helper, n));
     let b = cross(n, t);
-    var material = mesh.material;
-    if in.row == 0u && frame.counts.z == 1u {
-        material = frame.sphere_material;
-    }
-    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
-    if frame.raster.w > 0.5 {
-        toward_eye = -normalize(sphere.xyz);
-    }
-    // The lobe's directional albedo per unit Ks, estimated with the same directions: the
-    // fallback for the radiance a direction hides (the lobe's mean incoming radiance).
     let turn = fract(f32((u32(pixel.x) * 1973u + u32(pixel.y) * 9277u) % 4096u) * 0.6180339887);
-    var change = vec3<f32>(0.0);
-    var albedo = 0.0;
-    var met = false;
-    var weights: array<f32, GLOSSY_SAMPLES>;
-    var distances: array<vec2<f32>, GLOSSY_SAMPLES>;
-    var directions: array<vec3<f32>, GLOSSY_SAMPLES>;
-    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
-        weights[i] = 0.0;
-        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
-        let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
-        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
-        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
-        let phi = 2.0 * PI * u2;
-        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
-        let o_dot_h = dot(v, h);
-        if o_dot_h <= 0.0 {
-            continue;
-        }
-        let l = 2.0 * o_dot_h * h - v;
-        let cos_l = dot(n, l);
-        if cos_l <= 0.0 {
-            continue;
-        }
-        // f cos / pdf of raytracer::bsdf's Blinn lobe sampled by its half vector, per unit Ks:
-        // D G / (4 cos_o) over (e + 1) cos_h^e / (8 pi o_dot_h).
-        let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
-        weights[i] = (exponent + 2.0) / (exponent + 1.0) * g * o_dot_h / cos_o;
-        albedo += weights[i];
-        directions[i] = l;
-        // The nearest sphere along l; only the one of this draw counts here.
-        var nearest = -1.0;
-        var nearest_row = 0u;
-        var exit = 0.0;
-        for (var k = 0u; k < min(frame.layer_info.w, 8u); k = k + 1u) {
-            let s = frame.shadow_spheres[k];
-            let to_s = s.xyz - p;
-            let bb = dot(to_s, l);
-            let disc = s.w * s.w - (dot(to_s, to_s) - bb * bb);
-            if disc < 0.0 {
-                continue;
-            }
-            let root = sqrt(disc);
-            if bb - root > 0.0 && (nearest < 0.0 || bb - root < nearest) {
-                nearest = bb - root;
-                nearest_row = k;
-                exit = bb + root;
-            }
-        }
-        distances[i] = vec2<f32>(-1.0, 0.0);
-        if nearest > 0.0 && nearest_row == in.row && scene_lets_light(p, n, l, nearest, 0.0) {
-            distances[i] = vec2<f32>(nearest, exit);
-            met = true;
-        }
-    }
-    if !met {
+    if frame.bounce.x == 1u && any(textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb > vec3<f32>(0.0)) {
         discard;
     }
-    albedo /= f32(GLOSSY_SAMPLES);
-    let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
-    let mean = indirect / max(ks * albedo, vec3<f32>(1e-6));
-    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
-        if distances[i].x <= 0.0 {
+    // Which share of the lobe meets this draw's sphere first, and in how many directions; and
+    // the shadows seen in the rest of the lobe (first draw).
+    let far = bitcast<f32>(frame.bounce.z);
+    let shadows_seen = in.row == 0u && frame.bounce.x == 1u;
+    var albedo = 0.0;
+    var met = 0.0;
+    var met_count = 0u;
+    var shadowed = vec3<f32>(0.0);
+    for (var i = 0u; i < GLOSSY_TRACED; i++) {
+        let d = glossy_direction(i, exponent, n, t, b, v, turn);
+        if d.w <= 0.0 {
             continue;
         }
-        let l = directions[i];
-        let q = p + distances[i].x * l;
-        let m = normalize(q - sphere.xyz);
-        loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
-        let seen = shade(material, q, m, l) * frame.tone.x;
-        change += weights[i] * (seen - hidden_radiance(p, l, distances[i].y, mean));
+        albedo += d.w;
+        let first = first_sphere(p, d.xyz);
+        if u32(first.x) == in.row {
+            met += d.w;
+            met_count += 1u;
+        } else if shadows_seen && first.x > 7.5 && i % 4u == 0u {
+            let at = march_to_surface(p, d.xyz, 0.01 * far, far);
+            if at.x >= 0 {
+                let now = textureLoad(backdrop_shadowed, at, 0).rgb;
+                let before = textureLoad(backdrop_colour, at, 0).rgb;
+                shadowed += 4.0 * d.w * (now - before);
+            }
+        }
     }
-    change *= ks / f32(GLOSSY_SAMPLES);
+    if met_count == 0u && all(shadowed == vec3<f32>(0.0)) {
+        discard;
+    }
+    var change = shadowed;
+    if met_count > 0u {
+        var material = mesh.material;
+        if in.row == 0u && frame.counts.z == 1u {
+            material = frame.sphere_material;
+        }
+        var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
+        if frame.raster.w > 0.5 {
+            toward_eye = -normalize(sphere.xyz);
+        }
+        // The lobe's mean incoming radiance: what a direction hides where no march finds it.
+        let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+        let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED), vec3<f32>(1e-6));
+        let stride = (met_count + GLOSSY_SHADED - 1u) / GLOSSY_SHADED;
+        var k = 0u;
+        var shaded = vec3<f32>(0.0);
+        var shaded_weight = 0.0;
+        for (var i = 0u; i < GLOSSY_TRACED; i++) {
+            let d = glossy_direction(i, exponent, n, t, b, v, turn);
+            if d.w <= 0.0 {
+                continue;
+            }
+            let first = first_sphere(p, d.xyz);
+            if u32(first.x) != in.row {
+                continue;
+            }
+            k += 1u;
+            if (k - 1u) % stride != 0u {
+                continue;
+            }
+            shaded_weight += d.w;
+            if !scene_lets_light(p, n, d.xyz, first.y, 0.0) {
+                continue;
+            }
+            let q = p + first.y * d.xyz;
+            let m = normalize(q - sphere.xyz);
+            loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
+            let seen = shade(material, q, m, d.xyz) * frame.tone.x;
+            shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
+        }
+        change += met * shaded / max(shaded_weight, 1e-30);
+    }
+    change *= ks / f32(GLOSSY_TRACED);
     let before = textureLoad(backdrop_shadowed, pixel, 0);
     return vec4<f32>(max(before.rgb + change, vec3<f32>(0.0)), before.a);
 }
