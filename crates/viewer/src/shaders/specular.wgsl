@@ -92,9 +92,10 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
 // each weighted `f cos / pdf`. Every direction is tested against the spheres (which share of the
 // lobe meets this draw's sphere); up to GLOSSY_SHADED of those that do, evenly spread, are shaded
 // (the sphere's radiance less what it hides, hidden_radiance, where the scene lets the direction
-// through). And in the first sphere's draw, every fourth direction that meets no sphere reads,
-// where a march finds the surface it meets, what the live objects' shadows took from that
-// surface: a metal reflects the spheres' shadows on the scene too. Surfaces with a diffuse
+// through). And in the first sphere's draw, every direction that meets no sphere reads, where a
+// march finds the surface it meets, what the live objects' shadows took from that surface: a
+// metal reflects the spheres' shadows on the scene too (every direction: a fourth of them left
+// the gold cylinder under the spot light's shadow noisy enough to be worse than before). Surfaces with a diffuse
 // albedo as well (plastic) are left to the shadow pass's occlusion of indirect light, which
 // takes what the sphere hides from the whole of their indirect light (the layers do not split
 // it into the two lobes' shares): adding the sphere's radiance on top made the room's rows
@@ -192,12 +193,12 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
         if u32(first.x) == in.row {
             met += d.w;
             met_count += 1u;
-        } else if shadows_seen && first.x > 7.5 && i % 4u == 0u {
+        } else if shadows_seen && first.x > 7.5 {
             let at = march_to_surface(p, d.xyz, 0.01 * far, far);
             if at.x >= 0 {
                 let now = textureLoad(backdrop_shadowed, at, 0).rgb;
                 let before = textureLoad(backdrop_colour, at, 0).rgb;
-                shadowed += 4.0 * d.w * (now - before);
+                shadowed += d.w * (now - before);
             }
         }
     }
