@@ -15,8 +15,8 @@ use sidecar::{LightLayers, LightSource, depth_fingerprint, light_layer_count, li
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Channels of a sample or pixel before the light layers: RGBA, emission, normal, albedo,
-/// reflectance, reflected.
-const FIXED_CHANNELS: usize = 19;
+/// reflectance, reflected, glossy, the glossy-weighted exponent (three channels, one used).
+const FIXED_CHANNELS: usize = 25;
 
 /// How a world's lights map to layers, and the channel layout of a layered sample.
 #[derive(Clone, Debug)]
@@ -56,6 +56,8 @@ impl LayerPlan {
             out[6..9].copy_from_slice(&t.albedo.to_array());
             out[9..12].copy_from_slice(&t.reflectance.to_array());
             out[12..15].copy_from_slice(&t.reflected.to_array());
+            out[15..18].copy_from_slice(&t.glossy.to_array());
+            out[18] = t.glossy_exponent;
             for (light, d) in t.direct.iter().enumerate() {
                 let k = FIXED_CHANNELS - 4 + 3 * self.layer_of_light[light];
                 for c in 0..3 {
@@ -249,6 +251,11 @@ pub(crate) fn assemble(
         out.albedo[p] = v3(10);
         out.reflectance[p] = v3(13);
         out.reflected[p] = v3(16);
+        out.glossy[p] = v3(19);
+        // The mean exponent of the samples' lobes, weighted as their `glossy`; zero without one.
+        let weight = out.glossy[p].iter().fold(0.0f32, |m, &v| m.max(v));
+        let exponent = if weight > 0.0 { (px[22] / weight).clamp(1.0, 10_000.0) } else { 0.0 };
+        out.glossy_exponent[p] = [exponent; 3];
         let mut indirect = [f64::from(px[0]), f64::from(px[1]), f64::from(px[2])];
         for c in 0..3 {
             indirect[c] -= f64::from(px[4 + c]);

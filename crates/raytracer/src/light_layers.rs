@@ -31,6 +31,11 @@ pub(crate) struct Tally {
     pub reflectance: Vec3,
     /// The radiance that specular reflection brought, weighted (a part of the sample's colour).
     pub reflected: Vec3,
+    /// The weight `Ks` of the primary vertex's Blinn lobe (times its path weight).
+    pub glossy: Vec3,
+    /// The Blinn exponent times the largest channel of `glossy` (its weight in the pixel's
+    /// mean exponent).
+    pub glossy_exponent: f32,
     /// The primary vertex's path weight (stochastic opacity), applied to its direct light.
     scale: Vec3,
 }
@@ -53,6 +58,8 @@ pub(crate) fn arm(light_count: usize) {
         t.albedo = Vec3::ZERO;
         t.reflectance = Vec3::ZERO;
         t.reflected = Vec3::ZERO;
+        t.glossy = Vec3::ZERO;
+        t.glossy_exponent = 0.0;
         t.scale = Vec3::ZERO;
     });
     AT_PRIMARY.set(false);
@@ -94,12 +101,20 @@ pub fn primary_vertex(
         .filter(|(_, _, flags)| flags.intersects(LobeFlags::REFLECTION))
         .map(|(_, w, _)| w)
         .sum();
+    // The glossy lobe (materials have one at most) for the viewer's glossy reflections.
+    let (ks, exponent) = bsdf
+        .lobes()
+        .iter()
+        .find_map(|l| if let Lobe::Blinn { ks, exponent } = l { Some((*ks, *exponent)) } else { None })
+        .unwrap_or((Vec3::ZERO, 0.0));
     TALLY.with_borrow_mut(|t| {
         t.scale = weight;
         t.emission = emission * weight;
         t.normal = normal;
         t.albedo = albedo;
         t.reflectance = reflectance * weight;
+        t.glossy = ks * weight;
+        t.glossy_exponent = exponent * t.glossy.max_element();
     });
 }
 

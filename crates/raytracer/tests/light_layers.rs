@@ -154,3 +154,29 @@ fn reflectance_and_reflected_describe_the_primary_specular_reflection() {
     let plain = run(&scene(DIRECT, [1.0; 3]).replace("Surface \"mirror\"", "Surface \"matte\""));
     assert!(!plain.layers.unwrap().has_reflection());
 }
+
+/// A camera facing a metal plane that fills its view: `glossy` is its Blinn lobe's weight
+/// `Ks * Color` and `glossy_exponent` its exponent `1 / roughness`; a plastic plane's is its
+/// `Ks * specularcolor` (energy-conserved with `Kd`), and the mirror scene has none.
+#[test]
+fn glossy_layers_describe_the_primary_blinn_lobe() {
+    let plane = |surface: &str| mirror_scene(PHOTONS).replace("Surface \"mirror\"", surface);
+    for integrator in [PATH, PHOTONS, DIRECT] {
+        let metal = plane("Surface \"metal\" \"Ks\" [0.8] \"roughness\" [0.05]").replace(PHOTONS, integrator);
+        let layers = run(&metal).layers.unwrap();
+        assert!(layers.has_glossy() && !layers.has_reflection(), "{integrator}");
+        for p in 0..layers.pixel_count() {
+            let (g, e) = (layers.glossy[p], layers.glossy_exponent[p]);
+            for c in 0..3 {
+                let expected = 0.8 * [0.9, 0.8, 0.7][c];
+                assert!((g[c] - expected).abs() < 1e-5, "{integrator} pixel {p}: glossy {g:?}");
+                assert!((e[c] - 20.0).abs() < 1e-3, "{integrator} pixel {p}: exponent {e:?}");
+            }
+        }
+    }
+    let plastic = run(&plane("Surface \"plastic\" \"Kd\" [0.5] \"Ks\" [0.3] \"roughness\" [0.25]"));
+    let layers = plastic.layers.unwrap();
+    assert!(layers.glossy.iter().all(|g| g.iter().all(|&v| (v - 0.3).abs() < 1e-5)));
+    assert!(layers.glossy_exponent.iter().all(|e| e.iter().all(|&v| (v - 4.0).abs() < 1e-3)));
+    assert!(!run(&mirror_scene(DIRECT)).layers.unwrap().has_glossy());
+}

@@ -26,6 +26,14 @@ pub fn light_layer_of(light: usize, light_count: usize) -> usize {
 /// glass): `reflectance` and `reflected`, both present or both absent (absent: zero).
 pub const REFLECTION_LAYERS: [&str; 2] = ["reflectance", "reflected"];
 
+/// The optional layers of a frame whose primary hits include a glossy lobe (the ray tracer's
+/// Blinn microfacet lobe of `metal`, `shinymetal` and `plastic`): `glossy` and
+/// `glossy_exponent`, both present or both absent (absent: zero).
+pub const GLOSSY_LAYERS: [&str; 2] = ["glossy", "glossy_exponent"];
+
+/// The optional layer groups, each all or none, in the order the format lists them.
+pub const OPTIONAL_LAYER_GROUPS: [[&str; 2]; 2] = [REFLECTION_LAYERS, GLOSSY_LAYERS];
+
 /// One light of the scene as the layers refer to it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LightSource {
@@ -84,6 +92,16 @@ pub struct LightLayers {
     /// `reflected`: the radiance that specular reflection brings toward the camera, weighted by
     /// `reflectance` (a part of `indirect`). Written with `reflectance`.
     pub reflected: Vec<[f32; 3]>,
+    /// `glossy`: the pixel-filtered weight `Ks` of the primary hit's Blinn lobe (metal's
+    /// `Ks * Color`, plastic's `Ks * specularcolor` after its energy conservation with `Kd`),
+    /// times the hit's opacity; zero where the surface has no glossy lobe. Written only when
+    /// some pixel has one.
+    pub glossy: Vec<[f32; 3]>,
+    /// `glossy_exponent`: the Blinn exponent of that lobe (`1 / roughness`, clamped to
+    /// [1, 10000]) in all three channels, averaged over the pixel's samples with the weight
+    /// of their `glossy` (so that an edge against a surface without a lobe keeps the lobe's
+    /// exponent); zero where `glossy` is. Written with `glossy`.
+    pub glossy_exponent: Vec<[f32; 3]>,
 }
 
 impl LightLayers {
@@ -102,7 +120,9 @@ impl LightLayers {
             normal: zero.clone(),
             albedo: zero.clone(),
             reflectance: zero.clone(),
-            reflected: zero,
+            reflected: zero.clone(),
+            glossy: zero.clone(),
+            glossy_exponent: zero,
         }
     }
 
@@ -143,8 +163,15 @@ impl LightLayers {
         self.reflectance.iter().any(|p| p.iter().any(|&v| v != 0.0))
     }
 
+    /// Whether some pixel's primary hit has a glossy lobe: the file then holds the optional
+    /// [`GLOSSY_LAYERS`].
+    pub fn has_glossy(&self) -> bool {
+        self.glossy.iter().any(|p| p.iter().any(|&v| v != 0.0))
+    }
+
     /// Every buffer with its EXR layer name, in the order the format lists them (the
-    /// [`REFLECTION_LAYERS`] only when [`LightLayers::has_reflection`]).
+    /// [`REFLECTION_LAYERS`] only when [`LightLayers::has_reflection`], the [`GLOSSY_LAYERS`]
+    /// only when [`LightLayers::has_glossy`]).
     pub fn named_buffers(&self) -> Vec<(String, &[[f32; 3]])> {
         let mut out: Vec<(String, &[[f32; 3]])> = Vec::new();
         for (k, layer) in self.light.iter().enumerate() {
@@ -158,10 +185,15 @@ impl LightLayers {
             out.push((REFLECTION_LAYERS[0].into(), &self.reflectance));
             out.push((REFLECTION_LAYERS[1].into(), &self.reflected));
         }
+        if self.has_glossy() {
+            out.push((GLOSSY_LAYERS[0].into(), &self.glossy));
+            out.push((GLOSSY_LAYERS[1].into(), &self.glossy_exponent));
+        }
         out
     }
 
-    /// Every buffer with its EXR layer name, the optional [`REFLECTION_LAYERS`] last.
+    /// Every buffer with its EXR layer name, the optional groups ([`OPTIONAL_LAYER_GROUPS`])
+    /// last.
     pub(crate) fn named_buffers_mut(&mut self) -> Vec<(String, &mut Vec<[f32; 3]>)> {
         let mut out: Vec<(String, &mut Vec<[f32; 3]>)> = Vec::new();
         for (k, layer) in self.light.iter_mut().enumerate() {
@@ -173,6 +205,8 @@ impl LightLayers {
         out.push(("albedo".into(), &mut self.albedo));
         out.push((REFLECTION_LAYERS[0].into(), &mut self.reflectance));
         out.push((REFLECTION_LAYERS[1].into(), &mut self.reflected));
+        out.push((GLOSSY_LAYERS[0].into(), &mut self.glossy));
+        out.push((GLOSSY_LAYERS[1].into(), &mut self.glossy_exponent));
         out
     }
 }

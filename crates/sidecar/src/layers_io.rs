@@ -3,7 +3,7 @@
 
 use crate::error::{SidecarError, SidecarErrorKind};
 use crate::layers::{
-    LayerExpectation, LightLayers, LightSource, REFLECTION_LAYERS, channel_suffixes, light_layer_count,
+    LayerExpectation, LightLayers, LightSource, OPTIONAL_LAYER_GROUPS, channel_suffixes, light_layer_count,
 };
 use exr::prelude::*;
 use std::collections::HashMap;
@@ -189,20 +189,23 @@ fn read_layers_inner(
     let mut layers = LightLayers::new(expect.width, expect.height, fingerprint, lights);
     let width = expect.width.max(1) as usize;
     let expected_names = channel_names(layers.light.len());
-    let optional_names: Vec<String> = REFLECTION_LAYERS
-        .iter()
-        .flat_map(|layer| channel_suffixes(layer).map(|c| format!("{layer}.{c}")))
-        .collect();
+    let group_names = |group: &[&str; 2]| -> Vec<String> {
+        group.iter().flat_map(|layer| channel_suffixes(layer).map(|c| format!("{layer}.{c}"))).collect()
+    };
+    let optional_names: Vec<String> = OPTIONAL_LAYER_GROUPS.iter().flat_map(group_names).collect();
     if let Some(extra) =
         channels.keys().find(|name| !expected_names.contains(name) && !optional_names.contains(name))
     {
         return Err(SidecarErrorKind::UnexpectedChannel { name: extra.clone() });
     }
-    // The reflection layers are optional (older files, frames without specular surfaces): all
-    // of their channels or none.
-    let has_reflection = optional_names.iter().any(|name| channels.contains_key(name));
+    // The optional groups (the reflection and glossy layers: older files, frames without such
+    // surfaces) are read with all of their channels or not at all.
+    let absent_groups: Vec<&[&str; 2]> = OPTIONAL_LAYER_GROUPS
+        .iter()
+        .filter(|group| !group_names(group).iter().any(|name| channels.contains_key(name)))
+        .collect();
     for (name, buffer) in layers.named_buffers_mut() {
-        if !has_reflection && REFLECTION_LAYERS.contains(&name.as_str()) {
+        if absent_groups.iter().any(|group| group.contains(&name.as_str())) {
             continue;
         }
         for (c, suffix) in channel_suffixes(&name).iter().enumerate() {

@@ -227,3 +227,42 @@ fn reflection_layers_are_written_when_a_pixel_reflects_and_read_all_or_none() {
         "{err}"
     );
 }
+
+#[test]
+fn glossy_layers_are_written_when_a_pixel_has_a_lobe_and_read_all_or_none() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = SidecarPaths::for_depth(&dir.path().join("out.depth")).layers;
+    let channel_count = |path: &Path| {
+        let image = read_all_data_from_file(path).unwrap();
+        image.layer_data[0].channel_data.list.len()
+    };
+    let mut plain = sample_layers(2);
+    for l in &mut plain.lights {
+        l.description = l.description.replace('é', "?");
+    }
+    assert!(!plain.has_glossy());
+    // A glossy pixel adds both glossy layers; a file with a mirror as well holds both groups.
+    let mut glossy = plain.clone();
+    glossy.glossy[2] = [0.9, 0.75, 0.3];
+    glossy.glossy_exponent[2] = [20.0; 3];
+    write_layers(&glossy, &path).unwrap();
+    assert_eq!(channel_count(&path), channel_names(2).len() + 6);
+    assert_eq!(read_layers(&path, &expectation(&glossy), Default::default()).unwrap(), glossy);
+    let mut both = glossy.clone();
+    both.reflectance[3] = [0.95, 0.9, 0.85];
+    both.reflected[3] = [1.5, 0.25, 0.125];
+    write_layers(&both, &path).unwrap();
+    assert_eq!(channel_count(&path), channel_names(2).len() + 12);
+    assert_eq!(read_layers(&path, &expectation(&both), Default::default()).unwrap(), both);
+    // `glossy` without its exponent is refused, naming the missing channel.
+    let mut channels: Vec<(String, f32)> = channel_names(2).into_iter().map(|c| (c, 0.0)).collect();
+    channels.extend(["glossy.R", "glossy.G", "glossy.B"].map(|c| (c.to_string(), 0.5)));
+    let refs: Vec<(&str, f32)> = channels.iter().map(|(c, v)| (c.as_str(), *v)).collect();
+    write_raw(&path, (3, 2), &refs, &good_attrs(2));
+    let expect = LayerExpectation { width: 3, height: 2, depth_fingerprint: None };
+    let err = read_layers(&path, &expect, Default::default()).unwrap_err();
+    assert!(
+        matches!(&err.kind, SidecarErrorKind::MissingChannel { name, .. } if name.starts_with("glossy_exponent.")),
+        "{err}"
+    );
+}

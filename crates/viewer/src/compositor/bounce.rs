@@ -51,13 +51,6 @@ pub(super) struct Bounce {
     atlas: SphereMapAtlas,
     map_pipeline: wgpu::RenderPipeline,
     bounce_pipeline: wgpu::RenderPipeline,
-    /// The spheres seen in the scene's specular reflections, one draw per sphere.
-    reflection_pipeline: wgpu::RenderPipeline,
-    /// The frame's rectangle of pixels with a specular reflection as that pass last left it
-    /// (`None` when no pixel has one), and the uniforms it was drawn from: a still frame copies
-    /// it back instead of drawing the pass again.
-    reflection_cache: Option<wgpu::Texture>,
-    reflections_drawn_from: super::DrawnFrom,
     /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
     drawn_from: super::DrawnFrom,
 }
@@ -71,8 +64,6 @@ pub(super) struct BounceSetup<'a> {
     pub(super) linear_format: wgpu::TextureFormat,
     pub(super) mask_format: wgpu::TextureFormat,
     pub(super) depth_format: wgpu::TextureFormat,
-    /// The pixels with a specular reflection (`GpuLayers::reflection`), `[x, y, w, h]`.
-    pub(super) reflection_rect: Option<[u32; 4]>,
 }
 
 impl Bounce {
@@ -113,40 +104,7 @@ impl Bounce {
             depth_format: setup.depth_format,
         };
         let bounce_pipeline = overlay.pipeline(device, "bounce light", setup.frame_only, vertex, "fs_bounce");
-        let reflection_vertex = wgpu::VertexState {
-            module: setup.module,
-            entry_point: Some("vs_reflection"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        };
-        let reflection_pipeline = overlay.pipeline(
-            device,
-            "spheres in specular reflections",
-            setup.with_mesh,
-            reflection_vertex,
-            "fs_reflection",
-        );
-        let reflection_cache = setup.reflection_rect.map(|[_, _, width, height]| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("spheres in specular reflections, last drawn"),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: setup.linear_format,
-                usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        });
-        Bounce {
-            atlas,
-            map_pipeline,
-            bounce_pipeline,
-            reflection_pipeline,
-            reflection_cache,
-            reflections_drawn_from: super::DrawnFrom::default(),
-            drawn_from: super::DrawnFrom::default(),
-        }
+        Bounce { atlas, map_pipeline, bounce_pipeline, drawn_from: super::DrawnFrom::default() }
     }
 }
 
@@ -236,57 +194,9 @@ impl Compositor {
         self.copy_to_shadowed(encoder, [x, y, w, h]);
     }
 
-    /// Shows the live spheres in the scene's specular reflections (`fs_reflection`): within the
-    /// pixels that have one, each sphere's draw (its material bound at its mesh slot, `rows`
-    /// as for the radiosity maps) replaces the reflected light by the sphere where the mirror
-    /// direction meets it first (a pixel that meets no sphere is discarded and keeps its
-    /// value); then copies that rectangle into the backdrop after shadows. Runs after the bounce
-    /// light. What it leaves depends only on the frame's and meshes' uniforms (`mesh_bytes`;
-    /// the image never changes under a compositor), so the rectangle is kept, and a frame drawn
-    /// from the same uniforms copies it back instead of drawing the pass again.
-    pub(super) fn record_reflections(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        uniform: &FrameUniform,
-        rows: &[i32],
-        mesh_bytes: &[u8],
-    ) {
-        let (Some((_, [x, y, w, h])), Some(cache)) = (self.layers.reflection, &self.bounce.reflection_cache)
-        else {
-            return;
-        };
-        if uniform.reflection[0] != 1 || uniform.layer_info[3] == 0 {
-            return;
-        }
-        let frame_rect = wgpu::TexelCopyTextureInfo {
-            texture: &self.linear_texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d { x, y, z: 0 },
-            aspect: wgpu::TextureAspect::All,
-        };
-        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
-        if self.bounce.reflections_drawn_from.renew(uniform, mesh_bytes) {
-            {
-                let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
-                pass.set_scissor_rect(x, y, w, h);
-                pass.set_pipeline(&self.bounce.reflection_pipeline);
-                for row in 0..uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32) {
-                    let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
-                    let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
-                    pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
-                    pass.draw(0..3, row..row + 1);
-                }
-            }
-            encoder.copy_texture_to_texture(frame_rect, cache.as_image_copy(), size);
-        } else {
-            encoder.copy_texture_to_texture(cache.as_image_copy(), frame_rect, size);
-        }
-        self.copy_to_shadowed(encoder, [x, y, w, h]);
-    }
-
     /// Copies the rectangle `[x, y, w, h]` of the frame into the backdrop after shadows, which
     /// the live objects' edges blend with.
-    fn copy_to_shadowed(&self, encoder: &mut wgpu::CommandEncoder, [x, y, w, h]: [u32; 4]) {
+    pub(super) fn copy_to_shadowed(&self, encoder: &mut wgpu::CommandEncoder, [x, y, w, h]: [u32; 4]) {
         let origin = wgpu::Origin3d { x, y, z: 0 };
         encoder.copy_texture_to_texture(
             wgpu::TexelCopyTextureInfo {

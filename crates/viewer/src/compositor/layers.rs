@@ -1,7 +1,8 @@
 //! The light layers on the GPU: one half-float texture array (the light layers of the kept
 //! lights, then `indirect`, then the camera-space shading normal, then the diffuse albedo when
 //! the layers hold one, then the specular reflection's reflectance and reflected radiance when
-//! some pixel has one) and a uniform block of
+//! some pixel has one, then the glossy lobe's weight and exponent when some pixel has one) and a
+//! uniform block of
 //! area-light samples in camera space, with each kept light's slice and samples.
 
 use super::lighting::vec4;
@@ -39,6 +40,9 @@ pub(super) struct GpuLayers {
     /// The specular reflection's slices (`reflectance`, then `reflected` in the next slice) and
     /// the pixels that have one (`[x, y, width, height]`); `None` when no pixel has one.
     pub(super) reflection: Option<(u32, [u32; 4])>,
+    /// The glossy lobe's slices (`glossy`, then `glossy_exponent` in the next slice) and the
+    /// pixels that have one; `None` when no pixel has one.
+    pub(super) glossy: Option<(u32, [u32; 4])>,
     /// Whether two kept lights share a layer (the shaders then weigh them).
     pub(super) shared: bool,
     /// Per kept light, the world-space emitter samples the shaders integrate it over (each
@@ -70,6 +74,7 @@ pub(super) fn upload(
     let mut world_samples = vec![Vec::new(); kept.len()];
     let mut albedo_slice = None;
     let mut reflection = None;
+    let mut glossy = None;
     if let Some(bound) = layers {
         let mut slice_of_layer = vec![None; bound.layers.light.len()];
         let area_lights = kept.iter().filter(|&&k| !bound.area_samples[k].is_empty()).count().max(1);
@@ -129,6 +134,11 @@ pub(super) fn upload(
             slices.push(bound.layers.reflectance.clone());
             slices.push(bound.layers.reflected.clone());
         }
+        if let Some(rect) = reflecting_pixels(&bound.layers.glossy, width as usize) {
+            glossy = Some((slices.len() as u32, rect));
+            slices.push(bound.layers.glossy.clone());
+            slices.push(bound.layers.glossy_exponent.clone());
+        }
     }
     let (w, h) = if layers.is_some() { (width, height) } else { (1, 1) };
     let count = slices.len().max(2) as u32;
@@ -180,11 +190,21 @@ pub(super) fn upload(
         slices.dedup();
         slices.len() != n
     };
-    GpuLayers { view, samples: buffer, light_slots, info, albedo_slice, reflection, shared, world_samples }
+    GpuLayers {
+        view,
+        samples: buffer,
+        light_slots,
+        info,
+        albedo_slice,
+        reflection,
+        glossy,
+        shared,
+        world_samples,
+    }
 }
 
-/// The bounding rectangle `[x, y, width, height]` of the pixels whose `reflectance` (rows of
-/// `width`) is not zero, `None` when there are none.
+/// The bounding rectangle `[x, y, width, height]` of the pixels whose `reflectance` (or
+/// `glossy`; rows of `width`) is not zero, `None` when there are none.
 fn reflecting_pixels(reflectance: &[[f32; 3]], width: usize) -> Option<[u32; 4]> {
     let mut bounds: Option<[usize; 4]> = None;
     for (i, r) in reflectance.iter().enumerate() {
@@ -196,4 +216,17 @@ fn reflecting_pixels(reflectance: &[[f32; 3]], width: usize) -> Option<[u32; 4]>
         *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
     }
     bounds.map(|[x0, y0, x1, y1]| [x0 as u32, y0 as u32, (x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32])
+}
+
+impl GpuLayers {
+    /// The pixels the specular pass draws over (`[x, y, width, height]`): those with a specular
+    /// reflection or a glossy lobe, `None` when there are none.
+    pub(super) fn specular_rect(&self) -> Option<[u32; 4]> {
+        let rects = [self.reflection, self.glossy];
+        rects.iter().flatten().map(|&(_, r)| r).reduce(|a, b| {
+            let (x0, y0) = (a[0].min(b[0]), a[1].min(b[1]));
+            let (x1, y1) = ((a[0] + a[2]).max(b[0] + b[2]), (a[1] + a[3]).max(b[1] + b[3]));
+            [x0, y0, x1 - x0, y1 - y0]
+        })
+    }
 }

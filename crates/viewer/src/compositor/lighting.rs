@@ -99,8 +99,10 @@ pub(super) struct FrameUniform {
     /// the shadows' scissor as `x | y << 16` and `width | height << 16`, the albedo layer's
     /// slice. Set by `Compositor::render` from the shadows' scissor.
     pub(super) shadow_bounce: [u32; 4],
-    /// The live spheres seen in the scene's specular reflections (`bounce.wgsl`): 1 when on
-    /// (with the bounce light), the `reflectance` slice, the `reflected` slice.
+    /// The live spheres seen in the scene's specular reflections and glossy lobes
+    /// (`specular.wgsl`): 1 when on (with the bounce light), the `reflectance` slice, the
+    /// `reflected` slice, the `glossy` slice (`glossy_exponent` the next), each `NO_LAYER`
+    /// where no pixel has one.
     pub(super) reflection: [u32; 4],
 }
 
@@ -277,11 +279,18 @@ impl Compositor {
                 _ => [0; 4],
             },
             shadow_bounce: [0; 4],
-            reflection: match self.layers.reflection {
-                Some((slice, _)) if self.settings.bounce_light && shadow_on == 1 && sphere_count > 0 => {
-                    [1, slice, slice + 1, 0]
-                }
-                _ => [0; 4],
+            reflection: if self.settings.bounce_light && shadow_on == 1 && sphere_count > 0 {
+                let (reflectance, reflected) = self
+                    .layers
+                    .reflection
+                    .map_or((super::layers::NO_LAYER, super::layers::NO_LAYER), |(slice, _)| {
+                        (slice, slice + 1)
+                    });
+                let glossy = self.layers.glossy.map_or(super::layers::NO_LAYER, |(slice, _)| slice);
+                let on = u32::from(self.layers.specular_rect().is_some());
+                [on, reflectance, reflected, glossy]
+            } else {
+                [0; 4]
             },
         }
     }

@@ -19,6 +19,7 @@ mod scene_shadows;
 mod settings;
 mod shadow_bounce;
 mod shadows;
+mod specular;
 mod sphere_atlas;
 
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
@@ -105,6 +106,8 @@ pub struct Compositor {
     /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
     /// the pass that adds it.
     bounce: bounce::Bounce,
+    /// The live spheres seen in the scene's specular reflections.
+    specular: specular::SpecularReflections,
     /// The light the shadows take from the rest of the scene: its clusters (binding 16), what
     /// each pixel loses (binding 17) and the passes that draw and remove it.
     shadow_bounce: shadow_bounce::ShadowBounce,
@@ -122,6 +125,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/shadow_footprint.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
+    include_str!("../shaders/specular.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
 );
 
@@ -407,8 +411,13 @@ impl Compositor {
                 linear_format,
                 mask_format: MASK_FORMAT,
                 depth_format,
-                reflection_rect: gpu_layers.reflection.map(|(_, rect)| rect),
             },
+        );
+        let specular = specular::SpecularReflections::new(
+            device,
+            &overlay::Overlay { module: &module, linear_format, mask_format: MASK_FORMAT, depth_format },
+            &with_mesh,
+            gpu_layers.specular_rect(),
         );
         let shadow_bounce = shadow_bounce::ShadowBounce::new(
             device,
@@ -654,6 +663,7 @@ impl Compositor {
             shadowed_from: DrawnFrom::default(),
             loss_maps,
             bounce,
+            specular,
             shadow_bounce,
             antialias,
             antialias_off,

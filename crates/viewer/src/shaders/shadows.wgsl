@@ -239,10 +239,23 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
         removed = shared_layer_shadow(pixel, p, n);
     }
     // A specular reflection's light is not hidden evenly: the reflection pass traces its one
-    // direction (bounce.wgsl, fs_reflection), so only the rest of the indirect light is.
+    // direction (specular.wgsl, fs_reflection), so only the rest of the indirect light is. A
+    // surface with a glossy lobe and no diffuse one (metal) has its lobe traced there too
+    // (fs_glossy), so none of its indirect light is hidden here.
     var indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
-    if frame.reflection.x == 1u {
+    if frame.reflection.x == 1u && frame.reflection.z != NO_LAYER {
         indirect -= textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
+    }
+    if frame.reflection.x == 1u && frame.reflection.w != NO_LAYER {
+        let glossy = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
+        // Without the bounce light's albedo slice no pixel has a diffuse albedo.
+        var albedo = vec3<f32>(0.0);
+        if frame.bounce.x == 1u {
+            albedo = textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb;
+        }
+        if any(glossy > vec3<f32>(0.0)) && all(albedo <= vec3<f32>(0.0)) {
+            indirect = vec3<f32>(0.0);
+        }
     }
     return (removed + indirect_occlusion(p, n) * indirect) * frame.tone.x;
 }

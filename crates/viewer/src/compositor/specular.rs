@@ -1,0 +1,139 @@
+//! The live spheres seen in the pre-rendered scene's specular reflections (mirrors, glass's
+//! Fresnel reflection) and glossy lobes (metal, plastic; `shaders/specular.wgsl`): one
+//! full-screen draw per sphere and kind, scissored to the pixels the sidecar gives a
+//! reflectance or a glossy lobe, replacing the reflected light where the mirror direction (or
+//! one of the lobe's directions) meets the sphere first.
+
+use super::Compositor;
+use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use super::overlay::Overlay;
+
+/// The pass's pipeline and what it last left in the frame.
+#[derive(Debug)]
+pub(super) struct SpecularReflections {
+    /// The spheres seen in the scene's specular reflections, one draw per sphere.
+    pipeline: wgpu::RenderPipeline,
+    /// The spheres seen in the scene's glossy lobes, one draw per sphere adding its share to
+    /// the backdrop after shadows as the previous draws left it.
+    glossy_pipeline: wgpu::RenderPipeline,
+    /// The frame's rectangle of pixels with a specular reflection as the pass last left it
+    /// (`None` when no pixel has one), and the uniforms it was drawn from: a still frame copies
+    /// it back instead of drawing the pass again.
+    cache: Option<wgpu::Texture>,
+    drawn_from: super::DrawnFrom,
+}
+
+impl SpecularReflections {
+    /// `overlay`: the module and the frame's formats; `with_mesh`: the frame's and a mesh's bind
+    /// groups (a sphere's material); `rect`: the pixels with a specular reflection
+    /// or a glossy lobe (`GpuLayers::specular_rect`), `[x, y, w, h]`.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        overlay: &Overlay<'_>,
+        with_mesh: &wgpu::PipelineLayout,
+        rect: Option<[u32; 4]>,
+    ) -> SpecularReflections {
+        let vertex = wgpu::VertexState {
+            module: overlay.module,
+            entry_point: Some("vs_reflection"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        };
+        let pipeline = overlay.pipeline(
+            device,
+            "spheres in specular reflections",
+            with_mesh,
+            vertex.clone(),
+            "fs_reflection",
+        );
+        let glossy_pipeline =
+            overlay.pipeline(device, "spheres in glossy reflections", with_mesh, vertex, "fs_glossy");
+        let cache = rect.map(|[_, _, width, height]| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("spheres in specular reflections, last drawn"),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: overlay.linear_format,
+                usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        });
+        SpecularReflections { pipeline, glossy_pipeline, cache, drawn_from: super::DrawnFrom::default() }
+    }
+}
+
+impl Compositor {
+    /// Shows the live spheres in the scene's specular reflections (`fs_reflection`): within the
+    /// pixels that have one, each sphere's draw (its material bound at its mesh slot, `rows`
+    /// as for the radiosity maps) replaces the reflected light by the sphere where the mirror
+    /// direction meets it first (a pixel that meets no sphere is discarded and keeps its
+    /// value), then each sphere's glossy draw adds what it changes in the glossy lobes; the
+    /// rectangle is copied into the backdrop after shadows after each pass. Runs after the bounce
+    /// light. What it leaves depends only on the frame's and meshes' uniforms (`mesh_bytes`;
+    /// the image never changes under a compositor), so the rectangle is kept, and a frame drawn
+    /// from the same uniforms copies it back instead of drawing the pass again.
+    pub(super) fn record_reflections(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        rows: &[i32],
+        mesh_bytes: &[u8],
+    ) {
+        let (Some([x, y, w, h]), Some(cache)) = (self.layers.specular_rect(), &self.specular.cache) else {
+            return;
+        };
+        if uniform.reflection[0] != 1 || uniform.layer_info[3] == 0 {
+            return;
+        }
+        let frame_rect = wgpu::TexelCopyTextureInfo {
+            texture: &self.linear_texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x, y, z: 0 },
+            aspect: wgpu::TextureAspect::All,
+        };
+        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+        if self.specular.drawn_from.renew(uniform, mesh_bytes) {
+            let spheres = uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32);
+            let bind_row = |pass: &mut wgpu::RenderPass<'_>, row: u32| {
+                let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
+                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+            };
+            // The mirror draws replace the reflected light (read from the backdrop after
+            // shadows; a pixel changes in one draw at most).
+            if self.layers.reflection.is_some() {
+                {
+                    let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+                    pass.set_scissor_rect(x, y, w, h);
+                    pass.set_pipeline(&self.specular.pipeline);
+                    for row in 0..spheres {
+                        bind_row(&mut pass, row);
+                        pass.draw(0..3, row..row + 1);
+                    }
+                }
+                self.copy_to_shadowed(encoder, [x, y, w, h]);
+            }
+            // Each sphere's glossy draw adds its share to what the draws before it left (copied
+            // into the backdrop after shadows, which the next draw reads): the frame's colour
+            // target cannot be blended in every format.
+            if self.layers.glossy.is_some() {
+                for row in 0..spheres {
+                    {
+                        let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+                        pass.set_scissor_rect(x, y, w, h);
+                        pass.set_pipeline(&self.specular.glossy_pipeline);
+                        bind_row(&mut pass, row);
+                        pass.draw(0..3, row..row + 1);
+                    }
+                    self.copy_to_shadowed(encoder, [x, y, w, h]);
+                }
+            }
+            encoder.copy_texture_to_texture(frame_rect, cache.as_image_copy(), size);
+        } else {
+            encoder.copy_texture_to_texture(cache.as_image_copy(), frame_rect, size);
+            self.copy_to_shadowed(encoder, [x, y, w, h]);
+        }
+    }
+}

@@ -1,0 +1,274 @@
+// The live spheres seen in the pre-rendered scene's specular reflections (appended to
+// composite.wgsl: compositor/mod.rs COMPOSITE_WGSL; the bindings and helpers are composite.wgsl's,
+// the pass is compositor/specular.rs).
+
+// A live sphere seen in the pixel's specular reflection (a mirror, a glass surface's Fresnel
+// reflection): the render's `reflected` layer is the radiance that reflection brought at the
+// primary hit, weighted by its `reflectance`; where the mirror direction from the pixel's
+// surface point meets a sphere first (and the scene lets it see the sphere), that light is
+// hidden and the sphere's own radiance toward the pixel, times the reflectance, is seen instead.
+// One ray per pixel, through its centre. Drawn once per sphere (its material bound in group 1,
+// its row as the instance): a pixel changes only in the draw of the sphere its ray meets first.
+struct ReflectionOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) @interpolate(flat) row: u32,
+}
+
+@vertex
+fn vs_reflection(@builtin(vertex_index) index: u32, @builtin(instance_index) row: u32) -> ReflectionOut {
+    // vs_fullscreen's triangle (an entry point cannot be called).
+    let x = f32(i32(index & 1u) * 4 - 1);
+    let y = f32(i32(index >> 1u) * 4 - 1);
+    return ReflectionOut(vec4<f32>(x, y, 0.5, 1.0), row);
+}
+
+@fragment
+fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(in.position.xy);
+    if frame.reflection.x != 1u || frame.reflection.y == NO_LAYER {
+        discard;
+    }
+    let reflectance = textureLoad(light_layers, pixel, i32(frame.reflection.y), 0).rgb;
+    let centre = surface_point(pixel);
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    if frame.reflection.x != 1u || all(reflectance <= vec3<f32>(0.0)) || centre.w < 0.5
+        || dot(n_raw, n_raw) <= 1e-12 {
+        discard;
+    }
+    let p = centre.xyz;
+    let n = normalize(n_raw);
+    // The camera looks down +z (orthographic) or from the origin (perspective).
+    var view = vec3<f32>(0.0, 0.0, 1.0);
+    if frame.raster.w > 0.5 {
+        view = normalize(p);
+    }
+    let dir = view - 2.0 * dot(view, n) * n;
+    var nearest = -1.0;
+    var nearest_row = 0u;
+    for (var i = 0u; i < min(frame.layer_info.w, 8u); i = i + 1u) {
+        let sphere = frame.shadow_spheres[i];
+        let to_sphere = sphere.xyz - p;
+        let b = dot(to_sphere, dir);
+        let disc = sphere.w * sphere.w - (dot(to_sphere, to_sphere) - b * b);
+        if disc < 0.0 {
+            continue;
+        }
+        let t = b - sqrt(disc);
+        if t > 0.0 && (nearest < 0.0 || t < nearest) {
+            nearest = t;
+            nearest_row = i;
+        }
+    }
+    if nearest < 0.0 || nearest_row != in.row || !scene_lets_light(p, n, dir, nearest, 0.0) {
+        discard;
+    }
+    let sphere = frame.shadow_spheres[in.row];
+    let q = p + nearest * dir;
+    let m = normalize(q - sphere.xyz);
+    // The cursor sphere is the first row when it is drawn; the others are live meshes.
+    var material = mesh.material;
+    if in.row == 0u && frame.counts.z == 1u {
+        material = frame.sphere_material;
+    }
+    // The own-shadow loss from the sphere's loss map on the half it covers (the half facing
+    // the eye), gathered at the point on the other half.
+    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
+    if frame.raster.w > 0.5 {
+        toward_eye = -normalize(sphere.xyz);
+    }
+    loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
+    let seen = shade(material, q, m, dir);
+    let reflected = textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + reflectance * seen * frame.tone.x - reflected, vec3<f32>(0.0)), before.a);
+}
+
+// A live sphere seen in the pixel's glossy lobe (the ray tracer's Blinn lobe of metal and
+// plastic: the sidecar's `glossy` weight Ks and `glossy_exponent`). The render's indirect light
+// at the pixel is the lobe's integral of the scene's radiance; where some of the lobe's
+// directions meet a sphere first, the sphere shows there instead of what it hides. The lobe is
+// integrated with GLOSSY_TRACED directions importance-sampled by its half vector (turned about
+// the normal per pixel, so that the stratification shows as fine noise rather than as bands),
+// each weighted `f cos / pdf`. Every direction is tested against the spheres (which share of the
+// lobe meets this draw's sphere); up to GLOSSY_SHADED of those that do, evenly spread, are shaded
+// (the sphere's radiance less what it hides, hidden_radiance, where the scene lets the direction
+// through). And in the first sphere's draw, every direction that meets no sphere reads, where a
+// march finds the surface it meets, what the live objects' shadows took from that surface: a
+// metal reflects the spheres' shadows on the scene too (every direction: a fourth of them left
+// the gold cylinder under the spot light's shadow noisy enough to be worse than before). Surfaces with a diffuse
+// albedo as well (plastic) are left to the shadow pass's occlusion of indirect light, which
+// takes what the sphere hides from the whole of their indirect light (the layers do not split
+// it into the two lobes' shares): adding the sphere's radiance on top made the room's rows
+// worse (docs/viewer.md). Drawn once per sphere, each draw adding its
+// share to the backdrop after shadows as the draws before it left it (compositor/specular.rs
+// copies the frame there between draws).
+const GLOSSY_TRACED: u32 = 64u;
+const GLOSSY_SHADED: u32 = 8u;
+
+// Direction `i` of GLOSSY_TRACED of the Blinn lobe of exponent `e` at normal n (tangents t, b)
+// seen from v, the strata turned by `turn`: xyz the direction, w its `f cos / pdf` per unit Ks
+// (0 when it leaves the hemisphere): raytracer::bsdf's D G / (4 cos_o) over the half vector's
+// density (e + 1) cos_h^e / (8 pi o_dot_h).
+fn glossy_direction(i: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v: vec3<f32>, turn: f32) -> vec4<f32> {
+    let u1 = (f32(i) + 0.5) / f32(GLOSSY_TRACED);
+    let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
+    let cos_h = pow(u1, 1.0 / (e + 1.0));
+    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+    let phi = 2.0 * PI * u2;
+    let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+    let o_dot_h = dot(v, h);
+    let l = 2.0 * o_dot_h * h - v;
+    let cos_l = dot(n, l);
+    let cos_o = max(dot(n, v), 1e-3);
+    if o_dot_h <= 0.0 || cos_l <= 0.0 {
+        return vec4<f32>(l, 0.0);
+    }
+    let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+    return vec4<f32>(l, (e + 2.0) / (e + 1.0) * g * o_dot_h / cos_o);
+}
+
+// The first sphere along unit `l` from p: x its row (8 for none), y the entry distance, z the
+// exit distance.
+fn first_sphere(p: vec3<f32>, l: vec3<f32>) -> vec3<f32> {
+    var out = vec3<f32>(8.0, -1.0, 0.0);
+    for (var k = 0u; k < min(frame.layer_info.w, 8u); k = k + 1u) {
+        let s = frame.shadow_spheres[k];
+        let to_s = s.xyz - p;
+        let bb = dot(to_s, l);
+        let disc = s.w * s.w - (dot(to_s, to_s) - bb * bb);
+        if disc < 0.0 {
+            continue;
+        }
+        let root = sqrt(disc);
+        if bb - root > 0.0 && (out.y < 0.0 || bb - root < out.y) {
+            out = vec3<f32>(f32(k), bb - root, bb + root);
+        }
+    }
+    return out;
+}
+
+@fragment
+fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(in.position.xy);
+    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+        discard;
+    }
+    let ks = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
+    let exponent = textureLoad(light_layers, pixel, i32(frame.reflection.w) + 1, 0).r;
+    let centre = surface_point(pixel);
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    if all(ks <= vec3<f32>(0.0)) || !(exponent >= 1.0) || centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
+        discard;
+    }
+    let p = centre.xyz;
+    let n = normalize(n_raw);
+    var view = vec3<f32>(0.0, 0.0, 1.0);
+    if frame.raster.w > 0.5 {
+        view = normalize(p);
+    }
+    let v = -view;
+    let sphere = frame.shadow_spheres[in.row];
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t = normalize(cross(helper, n));
+    let b = cross(n, t);
+    let turn = fract(f32((u32(pixel.x) * 1973u + u32(pixel.y) * 9277u) % 4096u) * 0.6180339887);
+    if frame.bounce.x == 1u && any(textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb > vec3<f32>(0.0)) {
+        discard;
+    }
+    // Which share of the lobe meets this draw's sphere first, and in how many directions; and
+    // the shadows seen in the rest of the lobe (first draw).
+    let far = bitcast<f32>(frame.bounce.z);
+    let shadows_seen = in.row == 0u && frame.bounce.x == 1u;
+    var albedo = 0.0;
+    var met = 0.0;
+    var met_count = 0u;
+    var shadowed = vec3<f32>(0.0);
+    for (var i = 0u; i < GLOSSY_TRACED; i++) {
+        let d = glossy_direction(i, exponent, n, t, b, v, turn);
+        if d.w <= 0.0 {
+            continue;
+        }
+        albedo += d.w;
+        let first = first_sphere(p, d.xyz);
+        if u32(first.x) == in.row {
+            met += d.w;
+            met_count += 1u;
+        } else if shadows_seen && first.x > 7.5 {
+            let at = march_to_surface(p, d.xyz, 0.01 * far, far);
+            if at.x >= 0 {
+                let now = textureLoad(backdrop_shadowed, at, 0).rgb;
+                let before = textureLoad(backdrop_colour, at, 0).rgb;
+                shadowed += d.w * (now - before);
+            }
+        }
+    }
+    if met_count == 0u && all(shadowed == vec3<f32>(0.0)) {
+        discard;
+    }
+    var change = shadowed;
+    if met_count > 0u {
+        var material = mesh.material;
+        if in.row == 0u && frame.counts.z == 1u {
+            material = frame.sphere_material;
+        }
+        var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
+        if frame.raster.w > 0.5 {
+            toward_eye = -normalize(sphere.xyz);
+        }
+        // The lobe's mean incoming radiance: what a direction hides where no march finds it.
+        let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+        let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED), vec3<f32>(1e-6));
+        let stride = (met_count + GLOSSY_SHADED - 1u) / GLOSSY_SHADED;
+        var k = 0u;
+        var shaded = vec3<f32>(0.0);
+        var shaded_weight = 0.0;
+        for (var i = 0u; i < GLOSSY_TRACED; i++) {
+            let d = glossy_direction(i, exponent, n, t, b, v, turn);
+            if d.w <= 0.0 {
+                continue;
+            }
+            let first = first_sphere(p, d.xyz);
+            if u32(first.x) != in.row {
+                continue;
+            }
+            k += 1u;
+            if (k - 1u) % stride != 0u {
+                continue;
+            }
+            shaded_weight += d.w;
+            if !scene_lets_light(p, n, d.xyz, first.y, 0.0) {
+                continue;
+            }
+            let q = p + first.y * d.xyz;
+            let m = normalize(q - sphere.xyz);
+            loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
+            let seen = shade(material, q, m, d.xyz) * frame.tone.x;
+            shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
+        }
+        change += met * shaded / max(shaded_weight, 1e-30);
+    }
+    change *= ks / f32(GLOSSY_TRACED);
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + change, vec3<f32>(0.0)), before.a);
+}
+
+// The radiance (image units, without what emitters emit: their light hidden is their light
+// layer's share, which the shadows take) that the pre-rendered scene sends toward p from
+// unit direction `dir` beyond distance `beyond` (past a sphere): the image's light layers where
+// a march through the depth finds the surface there (a Lambertian surface sends p what it sends
+// the eye); `fallback` where the march finds none (off screen, or hidden from the eye).
+fn hidden_radiance(p: vec3<f32>, dir: vec3<f32>, beyond: f32, fallback: vec3<f32>) -> vec3<f32> {
+    let far = bitcast<f32>(frame.bounce.z);
+    if frame.bounce.x != 1u || beyond >= far {
+        return fallback;
+    }
+    let at = march_to_surface(p, dir, beyond, far);
+    if at.x < 0 {
+        return fallback;
+    }
+    var behind = vec3<f32>(0.0);
+    for (var slice = 0u; slice <= frame.layer_info.y; slice = slice + 1u) {
+        behind += textureLoad(light_layers, at, i32(slice), 0).rgb;
+    }
+    return behind;
+}
