@@ -267,7 +267,7 @@ impl Compositor {
 
     /// Copies the rectangle `[x, y, w, h]` of the frame into the backdrop after shadows, which
     /// the live objects' edges blend with.
-    fn copy_to_shadowed(&self, encoder: &mut wgpu::CommandEncoder, [x, y, w, h]: [u32; 4]) {
+    pub(super) fn copy_to_shadowed(&self, encoder: &mut wgpu::CommandEncoder, [x, y, w, h]: [u32; 4]) {
         let origin = wgpu::Origin3d { x, y, z: 0 };
         encoder.copy_texture_to_texture(
             wgpu::TexelCopyTextureInfo {

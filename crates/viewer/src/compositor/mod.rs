@@ -13,7 +13,9 @@ mod lighting;
 mod live_objects;
 mod loss_map;
 mod overlay;
+mod pass_timing;
 mod readback;
+mod reduced_gather;
 mod reflections;
 mod scene_shadows;
 mod settings;
@@ -21,7 +23,9 @@ mod shadow_bounce;
 mod shadows;
 mod sphere_atlas;
 
+pub use pass_timing::{PassTime, process_cpu_time};
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
+pub use reduced_gather::{BOUNCE_STRIDE as MOVING_BOUNCE_STRIDE, LOSS_STRIDE as MOVING_LOSS_STRIDE};
 pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
@@ -112,6 +116,10 @@ pub struct Compositor {
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
     antialias_off: Option<String>,
+    /// A moving frame's bounce light and second bounce at reduced resolution (binding 22).
+    reduced: reduced_gather::ReducedGather,
+    /// Each pass's time, when frames are timed (`set_pass_timing`).
+    pass_timing: pass_timing::PassTiming,
 }
 
 /// The compositing shaders: one module from the files of its parts (WGSL has no includes).
@@ -122,6 +130,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
+    include_str!("../shaders/reduced_gather.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -305,6 +314,7 @@ impl Compositor {
         );
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
+        let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -362,6 +372,10 @@ impl Compositor {
                 wgpu::BindGroupEntry {
                     binding: 17,
                     resource: wgpu::BindingResource::TextureView(&shadow_bounce_textures.taken.read_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 22,
+                    resource: wgpu::BindingResource::TextureView(&reduced_grid.read_view),
                 },
             ],
         });
@@ -423,6 +437,18 @@ impl Compositor {
                 linear_format,
                 mask_format: MASK_FORMAT,
                 depth_format,
+            },
+        );
+        let reduced = reduced_gather::ReducedGather::new(
+            device,
+            reduced_grid,
+            &reduced_gather::ReducedGatherSetup {
+                module: &module,
+                frame_only: &frame_only,
+                linear_format,
+                mask_format: MASK_FORMAT,
+                depth_format,
+                taken_format: shadow_bounce::TAKEN_FORMAT,
             },
         );
         let nearer = nearer(settings.depth.convention);
@@ -661,6 +687,8 @@ impl Compositor {
             shadow_bounce,
             antialias,
             antialias_off,
+            reduced,
+            pass_timing: pass_timing::PassTiming::default(),
         })
     }
 

@@ -114,6 +114,12 @@ pub struct CompositorSettings {
     /// (the default) draws every frame exactly: a frame after a move equals a fresh
     /// compositor's.
     pub amortise_while_moving: bool,
+    /// With `amortise_while_moving`, a moving frame gathers the bounce light and the second
+    /// bounce at one pixel per block and spreads them along each surface
+    /// (`compositor/reduced_gather.rs`: all of the frame fresh, smoothed); `false` draws the
+    /// bounce light at full resolution and the second bounce in bands (exact, but up to
+    /// `SHADOW_BOUNCE_BANDS - 1` frames old). Either way the second frame at rest is exact.
+    pub reduce_while_moving: bool,
 }
 
 impl Default for CompositorSettings {
@@ -129,6 +135,7 @@ impl Default for CompositorSettings {
             occlusion_from_behind: false,
             shadow_bounce: true,
             amortise_while_moving: false,
+            reduce_while_moving: true,
         }
     }
 }
