@@ -218,3 +218,34 @@ fn a_moving_frame_at_reduced_resolution_is_near_the_exact_one_and_the_frame_at_r
     assert!(*resting == exact_there, "the frame at rest differs from a fresh compositor's");
     assert!(*still == exact_there, "the backdrop kept from the frame before differs from a fresh one");
 }
+
+/// A timed frame (`Compositor::set_pass_timing`: a submit and a wait after each pass) has the
+/// pixels of an untimed one, moving and at rest, and the times name the passes drawn.
+#[test]
+fn a_timed_frame_equals_an_untimed_one() {
+    let moves = [sphere(HERE), sphere(THERE), sphere(THERE), sphere(THERE)];
+    let frames = |timed: bool| {
+        let mut c = Compositor::new(&gpu(), &scene(), settings(CompositeMode::Fullscreen, true)).unwrap();
+        c.set_pass_timing(timed);
+        let seen: Vec<Vec<f32>> = moves
+            .iter()
+            .map(|live| {
+                c.render(live).unwrap();
+                c.read_back_linear().unwrap().rgba
+            })
+            .collect();
+        (seen, c.pass_times())
+    };
+    let (untimed, (no_times, no_frames)) = frames(false);
+    let (timed, (times, timed_frames)) = frames(true);
+    assert!(timed == untimed, "timing the passes changed the frames");
+    assert!(no_times.is_empty() && no_frames == 0, "untimed frames were timed");
+    assert_eq!(timed_frames, 4);
+    let names: Vec<&str> = times.iter().map(|t| t.pass).collect();
+    for pass in ["backdrop", "layered shadows", "second bounce: what each pixel loses", "live objects"] {
+        assert!(names.contains(&pass), "no time for {pass}: {names:?}");
+    }
+    let layered = times.iter().find(|t| t.pass == "layered shadows").unwrap();
+    // The first frame, the move and the first frame at rest draw them; the second at rest copies.
+    assert_eq!(layered.frames, 3, "the layered shadows are drawn while moving, copied at rest");
+}
