@@ -439,18 +439,9 @@ impl Compositor {
                 depth_format,
             },
         );
-        let reduced = reduced_gather::ReducedGather::new(
-            device,
-            reduced_grid,
-            &reduced_gather::ReducedGatherSetup {
-                module: &module,
-                frame_only: &frame_only,
-                linear_format,
-                mask_format: MASK_FORMAT,
-                depth_format,
-                taken_format: shadow_bounce::TAKEN_FORMAT,
-            },
-        );
+        let formats = (linear_format, depth_format);
+        let reduced =
+            reduced_gather::ReducedGather::new(device, reduced_grid, (&module, &frame_only), formats);
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,

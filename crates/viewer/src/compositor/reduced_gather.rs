@@ -42,17 +42,6 @@ pub(super) struct ReducedGather {
     moving: std::cell::Cell<bool>,
 }
 
-/// What the pipelines are built from.
-pub(super) struct ReducedGatherSetup<'a> {
-    pub(super) module: &'a wgpu::ShaderModule,
-    pub(super) frame_only: &'a wgpu::PipelineLayout,
-    pub(super) linear_format: wgpu::TextureFormat,
-    pub(super) mask_format: wgpu::TextureFormat,
-    pub(super) depth_format: wgpu::TextureFormat,
-    /// The format of what each pixel loses to the second bounce.
-    pub(super) taken_format: wgpu::TextureFormat,
-}
-
 /// The grid's textures for a frame of `width` x `height`: made before the frame bind group.
 pub(super) fn grid_textures(
     device: &wgpu::Device,
@@ -64,9 +53,16 @@ pub(super) fn grid_textures(
 }
 
 impl ReducedGather {
-    pub(super) fn new(device: &wgpu::Device, grid: DrawnAndRead, setup: &ReducedGatherSetup<'_>) -> Self {
+    /// The pipelines from the compositing shaders' `module` with the frame bind group alone
+    /// (`frame_only`), for a frame in `linear_format` with a depth buffer in `depth_format`.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        grid: DrawnAndRead,
+        (module, frame_only): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        (linear_format, depth_format): (wgpu::TextureFormat, wgpu::TextureFormat),
+    ) -> Self {
         let vertex = wgpu::VertexState {
-            module: setup.module,
+            module,
             entry_point: Some("vs_fullscreen"),
             compilation_options: Default::default(),
             buffers: &[],
@@ -76,13 +72,13 @@ impl ReducedGather {
                 [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
-                layout: Some(setup.frame_only),
+                layout: Some(frame_only),
                 vertex: vertex.clone(),
                 primitive: wgpu::PrimitiveState::default(),
                 depth_stencil: None,
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
-                    module: setup.module,
+                    module,
                     entry_point: Some(entry),
                     compilation_options: Default::default(),
                     targets: &targets,
@@ -91,23 +87,22 @@ impl ReducedGather {
                 cache: None,
             })
         };
-        let overlay = Overlay {
-            module: setup.module,
-            linear_format: setup.linear_format,
-            mask_format: setup.mask_format,
-            depth_format: setup.depth_format,
-        };
+        let overlay = Overlay { module, linear_format, mask_format: super::MASK_FORMAT, depth_format };
         ReducedGather {
-            bounce_gather: alone("bounce light, reduced", "fs_bounce_gather", setup.linear_format),
+            bounce_gather: alone("bounce light, reduced", "fs_bounce_gather", linear_format),
             bounce_spread: overlay.pipeline(
                 device,
                 "bounce light, spread",
-                setup.frame_only,
+                frame_only,
                 vertex.clone(),
                 "fs_bounce_spread",
             ),
-            loss_gather: alone("shadow bounce taken, reduced", "fs_loss_gather", setup.linear_format),
-            loss_spread: alone("shadow bounce taken, spread", "fs_loss_spread", setup.taken_format),
+            loss_gather: alone("shadow bounce taken, reduced", "fs_loss_gather", linear_format),
+            loss_spread: alone(
+                "shadow bounce taken, spread",
+                "fs_loss_spread",
+                super::shadow_bounce::TAKEN_FORMAT,
+            ),
             grid,
             last_frame: Default::default(),
             moving: Default::default(),
