@@ -75,6 +75,11 @@ pub struct Args {
     /// frames old), and the frame is exact again from the second frame the sphere rests.
     #[arg(long)]
     pub exact_while_moving: bool,
+    /// While the sphere moves, draw the bounce light at full resolution and the shadows' second
+    /// bounce in one of 16 bands a frame (the rest up to 15 frames old), instead of gathering
+    /// both at one pixel in 4x4 and 16x16 blocks and spreading them along each surface.
+    #[arg(long)]
+    pub full_resolution_while_moving: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -87,6 +92,11 @@ pub struct Args {
     /// Print the adapter, the depth range, the lights used, what was skipped, and frame times.
     #[arg(long)]
     pub stats: bool,
+    /// Headless: submit and wait after each pass of every frame and print what each took (CPU
+    /// time of the process's threads and wall time, per frame); the frames are slower, their
+    /// pixels the same.
+    #[arg(long)]
+    pub pass_times: bool,
 
     /// Haptic device driving the sphere: none, sim (replays --trajectory; in a window without
     /// one, follows the keyboard and mouse), spacemouse or spacemouse:PATH (see --list-devices).
@@ -208,9 +218,14 @@ pub struct Settings {
     /// Costly passes amortised over frames while the sphere moves (`--exact-while-moving`
     /// clears it).
     pub amortise_while_moving: bool,
+    /// A moving frame's bounce light and second bounce at reduced resolution
+    /// (`--full-resolution-while-moving` clears it).
+    pub reduce_while_moving: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
+    /// Each pass's time printed (`--pass-times`).
+    pub pass_times: bool,
     /// `None` with `--device none`.
     pub haptics: Option<HapticSettings>,
 }
@@ -272,9 +287,11 @@ impl Args {
             occlusion_from_behind: self.occlusion_from_behind,
             shadow_bounce: !self.no_shadow_bounce,
             amortise_while_moving: !self.exact_while_moving,
+            reduce_while_moving: !self.full_resolution_while_moving,
             depth_settings,
             backends,
             stats: self.stats,
+            pass_times: self.pass_times,
             haptics,
         })
     }
@@ -376,5 +393,7 @@ mod tests {
         assert_eq!(s.shadows, None);
         assert!(s.amortise_while_moving, "a moving sphere's frame is amortised by default");
         assert!(!parse(&["--exact-while-moving"]).unwrap().amortise_while_moving);
+        assert!(s.reduce_while_moving, "a moving sphere's bounce light is gathered at reduced resolution");
+        assert!(!parse(&["--full-resolution-while-moving"]).unwrap().reduce_while_moving);
     }
 }

@@ -115,6 +115,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         occlusion_from_behind: settings.occlusion_from_behind,
         shadow_bounce: settings.shadow_bounce,
         amortise_while_moving: settings.amortise_while_moving,
+        reduce_while_moving: settings.reduce_while_moving,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
@@ -253,12 +254,15 @@ pub fn headless(
     let mut compositor = Compositor::new(&gpu, &prepared.scene, prepared.compositor)?;
     let mut live = prepared.live;
     let frames = settings.frames.unwrap_or(1);
+    // The first of several frames draws every pass in full: timed alone when it is the only one.
+    let first_timed = u64::from(frames > 1);
     let mut times = Vec::with_capacity(frames.min(1 << 20) as usize);
     for index in 0..frames {
         let info = FrameInfo { index, time_s: index as f64 / HEADLESS_FRAME_RATE };
         if let Some(u) = updater.as_mut() {
             u.update(&mut live, &info);
         }
+        compositor.set_pass_timing(settings.pass_times && index >= first_timed);
         let start = Instant::now();
         compositor.render(&live)?;
         compositor.wait_idle()?;
@@ -285,7 +289,28 @@ pub fn headless(
             eprintln!("scene bounds: {lo} .. {hi}");
         }
     }
+    if settings.pass_times {
+        print_pass_times(&compositor);
+    }
     Ok(())
+}
+
+/// Each pass's time per frame timed (`--pass-times`), the frames it ran in, and the sum.
+fn print_pass_times(compositor: &Compositor) {
+    let (passes, frames) = compositor.pass_times();
+    let per_frame = |d: Duration| d.as_secs_f64() * 1e3 / f64::from(frames.max(1));
+    eprintln!(
+        "pass times over {frames} frame(s) (the first of several is not timed), per frame (CPU of the process's threads, wall):"
+    );
+    let (mut cpu_sum, mut wall_sum) = (Some(Duration::ZERO), Duration::ZERO);
+    for p in &passes {
+        let cpu = p.cpu.map_or("-".to_string(), |c| format!("{:.1} ms", per_frame(c)));
+        eprintln!("  {:<40} {:>10} {:>10.1} ms  (in {} frame(s))", p.pass, cpu, per_frame(p.wall), p.frames);
+        cpu_sum = cpu_sum.zip(p.cpu).map(|(a, b)| a + b);
+        wall_sum += p.wall;
+    }
+    let cpu = cpu_sum.map_or("-".to_string(), |c| format!("{:.1} ms", per_frame(c)));
+    eprintln!("  {:<40} {:>10} {:>10.1} ms", "all passes", cpu, per_frame(wall_sum));
 }
 
 /// Runs in a window until it is closed (or for `--frames` frames).
@@ -367,12 +392,20 @@ fn print_stats(
     eprintln!("scene shadows on live objects: {}", compositor.scene_shadows_summary());
     eprintln!("bounce light onto the scene: {}", compositor.bounce_light_summary());
     eprintln!("shadows' second bounce: {}", compositor.shadow_bounce_summary());
-    if compositor.settings().amortise_while_moving {
-        eprintln!(
+    match (s.amortise_while_moving, s.reduce_while_moving) {
+        (true, true) => eprintln!(
+            "while live objects move: the bounce light gathered at one pixel in {b}x{b}, the shadows' \
+             second bounce at one in {l}x{l}, spread along each surface; exact from the second frame \
+             at rest (--exact-while-moving: every frame exact)",
+            b = viewer::compositor::MOVING_BOUNCE_STRIDE,
+            l = viewer::compositor::MOVING_LOSS_STRIDE
+        ),
+        (true, false) => eprintln!(
             "while live objects move: the shadows' second bounce redrawn in one of {} bands a frame, \
              exact from the second frame at rest (--exact-while-moving: every frame exact)",
             viewer::compositor::SHADOW_BOUNCE_BANDS
-        );
+        ),
+        (false, _) => {}
     }
     if let Some(note) = compositor.live_shadows_note() {
         eprintln!("live meshes' shadows: {note}");

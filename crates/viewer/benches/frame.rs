@@ -6,14 +6,17 @@
 //! with albedo and normals, an irradiance probe, the area light's samples), so the layered
 //! shadows, the bounce light and the shadows' second bounce run, and move the sphere by 1 cm
 //! every frame as the haptic cursor does: the frame a user gets (issue 10's target: at most
-//! twice the plain `fullscreen/512`).
+//! twice the plain `fullscreen/512`). The group `frame-cpu` measures the plain and the lit
+//! frames in CPU time of the process's threads (lavapipe's rasteriser threads do the GPU's
+//! work), steadier than wall time on a shared machine.
 //!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md).
 
-use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, SamplingMode, criterion_group, criterion_main};
 use depth_remap::{Camera, CameraSettings, Projection};
 use glam::{DMat4, DVec3, Vec3};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use viewer::{
     Backends, CompositeMode, Compositor, CompositorSettings, DepthTable, Gpu, LiveLight, LiveObjects,
     Material, Rgba8Image, SceneLayers, Sphere, ToneMap, ViewerScene,
@@ -182,24 +185,67 @@ fn frame_time(c: &mut Criterion) {
     group.finish();
 }
 
-/// The lit room's frame at 512^2 (see the module's notes): the sphere at rest (the maps drawn
-/// once), moving 1 cm a frame drawn exactly, and moving with `amortise_while_moving` (the
-/// viewer's default).
+/// Benchmarks `frame` as `id` in `group`, in CPU time of the process's threads where the
+/// platform says it (else wall time).
+fn bench_cpu(group: &mut BenchmarkGroup<'_, WallTime>, id: &str, mut frame: impl FnMut()) {
+    group.bench_function(id, |b| {
+        b.iter_custom(|iters| {
+            let (cpu, wall) = (viewer::compositor::process_cpu_time(), Instant::now());
+            for _ in 0..iters {
+                frame();
+            }
+            match (cpu, viewer::compositor::process_cpu_time()) {
+                (Some(before), Some(after)) => after.saturating_sub(before),
+                _ => wall.elapsed(),
+            }
+        })
+    });
+}
+
+/// The sphere of the lit benches in frame `frame`: back and forth over 40 cm along x above the
+/// floor, 1 cm a frame.
+fn sphere_at(frame: u32) -> LiveObjects {
+    let step = f64::from(frame % 80);
+    let x = -0.2 + 0.01 * if step < 40.0 { step } else { 80.0 - step };
+    LiveObjects {
+        sphere: Some(Sphere {
+            centre: DVec3::new(x, -0.6, -0.3),
+            radius: 0.3,
+            material: Material::default(),
+        }),
+        meshes: Vec::new(),
+    }
+}
+
+/// The lit frames (see [`lit_frame_time`]): name, whether the sphere moves,
+/// `amortise_while_moving` and `reduce_while_moving`. `lit-moving` is the frame `hybrid-view`
+/// draws by default while the sphere moves; `lit-moving-bands` has the second bounce in bands
+/// and the bounce light at full resolution instead.
+const LIT_FRAMES: [(&str, bool, bool, bool); 4] = [
+    ("lit-rest", false, false, true),
+    ("lit-moving-exact", true, false, true),
+    ("lit-moving", true, true, true),
+    ("lit-moving-bands", true, true, false),
+];
+
+/// A compositor of the lit room with `amortise` and `reduce`, its first frame drawn.
+fn lit_compositor(gpu: &Gpu, scene: &ViewerScene, amortise: bool, reduce: bool) -> Compositor {
+    let settings = CompositorSettings {
+        amortise_while_moving: amortise,
+        reduce_while_moving: reduce,
+        ..CompositorSettings::default()
+    };
+    let mut compositor = Compositor::new(gpu, scene, settings).expect("compositor");
+    compositor.render(&sphere_at(0)).expect("render");
+    compositor.wait_idle().expect("wait");
+    compositor
+}
+
+/// The lit room's frame at 512^2 (see the module's notes), in wall time: the sphere at rest
+/// (the maps drawn once), moving 1 cm a frame drawn exactly, amortised (the viewer's default)
+/// and in bands.
 fn lit_frame_time(c: &mut Criterion) {
     let gpu = Gpu::new(Backends::default()).expect("a GPU adapter (lavapipe: cargo xtask install-test-deps)");
-    let sphere_at = |frame: u32| {
-        // Back and forth over 40 cm along x above the floor, 1 cm a frame.
-        let step = f64::from(frame % 80);
-        let x = -0.2 + 0.01 * if step < 40.0 { step } else { 80.0 - step };
-        LiveObjects {
-            sphere: Some(Sphere {
-                centre: DVec3::new(x, -0.6, -0.3),
-                radius: 0.3,
-                material: Material::default(),
-            }),
-            meshes: Vec::new(),
-        }
-    };
     let mut group = c.benchmark_group("frame");
     // A moving frame drawn exactly takes seconds on lavapipe: the fewest samples criterion takes,
     // one frame each (flat sampling; linear sampling would take 55 frames).
@@ -209,14 +255,8 @@ fn lit_frame_time(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(10));
     let scene = lit_room(512);
-    for (what, moving, amortise) in
-        [("lit-rest", false, false), ("lit-moving-exact", true, false), ("lit-moving", true, true)]
-    {
-        let settings =
-            CompositorSettings { amortise_while_moving: amortise, ..CompositorSettings::default() };
-        let mut compositor = Compositor::new(&gpu, &scene, settings).expect("compositor");
-        compositor.render(&sphere_at(0)).expect("render");
-        compositor.wait_idle().expect("wait");
+    for (what, moving, amortise, reduce) in LIT_FRAMES {
+        let mut compositor = lit_compositor(&gpu, &scene, amortise, reduce);
         let mut frame = 0;
         group.bench_function(format!("fullscreen-{what}/512"), |b| {
             b.iter(|| {
@@ -231,5 +271,38 @@ fn lit_frame_time(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, frame_time, lit_frame_time);
+/// The plain frame and the lit frames but the exact moving one, in CPU time (see the module's
+/// notes): issue 10's ratio is `frame-cpu/fullscreen-lit-moving/512` over
+/// `frame-cpu/fullscreen/512`.
+fn cpu_frame_time(c: &mut Criterion) {
+    let gpu = Gpu::new(Backends::default()).expect("a GPU adapter (lavapipe: cargo xtask install-test-deps)");
+    let mut group = c.benchmark_group("frame-cpu");
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(10));
+    let plain = room(512);
+    let mut compositor = Compositor::new(&gpu, &plain, CompositorSettings::default()).expect("compositor");
+    let live = sphere_at(0);
+    bench_cpu(&mut group, "fullscreen/512", || {
+        compositor.render(&live).expect("render");
+        compositor.wait_idle().expect("wait");
+    });
+    let scene = lit_room(512);
+    for (what, moving, amortise, reduce) in LIT_FRAMES.into_iter().filter(|f| f.0 != "lit-moving-exact") {
+        let mut compositor = lit_compositor(&gpu, &scene, amortise, reduce);
+        let mut frame = 0;
+        bench_cpu(&mut group, &format!("fullscreen-{what}/512"), || {
+            if moving {
+                frame += 1;
+            }
+            compositor.render(&sphere_at(frame)).expect("render");
+            compositor.wait_idle().expect("wait");
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, frame_time, lit_frame_time, cpu_frame_time);
 criterion_main!(benches);

@@ -1,7 +1,8 @@
 //! The layout of the frame bind group every compositing pass reads: the frame uniform, the
 //! backdrop's colour and depths, the light layers and their area samples, the reflection
 //! probes with their sampler, the irradiance probes, the backdrop after shadows, the
-//! shadow-ray hierarchies' nodes and triangles, the own-shadow loss maps, the radiosity maps, the clusters of what the shadows took and what each pixel loses to them.
+//! shadow-ray hierarchies' nodes and triangles, the own-shadow loss maps, the radiosity maps, the clusters of what the shadows took, what each pixel loses to them, and a moving frame's
+//! samples of the bounce light or that loss.
 
 /// A layout entry for a float texture the shaders read.
 pub(super) fn texture_layout_entry(
@@ -99,6 +100,9 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             texture_entry(16, wgpu::ShaderStages::FRAGMENT),
             // What each pixel loses to the shadows' second bounce (compositor/shadow_bounce.rs).
             texture_entry(17, wgpu::ShaderStages::FRAGMENT),
+            // A moving frame's samples of the bounce light or the second bounce
+            // (compositor/reduced_gather.rs).
+            texture_entry(22, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }

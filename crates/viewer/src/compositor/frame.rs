@@ -2,6 +2,7 @@
 //! shadows, the antialiased edges and the readback copies recorded and submitted.
 
 use super::lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
+use super::pass_timing::PassTime;
 use super::{CompositeMode, Compositor, loss_map};
 use crate::error::ViewerError;
 use crate::live::LiveObjects;
@@ -74,12 +75,35 @@ impl Compositor {
         let mut rest_key = mesh_bytes.clone();
         rest_key.extend(draws.iter().flat_map(|&k| (k as u64).to_le_bytes()));
         let at_rest = keep_shadowed && self.shadowed_from.is_current(&uniform, &rest_key);
+        let mut frame_key = bytemuck::bytes_of(&uniform).to_vec();
+        frame_key.extend_from_slice(&rest_key);
+        let reduce = self.settings.amortise_while_moving && self.settings.reduce_while_moving;
+        self.reduced.begin_frame(frame_key, reduce);
+        let moving = self.reduced.moving();
+        // Timed frames (pass_timing.rs) draw the backdrop, its shadows and the live objects in
+        // passes of their own, which gives the same pixels.
+        let timing = &self.pass_timing;
+        let lap = |encoder: &mut wgpu::CommandEncoder, pass: &'static str| {
+            timing.lap(&self.gpu.device, &self.gpu.queue, encoder, pass)
+        };
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
-            self.record_backdrop(&mut pass, &uniform, !at_rest);
-            if live_drawn && !keep_shadowed {
+            self.record_backdrop(&mut pass);
+            if !at_rest && !timing.on {
+                self.record_layered_shadows(&mut pass, &uniform);
+            }
+            if live_drawn && !keep_shadowed && !timing.on {
                 self.record_live(&mut pass, &draws, sphere);
             }
+        }
+        lap(&mut encoder, "backdrop");
+        if timing.on && !at_rest {
+            self.record_layered_shadows(&mut self.begin_frame_pass(&mut encoder, target, false), &uniform);
+            lap(&mut encoder, "layered shadows");
+        }
+        if timing.on && live_drawn && !keep_shadowed {
+            self.record_live(&mut self.begin_frame_pass(&mut encoder, target, false), &draws, sphere);
+            lap(&mut encoder, "live objects");
         }
         let frame_extent =
             wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 };
@@ -95,35 +119,57 @@ impl Compositor {
                 self.shadowed_texture.as_image_copy(),
                 frame_extent,
             );
+            lap(&mut encoder, "copy of the backdrop after shadows");
             self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            lap(&mut encoder, "own-shadow loss maps");
             // What the shadows took, before the bounce light adds to the backdrop after them.
             self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);
+            lap(&mut encoder, "second bounce: clusters");
             // The light the spheres reflect onto the scene, from their radiosity maps, which
             // read the loss maps (bounce.rs).
             if let Some(rect) = self.bounce_scissor(&uniform) {
                 self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
-                self.record_bounce(&mut encoder, rect);
+                lap(&mut encoder, "radiosity maps");
+                if moving {
+                    self.record_bounce_reduced(&mut encoder, rect);
+                } else {
+                    self.record_bounce(&mut encoder, rect);
+                }
+                lap(&mut encoder, "bounce light");
             }
             // The spheres seen in mirrors and glass, after the bounce light they may reflect.
             self.record_reflections(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            lap(&mut encoder, "spheres in reflections");
             self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
+            lap(&mut encoder, "second bounce: what each pixel loses");
             self.record_shadow_bounce(&mut encoder, &uniform);
-            // A frame whose second bounce is partly from earlier inputs (amortised) is no copy
-            // to keep.
-            if self.shadow_bounce_settled(&uniform) {
+            lap(&mut encoder, "second bounce: removed");
+            // A frame whose second bounce is partly from earlier inputs (amortised), or a moving
+            // frame (its bounce light from reduced resolution), is no copy to keep.
+            if self.shadow_bounce_settled(&uniform) && !moving {
                 self.shadowed_from.renew(&uniform, &rest_key);
             } else {
                 self.shadowed_from.forget();
             }
         }
+        if at_rest {
+            lap(&mut encoder, "copy of the backdrop kept at rest");
+        }
         if keep_shadowed {
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
             self.record_live(&mut pass, &draws, sphere);
+            drop(pass);
+            lap(&mut encoder, "live objects");
         }
         if let Some((_, bounds)) = antialiased {
             self.record_antialiased(&mut encoder, bounds, &draws, sphere);
+            lap(&mut encoder, "antialiased edges");
         }
         self.encode.record(&mut encoder, &self.frame_view);
+        lap(&mut encoder, "display encoding");
+        if timing.on {
+            timing.frames.set(timing.frames.get() + 1);
+        }
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.take_errors()
     }
@@ -175,8 +221,18 @@ impl Compositor {
         pass
     }
 
-    /// The pre-rendered image and depth, then (with `shadows`) the live objects' shadows on it.
-    fn record_backdrop(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform, shadows: bool) {
+    /// Times each pass of the frames that follow (`pass_timing.rs`; `false`: no longer).
+    pub fn set_pass_timing(&mut self, on: bool) {
+        self.pass_timing.on = on;
+    }
+
+    /// What each pass took over the frames timed so far, and how many frames were timed.
+    pub fn pass_times(&self) -> (Vec<PassTime>, u32) {
+        (self.pass_timing.totals(), self.pass_timing.frames.get())
+    }
+
+    /// The pre-rendered image and depth.
+    fn record_backdrop(&self, pass: &mut wgpu::RenderPass<'_>) {
         match (self.settings.mode, &self.points) {
             (CompositeMode::Points, Some(points)) => {
                 pass.set_pipeline(&self.backdrop_points);
@@ -188,8 +244,11 @@ impl Compositor {
                 pass.draw(0..3, 0..1);
             }
         }
-        if shadows
-            && uniform.counts[1] == 1
+    }
+
+    /// The live objects' shadows on the backdrop.
+    fn record_layered_shadows(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform) {
+        if uniform.counts[1] == 1
             && let Some([x, y, w, h]) = self.shadow_scissor_all(uniform)
         {
             pass.set_scissor_rect(x, y, w, h);

@@ -13,7 +13,9 @@ mod lighting;
 mod live_objects;
 mod loss_map;
 mod overlay;
+mod pass_timing;
 mod readback;
+mod reduced_gather;
 mod reflections;
 mod scene_shadows;
 mod settings;
@@ -22,7 +24,9 @@ mod shadows;
 mod specular;
 mod sphere_atlas;
 
+pub use pass_timing::{PassTime, process_cpu_time};
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
+pub use reduced_gather::{BOUNCE_STRIDE as MOVING_BOUNCE_STRIDE, LOSS_STRIDE as MOVING_LOSS_STRIDE};
 pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
@@ -115,6 +119,10 @@ pub struct Compositor {
     /// in `antialias_off`).
     antialias: Option<antialias::Antialias>,
     antialias_off: Option<String>,
+    /// A moving frame's bounce light and second bounce at reduced resolution (binding 22).
+    reduced: reduced_gather::ReducedGather,
+    /// Each pass's time, when frames are timed (`set_pass_timing`).
+    pass_timing: pass_timing::PassTiming,
 }
 
 /// The compositing shaders: one module from the files of its parts (WGSL has no includes).
@@ -127,6 +135,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/specular.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
+    include_str!("../shaders/reduced_gather.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {
@@ -305,6 +314,7 @@ impl Compositor {
         let radiosity_map_textures = bounce::radiosity_atlas(device);
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
+        let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -362,6 +372,10 @@ impl Compositor {
                 wgpu::BindGroupEntry {
                     binding: 17,
                     resource: wgpu::BindingResource::TextureView(&shadow_bounce_textures.taken.read_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 22,
+                    resource: wgpu::BindingResource::TextureView(&reduced_grid.read_view),
                 },
             ],
         });
@@ -430,6 +444,9 @@ impl Compositor {
                 depth_format,
             },
         );
+        let formats = (linear_format, depth_format);
+        let reduced =
+            reduced_gather::ReducedGather::new(device, reduced_grid, (&module, &frame_only), formats);
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
@@ -667,6 +684,8 @@ impl Compositor {
             shadow_bounce,
             antialias,
             antialias_off,
+            reduced,
+            pass_timing: pass_timing::PassTiming::default(),
         })
     }
 

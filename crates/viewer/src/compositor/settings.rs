@@ -107,13 +107,17 @@ pub struct CompositorSettings {
     /// take from the rest of the scene (the shadowed surfaces no longer light what they see) is
     /// removed too (`compositor/shadow_bounce.rs`); `false` leaves it.
     pub shadow_bounce: bool,
-    /// While the live objects, the lights or the camera move, the costliest pass that depends
-    /// only on them (what each pixel loses to the shadows' second bounce) is drawn in one band
-    /// of the frame per frame, the rest kept from earlier frames (`compositor/shadow_bounce.rs`):
-    /// a moving sphere's frame is then approximate, and the second frame at rest exact. `false`
-    /// (the default) draws every frame exactly: a frame after a move equals a fresh
-    /// compositor's.
+    /// While the live objects, the lights or the camera move, the costliest passes that depend
+    /// only on them are drawn approximately (`reduce_while_moving` says how): a moving sphere's
+    /// frame is then approximate, and the second frame at rest exact. `false` (the default)
+    /// draws every frame exactly: a frame after a move equals a fresh compositor's.
     pub amortise_while_moving: bool,
+    /// With `amortise_while_moving`, a moving frame gathers the bounce light and the second
+    /// bounce at one pixel per block and spreads them along each surface
+    /// (`compositor/reduced_gather.rs`: all of the frame fresh, smoothed); `false` draws the
+    /// bounce light at full resolution and the second bounce in bands (exact, but up to
+    /// `SHADOW_BOUNCE_BANDS - 1` frames old). Either way the second frame at rest is exact.
+    pub reduce_while_moving: bool,
 }
 
 impl Default for CompositorSettings {
@@ -129,6 +133,7 @@ impl Default for CompositorSettings {
             occlusion_from_behind: false,
             shadow_bounce: true,
             amortise_while_moving: false,
+            reduce_while_moving: true,
         }
     }
 }

@@ -30,7 +30,7 @@ use super::sphere_atlas::DrawnAndRead;
 const FINE: u32 = 64;
 const COARSE: u32 = 16;
 /// What each pixel loses: a small correction, so half floats (2^-11 of it) suffice.
-const TAKEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub(super) const TAKEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Horizontal bands of the frame the loss is drawn in, one a frame, while the inputs change (with
 /// `amortise_while_moving`): a pixel's loss is then at most `TAKEN_BANDS - 1` frames old.
 pub const TAKEN_BANDS: u32 = 16;
@@ -233,6 +233,13 @@ impl Compositor {
             return;
         }
         let changed = bounce.drawn_from.renew(uniform, mesh_bytes);
+        // A moving frame draws all of it at reduced resolution (reduced_gather.rs), from which
+        // no band counts as drawn: the first frame at rest draws every band.
+        if changed && self.reduced.moving() {
+            bounce.bands.current.set(0);
+            self.record_loss_reduced(encoder, &bounce.textures.taken);
+            return;
+        }
         let bands = bounce.bands.to_draw(changed, self.settings.amortise_while_moving);
         if bands == 0 {
             return;

@@ -1,0 +1,241 @@
+//! A moving frame's bounce light and shadows' second bounce, gathered at reduced resolution
+//! (`shaders/reduced_gather.wgsl`).
+//!
+//! Both are a receiver's albedo times a function of its surface point and normal that varies
+//! smoothly along a surface (the light the spheres send it; what the shadowed surfaces no longer
+//! send it), and gathering that function is what costs: 4 to 32 shadow rays into the spheres'
+//! radiosity maps per pixel, or 256 clusters. With `CompositorSettings::amortise_while_moving`,
+//! a frame whose inputs differ from the frame before gathers it at the centre pixel of each
+//! block of [`BOUNCE_STRIDE`]^2 pixels (the bounce light, within its scissor) or
+//! [`LOSS_STRIDE`]^2 (the second bounce's loss, over the whole frame: every moving frame draws
+//! all of it, none is left from earlier frames), and every pixel interpolates the four samples
+//! nearest it that lie on its own surface, times its own albedo; a pixel with none (a sliver
+//! thinner than a block) takes the one of them whose normal is nearest its own. The first frame
+//! that repeats its predecessor's inputs draws both at full resolution, so the frame at rest is
+//! exact from its second frame on.
+
+use super::Compositor;
+use super::overlay::Overlay;
+use super::sphere_atlas::DrawnAndRead;
+
+/// Pixels along each side of a block whose centre gathers the bounce light while moving
+/// (`reduced_gather.wgsl` REDUCED_BOUNCE_STRIDE).
+pub const BOUNCE_STRIDE: u32 = 4;
+/// The same for the shadows' second bounce (REDUCED_LOSS_STRIDE): a smaller term than the
+/// bounce light, smooth, and gathered over the whole frame (256 clusters a sample: at 8, its
+/// samples cost 130 ms of CPU a frame in the Cornell box on lavapipe).
+pub const LOSS_STRIDE: u32 = 16;
+// The grid is sized for the finer stride, the bounce light's.
+const _: () = assert!(BOUNCE_STRIDE <= LOSS_STRIDE);
+
+/// The grid of samples (binding 22), sized for the finer stride, and its pipelines.
+#[derive(Debug)]
+pub(super) struct ReducedGather {
+    grid: DrawnAndRead,
+    bounce_gather: wgpu::RenderPipeline,
+    bounce_spread: wgpu::RenderPipeline,
+    loss_gather: wgpu::RenderPipeline,
+    loss_spread: wgpu::RenderPipeline,
+    /// The inputs of the frame before (empty before the first): a frame with others moves.
+    last_frame: std::cell::RefCell<Vec<u8>>,
+    /// Whether the frame being drawn moves (and amortises): set by [`ReducedGather::begin_frame`].
+    moving: std::cell::Cell<bool>,
+}
+
+/// The grid's textures for a frame of `width` x `height`: made before the frame bind group.
+pub(super) fn grid_textures(
+    device: &wgpu::Device,
+    (width, height): (u32, u32),
+    linear_format: wgpu::TextureFormat,
+) -> DrawnAndRead {
+    let size = (width.div_ceil(BOUNCE_STRIDE), height.div_ceil(BOUNCE_STRIDE));
+    DrawnAndRead::new(device, "reduced gather", linear_format, size)
+}
+
+impl ReducedGather {
+    /// The pipelines from the compositing shaders' `module` with the frame bind group alone
+    /// (`frame_only`), for a frame in `linear_format` with a depth buffer in `depth_format`.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        grid: DrawnAndRead,
+        (module, frame_only): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        (linear_format, depth_format): (wgpu::TextureFormat, wgpu::TextureFormat),
+    ) -> Self {
+        let vertex = wgpu::VertexState {
+            module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        };
+        let alone = |label: &str, entry: &'static str, format: wgpu::TextureFormat| {
+            let targets =
+                [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(frame_only),
+                vertex: vertex.clone(),
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let overlay = Overlay { module, linear_format, mask_format: super::MASK_FORMAT, depth_format };
+        ReducedGather {
+            bounce_gather: alone("bounce light, reduced", "fs_bounce_gather", linear_format),
+            bounce_spread: overlay.pipeline(
+                device,
+                "bounce light, spread",
+                frame_only,
+                vertex.clone(),
+                "fs_bounce_spread",
+            ),
+            loss_gather: alone("shadow bounce taken, reduced", "fs_loss_gather", linear_format),
+            loss_spread: alone(
+                "shadow bounce taken, spread",
+                "fs_loss_spread",
+                super::shadow_bounce::TAKEN_FORMAT,
+            ),
+            grid,
+            last_frame: Default::default(),
+            moving: Default::default(),
+        }
+    }
+
+    /// Notes the inputs of the frame being drawn (`key`: the frame's uniform, the mesh uniforms
+    /// and meshes) and whether it moves and is reduced: with `reduce`, a frame whose inputs
+    /// differ from the frame before's (not the first frame).
+    pub(super) fn begin_frame(&self, key: Vec<u8>, reduce: bool) {
+        let before = self.last_frame.replace(key);
+        self.moving.set(reduce && !before.is_empty() && before != *self.last_frame.borrow());
+    }
+
+    /// Whether the frame being drawn moves: its bounce light and second bounce are gathered at
+    /// reduced resolution.
+    pub(super) fn moving(&self) -> bool {
+        self.moving.get()
+    }
+}
+
+/// The grid texels whose samples the pixels of `[x, y, w, h]` read at `stride`, within a grid
+/// of `grid` texels, `[x, y, w, h]` (possibly empty).
+fn grid_rect([x, y, w, h]: [u32; 4], stride: u32, grid: (u32, u32)) -> [u32; 4] {
+    let (x0, y0) = ((x / stride).saturating_sub(1), (y / stride).saturating_sub(1));
+    let x1 = ((x + w) / stride + 2).min(grid.0);
+    let y1 = ((y + h) / stride + 2).min(grid.1);
+    [x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)]
+}
+
+impl Compositor {
+    /// Gathers the grid of samples at `stride` with `pipeline` over the texels pixels of `rect`
+    /// read, and copies it where the spreading pass reads it.
+    fn record_grid(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        (pipeline, what): (&wgpu::RenderPipeline, &'static str),
+        stride: u32,
+        rect: [u32; 4],
+    ) {
+        let grid = &self.reduced.grid;
+        let size = (self.width.div_ceil(stride), self.height.div_ceil(stride));
+        let [x, y, w, h] = grid_rect(rect, stride, size);
+        if w == 0 || h == 0 {
+            return;
+        }
+        {
+            let clear = wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT);
+            let mut pass = super::colour_pass(encoder, "reduced gather", &grid.drawn_view, clear);
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_scissor_rect(x, y, w, h);
+            pass.draw(0..3, 0..1);
+        }
+        grid.copy_drawn_to_read(encoder);
+        self.pass_timing.lap(&self.gpu.device, &self.gpu.queue, encoder, what);
+    }
+
+    /// The bounce light of a moving frame within `rect` (`Compositor::bounce_scissor`): gathered
+    /// on the grid, spread over the frame after shadows, and that rectangle copied into the
+    /// backdrop after shadows (as `record_bounce` does at full resolution).
+    pub(super) fn record_bounce_reduced(&self, encoder: &mut wgpu::CommandEncoder, rect: [u32; 4]) {
+        let reduced = &self.reduced;
+        let gather = (&reduced.bounce_gather, "bounce light: samples (moving)");
+        self.record_grid(encoder, gather, BOUNCE_STRIDE, rect);
+        {
+            let [x, y, w, h] = rect;
+            let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+            pass.set_scissor_rect(x, y, w, h);
+            pass.set_pipeline(&reduced.bounce_spread);
+            pass.draw(0..3, 0..1);
+        }
+        self.copy_to_shadowed(encoder, rect);
+    }
+
+    /// What each pixel of the whole frame loses to the second bounce, gathered on the grid and
+    /// spread into `taken` (drawn, then copied where the removing pass reads it).
+    pub(super) fn record_loss_reduced(&self, encoder: &mut wgpu::CommandEncoder, taken: &DrawnAndRead) {
+        let reduced = &self.reduced;
+        let gather = (&reduced.loss_gather, "second bounce: samples (moving)");
+        self.record_grid(encoder, gather, LOSS_STRIDE, [0, 0, self.width, self.height]);
+        {
+            let clear = wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT);
+            let mut pass =
+                super::colour_pass(encoder, "shadow bounce taken, spread", &taken.drawn_view, clear);
+            pass.set_pipeline(&reduced.loss_spread);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        taken.copy_drawn_to_read(encoder);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BOUNCE_STRIDE, LOSS_STRIDE, grid_rect};
+
+    /// The shader's strides are the ones the grid's passes are sized and scissored for.
+    #[test]
+    fn the_shader_has_the_same_strides() {
+        let wgsl = include_str!("../shaders/reduced_gather.wgsl");
+        for line in [
+            format!("const REDUCED_BOUNCE_STRIDE: i32 = {BOUNCE_STRIDE};"),
+            format!("const REDUCED_LOSS_STRIDE: i32 = {LOSS_STRIDE};"),
+        ] {
+            assert!(wgsl.lines().any(|l| l == line), "reduced_gather.wgsl lacks `{line}`");
+        }
+    }
+
+    /// The texels a rectangle's pixels read hold the two samples either side of every pixel
+    /// (pixel `i` reads the texels `floor((i - stride / 2) / stride)` and the next).
+    #[test]
+    fn the_grid_rect_holds_every_sample_its_pixels_read() {
+        for stride in [2u32, 4, 8] {
+            let grid = (512u32.div_ceil(stride), 300u32.div_ceil(stride));
+            for rect in [[0, 0, 512, 300], [37, 5, 100, 1], [511, 299, 1, 1], [3, 200, 7, 100]] {
+                let [gx, gy, gw, gh] = grid_rect(rect, stride, grid);
+                for (lo, n, g0, gn, size) in
+                    [(rect[0], rect[2], gx, gw, grid.0), (rect[1], rect[3], gy, gh, grid.1)]
+                {
+                    for i in lo..lo + n {
+                        let below = (i as i64 - i64::from(stride / 2)).div_euclid(i64::from(stride));
+                        for q in [below, below + 1] {
+                            if q >= 0 && q < i64::from(size) {
+                                assert!(
+                                    q >= i64::from(g0) && q < i64::from(g0 + gn),
+                                    "stride {stride}, rect {rect:?}: pixel {i} reads texel {q} outside {g0}+{gn}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

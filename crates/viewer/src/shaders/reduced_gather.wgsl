@@ -1,0 +1,127 @@
+// While live objects move (compositor/reduced_gather.rs): the bounce light and the shadows'
+// second bounce gathered at one pixel of each square block of pixels and spread to the others
+// (appended to composite.wgsl after bounce.wgsl and shadow_bounce.wgsl, whose functions it
+// calls). Both terms are a receiver's albedo times a function of its surface point and normal
+// that varies smoothly along a surface, so the function is interpolated between the four nearest
+// samples that lie on the receiver's own surface and multiplied by the receiver's own albedo; a
+// pixel with no such sample (a sliver of surface thinner than a block) takes the sample whose
+// normal is nearest its own. (Gathering its own instead cost as much as the whole pass on
+// lavapipe, which runs a branch for every pixel of a block when one pixel takes it.)
+
+// Pixels along each side of a block: the bounce light's (compositor/reduced_gather.rs
+// BOUNCE_STRIDE) and the second bounce's loss (LOSS_STRIDE: a smaller term, drawn over the frame).
+const REDUCED_BOUNCE_STRIDE: i32 = 4;
+const REDUCED_LOSS_STRIDE: i32 = 16;
+// A sample lies on the receiver's surface when their normals are within about 25 degrees and
+// the sample is within this share of its distance from the receiver off the receiver's plane.
+const REDUCED_SAME_NORMAL: f32 = 0.9;
+const REDUCED_SAME_PLANE: f32 = 0.05;
+
+// Per texel of the grid of samples: the gathered function (rgb), and in alpha 1 where the
+// sample's pixel is a receiver, 0 where there is no sample.
+@group(0) @binding(22) var reduced_gather: texture_2d<f32>;
+
+// The pixel sample `q` of a grid of blocks of `stride` pixels stands for: its block's centre.
+fn reduced_sample_pixel(q: vec2<i32>, stride: i32) -> vec2<i32> {
+    let size = vec2<i32>(frame.raster.xy);
+    return min(q * stride + vec2<i32>(stride / 2), size - vec2<i32>(1));
+}
+
+// One sample of the bounce light per unit albedo times pi (bounce_irradiance) at the pixel its
+// grid texel stands for.
+@fragment
+fn fs_bounce_gather(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = reduced_sample_pixel(vec2<i32>(position.xy), REDUCED_BOUNCE_STRIDE);
+    let r = receiver_at(pixel, i32(frame.bounce.y));
+    if !r.valid {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(bounce_irradiance(r.p, r.n), 1.0);
+}
+
+// One sample of what the shadows' second bounce takes per unit albedo (shadow_bounce_loss).
+@fragment
+fn fs_loss_gather(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = reduced_sample_pixel(vec2<i32>(position.xy), REDUCED_LOSS_STRIDE);
+    let r = receiver_at(pixel, i32(frame.shadow_bounce.w));
+    if !r.valid {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(shadow_bounce_loss(r.p, r.n), 1.0);
+}
+
+// The gathered function at `pixel` (receiver `r`): bilinear between the four nearest samples of
+// the grid of `stride`, over those on the receiver's surface (renormalised), else the one of
+// them whose normal is nearest the receiver's; zero when none of them is a receiver.
+fn spread(pixel: vec2<i32>, r: Receiver, stride: i32) -> vec3<f32> {
+    let size = vec2<i32>(frame.raster.xy);
+    let grid = (size + vec2<i32>(stride - 1)) / stride;
+    let at = (vec2<f32>(pixel) - f32(stride / 2)) / f32(stride);
+    let base = vec2<i32>(floor(at));
+    let f = at - floor(at);
+    var sum = vec3<f32>(0.0);
+    var weight = 0.0;
+    var nearest = vec3<f32>(0.0);
+    var nearest_cos = -2.0;
+    for (var k = 0; k < 4; k = k + 1) {
+        let corner = vec2<i32>(k & 1, k >> 1u);
+        let q = base + corner;
+        if any(q < vec2<i32>(0)) || any(q >= grid) {
+            continue;
+        }
+        let sample = textureLoad(reduced_gather, q, 0);
+        if sample.a < 0.5 {
+            continue;
+        }
+        let sample_pixel = reduced_sample_pixel(q, stride);
+        let apart = surface_point(sample_pixel).xyz - r.p;
+        let n = normalize(textureLoad(light_layers, sample_pixel, i32(frame.layer_info.z), 0).xyz);
+        if dot(n, r.n) > nearest_cos {
+            nearest_cos = dot(n, r.n);
+            nearest = sample.rgb;
+        }
+        if dot(n, r.n) < REDUCED_SAME_NORMAL || abs(dot(apart, r.n)) > REDUCED_SAME_PLANE * length(apart) {
+            continue;
+        }
+        let w = select(1.0 - f.x, f.x, corner.x == 1) * select(1.0 - f.y, f.y, corner.y == 1);
+        sum += w * sample.rgb;
+        weight += w;
+    }
+    return select(nearest, sum / max(weight, 1e-30), weight > 0.0);
+}
+
+// fs_bounce with the bounce light spread from the grid (the light a sphere hides taken from
+// behind it, when on, is still found per pixel).
+@fragment
+fn fs_bounce_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let r = receiver_at(pixel, i32(frame.bounce.y));
+    if !r.valid {
+        discard;
+    }
+    var added = r.albedo / PI * spread(pixel, r, REDUCED_BOUNCE_STRIDE) * frame.tone.x;
+    if frame.bounce.w == 1u {
+        added += occlusion_correction(pixel, r.p, r.n, r.albedo);
+    }
+    if all(added == vec3<f32>(0.0)) {
+        discard;
+    }
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + added, vec3<f32>(0.0)), before.a);
+}
+
+// fs_shadow_bounce_taken with the loss spread from the grid.
+@fragment
+fn fs_loss_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let r = receiver_at(pixel, i32(frame.shadow_bounce.w));
+    if !r.valid {
+        discard;
+    }
+    let taken = r.albedo * spread(pixel, r, REDUCED_LOSS_STRIDE);
+    let before = textureLoad(backdrop_shadowed, pixel, 0).rgb;
+    if all(taken <= before * SHADOW_BOUNCE_NEGLIGIBLE) {
+        discard;
+    }
+    return vec4<f32>(taken, 1.0);
+}
