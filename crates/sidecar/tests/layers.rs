@@ -216,16 +216,7 @@ fn reflection_layers_are_written_when_a_pixel_reflects_and_read_all_or_none() {
     assert_eq!(channel_count(&path), channel_names(2).len() + 6);
     assert_eq!(read_layers(&path, &expectation(&mirror), Default::default()).unwrap(), mirror);
     // Half of them is refused, naming a missing channel.
-    let mut channels: Vec<(String, f32)> = channel_names(2).into_iter().map(|c| (c, 0.0)).collect();
-    channels.extend(["reflectance.R", "reflectance.G", "reflectance.B"].map(|c| (c.to_string(), 0.5)));
-    let refs: Vec<(&str, f32)> = channels.iter().map(|(c, v)| (c.as_str(), *v)).collect();
-    write_raw(&path, (3, 2), &refs, &good_attrs(2));
-    let expect = LayerExpectation { width: 3, height: 2, depth_fingerprint: None };
-    let err = read_layers(&path, &expect, Default::default()).unwrap_err();
-    assert!(
-        matches!(&err.kind, SidecarErrorKind::MissingChannel { name, .. } if name.starts_with("reflected.")),
-        "{err}"
-    );
+    assert_half_a_group_is_refused(&path, "reflectance", "reflected.");
 }
 
 #[test]
@@ -255,14 +246,20 @@ fn glossy_layers_are_written_when_a_pixel_has_a_lobe_and_read_all_or_none() {
     assert_eq!(channel_count(&path), channel_names(2).len() + 12);
     assert_eq!(read_layers(&path, &expectation(&both), Default::default()).unwrap(), both);
     // `glossy` without its exponent is refused, naming the missing channel.
+    assert_half_a_group_is_refused(&path, "glossy", "glossy_exponent.");
+}
+
+/// A file with the layers of two lights and only `present` of an optional group of two
+/// layers is refused, naming a channel of the other (`missing` is its name's start).
+fn assert_half_a_group_is_refused(path: &Path, present: &str, missing: &str) {
     let mut channels: Vec<(String, f32)> = channel_names(2).into_iter().map(|c| (c, 0.0)).collect();
-    channels.extend(["glossy.R", "glossy.G", "glossy.B"].map(|c| (c.to_string(), 0.5)));
+    channels.extend(["R", "G", "B"].map(|c| (format!("{present}.{c}"), 0.5)));
     let refs: Vec<(&str, f32)> = channels.iter().map(|(c, v)| (c.as_str(), *v)).collect();
-    write_raw(&path, (3, 2), &refs, &good_attrs(2));
+    write_raw(path, (3, 2), &refs, &good_attrs(2));
     let expect = LayerExpectation { width: 3, height: 2, depth_fingerprint: None };
-    let err = read_layers(&path, &expect, Default::default()).unwrap_err();
+    let err = read_layers(path, &expect, Default::default()).unwrap_err();
     assert!(
-        matches!(&err.kind, SidecarErrorKind::MissingChannel { name, .. } if name.starts_with("glossy_exponent.")),
+        matches!(&err.kind, SidecarErrorKind::MissingChannel { name, .. } if name.starts_with(missing)),
         "{err}"
     );
 }
