@@ -66,38 +66,6 @@ fn radiosity_texel(row: u32, m: vec3<f32>) -> vec2<i32> {
     return texel + vec2<i32>(0, i32(row * RADIOSITY_MAP_TEXELS));
 }
 
-// The irradiance light k (not ambient) brings to camera-space point q, unshadowed, and the unit
-// direction toward it: as `direct_light` takes point, spot and distant lights; an area light as
-// a point at its centroid with its intensity toward q (its samples cost too much per direction).
-struct LightToward {
-    e: vec3<f32>,
-    l: vec3<f32>,
-}
-
-fn light_toward(k: u32, q: vec3<f32>) -> LightToward {
-    let light = frame.lights[k];
-    let kind = u32(light.position.w + 0.5);
-    if kind == LIGHT_DISTANT {
-        return LightToward(light.colour.rgb, -light.direction.xyz);
-    }
-    let to_light = light.position.xyz - q;
-    let dist2 = max(dot(to_light, to_light), 1e-30);
-    let l = to_light * inverseSqrt(dist2);
-    var intensity = light.colour.rgb;
-    if kind == LIGHT_SPOT {
-        let cos_angle = dot(-l, light.direction.xyz);
-        intensity *= pow(max(cos_angle, 0.0), light.params.z) * smoothstep(light.params.x, light.params.y, cos_angle);
-    } else if kind == LIGHT_AREA {
-        var lobe = 0.25;
-        if light.colour.w > 0.5 {
-            let c = dot(light.direction.xyz, -l);
-            lobe = select(max(c, 0.0), abs(c), light.direction.w > 0.5);
-        }
-        intensity *= lobe;
-    }
-    return LightToward(intensity / dist2, l);
-}
-
 // The share of the lights' direct irradiance at camera-space point p (unit normal n) that the
 // scene lets through: `direct_light`'s shadowed diffuse irradiance over the same sum unshadowed
 // (1 where no light reaches p).
@@ -112,14 +80,8 @@ fn lights_let_through(p: vec3<f32>, n: vec3<f32>) -> f32 {
         if kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u {
             let radiance = luminance(frame.lights[k].params.rgb);
             for (var i = 0u; i < min(slot.z, MAX_AREA_SAMPLES); i++) {
-                let sample = area_samples.samples[2u * (slot.y + i)];
-                let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
-                let to_sample = sample.xyz - p;
-                let dist2 = max(dot(to_sample, to_sample), 1e-30);
-                let l = to_sample * inverseSqrt(dist2);
-                let c = dot(sample_normal.xyz, -l);
-                let cos_e = select(max(c, 0.0), abs(c), sample_normal.w > 0.5);
-                unshadowed += radiance * sample.w * cos_e / dist2 * max(dot(n, l), 0.0);
+                let s = area_sample_toward(slot.y + i, p);
+                unshadowed += radiance * s.weight * s.cos_e / s.dist2 * max(dot(n, s.l), 0.0);
             }
             continue;
         }
@@ -161,11 +123,7 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     if frame.layer_info.x != 1u || row >= min(frame.layer_info.w, 8u) {
         return vec4<f32>(0.0);
     }
-    // The cursor sphere is the first row when it is drawn; the others are live meshes.
-    var material = mesh.material;
-    if row == 0u && frame.counts.z == 1u {
-        material = frame.sphere_material;
-    }
+    let material = live_sphere_material(row);
     // The last column: the specular lobe (none for an unlit sphere).
     if texel.x >= RADIOSITY_MAP_TEXELS {
         if material.colour.w > 0.5 || material.coefficients.z <= 0.0 {
@@ -180,11 +138,7 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     let p = s.xyz + s.w * n;
     // The own-shadow loss from the sphere's loss map on the half the map covers (as the
     // sphere's shading reads it), gathered here on the half turned from the eye.
-    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
-    if frame.raster.w > 0.5 {
-        toward_eye = -normalize(s.xyz);
-    }
-    loss_map_row = select(-1, i32(row), dot(n, toward_eye) >= 0.0);
+    loss_map_row = loss_map_row_at(row, s.xyz, n);
     var let_through = 1.0;
     if material.colour.w < 0.5 && material.coefficients.z > 0.0 {
         let_through = lights_let_through(p, n);
@@ -405,7 +359,14 @@ fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     if !r.valid {
         discard;
     }
-    var added = r.albedo / PI * bounce_irradiance(r.p, r.n) * frame.tone.x;
+    return with_bounce_light(pixel, r, bounce_irradiance(r.p, r.n));
+}
+
+// The frame's colour at `pixel` with receiver `r`'s bounce light added, from the spheres'
+// `irradiance` at it (per unit albedo, times pi), and with the light a sphere hides taken from
+// behind it when that is on; a pixel that changes by nothing is discarded and keeps its value.
+fn with_bounce_light(pixel: vec2<i32>, r: Receiver, irradiance: vec3<f32>) -> vec4<f32> {
+    var added = r.albedo / PI * irradiance * frame.tone.x;
     if frame.bounce.w == 1u {
         added += occlusion_correction(pixel, r.p, r.n, r.albedo);
     }

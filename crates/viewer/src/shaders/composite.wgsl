@@ -556,6 +556,61 @@ fn blinn_lobe_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, exponent: f32) -> f3
     return d * g / (4.0 * cos_o);
 }
 
+// An area light's sample `index` from the light layers (compositor/lighting.rs) seen from p:
+// the unit direction toward it, the squared distance, the emitter's cosine toward p (either
+// side's for a two-sided light) and the sample's weight.
+struct AreaSampleToward {
+    l: vec3<f32>,
+    dist2: f32,
+    cos_e: f32,
+    weight: f32,
+}
+
+fn area_sample_toward(index: u32, p: vec3<f32>) -> AreaSampleToward {
+    let sample = area_samples.samples[2u * index];
+    let sample_normal = area_samples.samples[2u * index + 1u];
+    let to_sample = sample.xyz - p;
+    let dist2 = max(dot(to_sample, to_sample), 1e-30);
+    let l = to_sample * inverseSqrt(dist2);
+    let c = dot(sample_normal.xyz, -l);
+    return AreaSampleToward(l, dist2, select(max(c, 0.0), abs(c), sample_normal.w > 0.5), sample.w);
+}
+
+// The irradiance light k (not ambient) brings to camera-space point q, unshadowed, the unit
+// direction toward it and its distance (3e38 for a distant light): point and spot lights as
+// the ray tracer takes them (the spot's cone and falloff), an area light as a point at its
+// centroid with its intensity toward q (`direct_light` integrates the area light's samples
+// instead where the light layers hold them).
+struct LightToward {
+    e: vec3<f32>,
+    l: vec3<f32>,
+    distance: f32,
+}
+
+fn light_toward(k: u32, q: vec3<f32>) -> LightToward {
+    let light = frame.lights[k];
+    let kind = u32(light.position.w + 0.5);
+    if kind == LIGHT_DISTANT {
+        return LightToward(light.colour.rgb, -light.direction.xyz, 3.0e38);
+    }
+    let to_light = light.position.xyz - q;
+    let dist2 = max(dot(to_light, to_light), 1e-30);
+    let l = to_light * inverseSqrt(dist2);
+    var intensity = light.colour.rgb;
+    if kind == LIGHT_SPOT {
+        let cos_angle = dot(-l, light.direction.xyz);
+        intensity *= pow(max(cos_angle, 0.0), light.params.z) * smoothstep(light.params.x, light.params.y, cos_angle);
+    } else if kind == LIGHT_AREA {
+        var lobe = 0.25;
+        if light.colour.w > 0.5 {
+            let c = dot(light.direction.xyz, -l);
+            lobe = select(max(c, 0.0), abs(c), light.direction.w > 0.5);
+        }
+        intensity *= lobe;
+    }
+    return LightToward(intensity / dist2, l, sqrt(dist2));
+}
+
 // The lights' direct light at p (normal n, facing v): ambient, the irradiance the diffuse lobe
 // integrates (with the scene's shadows) and the Blinn lobe's (`exponent`) radiance per unit Ks,
 // the latter only `with_specular`.
@@ -586,18 +641,13 @@ fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_sp
             let radiance = light.params.rgb;
             let clear = scene_clear_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
             for (var i = 0u; i < sample_count; i++) {
-                let sample = area_samples.samples[2u * (slot.y + i)];
-                let sample_normal = area_samples.samples[2u * (slot.y + i) + 1u];
-                let to_sample = sample.xyz - p;
-                let dist2 = max(dot(to_sample, to_sample), 1e-30);
-                let l = to_sample * inverseSqrt(dist2);
-                let c = dot(sample_normal.xyz, -l);
-                let cos_e = select(max(c, 0.0), abs(c), sample_normal.w > 0.5);
+                let s = area_sample_toward(slot.y + i, p);
+                let l = s.l;
                 let n_dot_l = dot(n, l);
-                if n_dot_l <= 0.0 || cos_e <= 0.0 || !scene_lets_light(p, n, l, sqrt(dist2), clear) {
+                if n_dot_l <= 0.0 || s.cos_e <= 0.0 || !scene_lets_light(p, n, l, sqrt(s.dist2), clear) {
                     continue;
                 }
-                let e = radiance * (sample.w * cos_e / dist2);
+                let e = radiance * (s.weight * s.cos_e / s.dist2);
                 diffuse += e * n_dot_l;
                 if with_specular {
                     specular += e * blinn_lobe_cos(n, v, l, exponent);
@@ -605,34 +655,11 @@ fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_sp
             }
             continue;
         }
-        var l: vec3<f32>;
-        var e: vec3<f32>;
-        var distance = 3.0e38;
-        if kind == LIGHT_DISTANT {
-            l = -light.direction.xyz;
-            e = light.colour.rgb;
-        } else {
-            let to_light = light.position.xyz - p;
-            let dist2 = max(dot(to_light, to_light), 1e-30);
-            l = to_light * inverseSqrt(dist2);
-            distance = sqrt(dist2);
-            var intensity = light.colour.rgb;
-            if kind == LIGHT_SPOT {
-                let cos_angle = dot(-l, light.direction.xyz);
-                intensity *= pow(max(cos_angle, 0.0), light.params.z)
-                    * smoothstep(light.params.x, light.params.y, cos_angle);
-            } else if kind == LIGHT_AREA {
-                var lobe = 0.25;
-                if light.colour.w > 0.5 {
-                    let c = dot(light.direction.xyz, -l);
-                    lobe = select(max(c, 0.0), abs(c), light.direction.w > 0.5);
-                }
-                intensity *= lobe;
-            }
-            e = intensity / dist2;
-        }
+        let toward = light_toward(k, p);
+        let l = toward.l;
+        let e = toward.e;
         let n_dot_l = dot(n, l);
-        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || !scene_lets_light(p, n, l, distance, 0.0) {
+        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || !scene_lets_light(p, n, l, toward.distance, 0.0) {
             continue;
         }
         diffuse += e * n_dot_l;

@@ -99,15 +99,7 @@ fn fs_bounce_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     if !r.valid {
         discard;
     }
-    var added = r.albedo / PI * spread(pixel, r, REDUCED_BOUNCE_STRIDE) * frame.tone.x;
-    if frame.bounce.w == 1u {
-        added += occlusion_correction(pixel, r.p, r.n, r.albedo);
-    }
-    if all(added == vec3<f32>(0.0)) {
-        discard;
-    }
-    let before = textureLoad(backdrop_shadowed, pixel, 0);
-    return vec4<f32>(max(before.rgb + added, vec3<f32>(0.0)), before.a);
+    return with_bounce_light(pixel, r, spread(pixel, r, REDUCED_BOUNCE_STRIDE));
 }
 
 // fs_shadow_bounce_taken with the loss spread from the grid.

@@ -46,17 +46,24 @@ fn segment_against_sphere(sphere: vec4<f32>, p: vec3<f32>, dir: vec3<f32>, max_t
     return 0;
 }
 
+// The unit direction from q toward a light at `position` and the distance to it, or, with
+// `distant`, the direction `position` itself and 3e38.
+fn toward_light_from(q: vec3<f32>, position: vec3<f32>, distant: bool) -> vec4<f32> {
+    if distant {
+        return vec4<f32>(position, 3.0e38);
+    }
+    let v = position - q;
+    let dist = length(v);
+    return vec4<f32>(v / dist, dist);
+}
+
 // The share of light `light` (a point or spot light at position `position`, or with `distant`
 // a light along unit direction `position` toward it) that live objects hide over the footprint
 // of `pixel`, whose centre's surface point is p (unit normal n when has_n).
 fn footprint_hidden(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>, has_n: bool, position: vec3<f32>, distant: bool) -> f32 {
-    var dir = position;
-    var dist = 3.0e38;
-    if !distant {
-        let v = position - p;
-        dist = length(v);
-        dir = v / dist;
-    }
+    let toward = toward_light_from(p, position, distant);
+    let dir = toward.xyz;
+    let dist = toward.w;
     // Every segment toward the light from a point of the footprint stays within `reach` of the
     // centre's (they converge on a point light and run parallel to a distant one).
     let centre = vec2<f32>(pixel) + vec2<f32>(0.5);
@@ -85,14 +92,8 @@ fn footprint_hidden(pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>, has_n: bool, p
     for (var k = 0u; k < FOOTPRINT_SIDE * FOOTPRINT_SIDE; k = k + 1u) {
         let cell = vec2<f32>(f32(k % FOOTPRINT_SIDE), f32(k / FOOTPRINT_SIDE));
         let q = footprint_point(vec2<f32>(pixel) + (cell + vec2<f32>(0.5)) / f32(FOOTPRINT_SIDE), p, n, has_n);
-        var to_light = dir;
-        var reach_q = 3.0e38;
-        if !distant {
-            let v = position - q;
-            reach_q = length(v);
-            to_light = v / reach_q;
-        }
-        if live_blocks(q, to_light, reach_q) {
+        let toward_q = toward_light_from(q, position, distant);
+        if live_blocks(q, toward_q.xyz, toward_q.w) {
             hidden += 1u;
         }
     }

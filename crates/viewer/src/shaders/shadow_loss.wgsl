@@ -185,12 +185,33 @@ fn loss_map_sphere(row: u32) -> vec4<f32> {
     return frame.sphere;
 }
 
+// The direction from the sphere's centre `c` toward the eye (in an orthographic frame, the
+// view direction reversed).
+fn sphere_toward_eye(c: vec3<f32>) -> vec3<f32> {
+    if frame.raster.w > 0.5 {
+        return -normalize(c);
+    }
+    return vec3<f32>(0.0, 0.0, -1.0);
+}
+
+// The loss map row that the shading of sphere `row` (centre `c`) reads at normal `n`: the map
+// covers the half facing the eye; on the other half (-1) the loss is gathered per point.
+fn loss_map_row_at(row: u32, c: vec3<f32>, n: vec3<f32>) -> i32 {
+    return select(-1, i32(row), dot(n, sphere_toward_eye(c)) >= 0.0);
+}
+
+// The material of live sphere `row`: the cursor sphere is the first row when it is drawn, the
+// others are live meshes (the mesh uniform bound for the draw).
+fn live_sphere_material(row: u32) -> Material {
+    if row == 0u && frame.counts.z == 1u {
+        return frame.sphere_material;
+    }
+    return mesh.material;
+}
+
 // A basis whose third axis points from the sphere's centre `c` toward the eye.
 fn loss_map_basis(c: vec3<f32>) -> mat3x3<f32> {
-    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
-    if frame.raster.w > 0.5 {
-        toward_eye = -normalize(c);
-    }
+    let toward_eye = sphere_toward_eye(c);
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(toward_eye.x) > 0.9);
     let tangent = normalize(cross(helper, toward_eye));
     return mat3x3<f32>(tangent, cross(toward_eye, tangent), toward_eye);

@@ -22,6 +22,15 @@ fn vs_reflection(@builtin(vertex_index) index: u32, @builtin(instance_index) row
     return ReflectionOut(vec4<f32>(x, y, 0.5, 1.0), row);
 }
 
+// The direction from the eye to camera-space point p: the camera looks down +z (orthographic)
+// or from the origin (perspective).
+fn view_direction_to(p: vec3<f32>) -> vec3<f32> {
+    if frame.raster.w > 0.5 {
+        return normalize(p);
+    }
+    return vec3<f32>(0.0, 0.0, 1.0);
+}
+
 @fragment
 fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(in.position.xy);
@@ -37,11 +46,7 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     }
     let p = centre.xyz;
     let n = normalize(n_raw);
-    // The camera looks down +z (orthographic) or from the origin (perspective).
-    var view = vec3<f32>(0.0, 0.0, 1.0);
-    if frame.raster.w > 0.5 {
-        view = normalize(p);
-    }
+    let view = view_direction_to(p);
     let dir = view - 2.0 * dot(view, n) * n;
     var nearest = -1.0;
     var nearest_row = 0u;
@@ -65,18 +70,10 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     let sphere = frame.shadow_spheres[in.row];
     let q = p + nearest * dir;
     let m = normalize(q - sphere.xyz);
-    // The cursor sphere is the first row when it is drawn; the others are live meshes.
-    var material = mesh.material;
-    if in.row == 0u && frame.counts.z == 1u {
-        material = frame.sphere_material;
-    }
+    let material = live_sphere_material(in.row);
     // The own-shadow loss from the sphere's loss map on the half it covers (the half facing
     // the eye), gathered at the point on the other half.
-    var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
-    if frame.raster.w > 0.5 {
-        toward_eye = -normalize(sphere.xyz);
-    }
-    loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
+    loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
     let seen = shade(material, q, m, dir);
     let reflected = textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
     let before = textureLoad(backdrop_shadowed, pixel, 0);
@@ -162,10 +159,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     }
     let p = centre.xyz;
     let n = normalize(n_raw);
-    var view = vec3<f32>(0.0, 0.0, 1.0);
-    if frame.raster.w > 0.5 {
-        view = normalize(p);
-    }
+    let view = view_direction_to(p);
     let v = -view;
     let sphere = frame.shadow_spheres[in.row];
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
@@ -207,14 +201,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     }
     var change = shadowed;
     if met_count > 0u {
-        var material = mesh.material;
-        if in.row == 0u && frame.counts.z == 1u {
-            material = frame.sphere_material;
-        }
-        var toward_eye = vec3<f32>(0.0, 0.0, -1.0);
-        if frame.raster.w > 0.5 {
-            toward_eye = -normalize(sphere.xyz);
-        }
+        let material = live_sphere_material(in.row);
         // The lobe's mean incoming radiance: what a direction hides where no march finds it.
         let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
         let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED), vec3<f32>(1e-6));
@@ -241,7 +228,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
             }
             let q = p + first.y * d.xyz;
             let m = normalize(q - sphere.xyz);
-            loss_map_row = select(-1, i32(in.row), dot(m, toward_eye) >= 0.0);
+            loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
             let seen = shade(material, q, m, d.xyz) * frame.tone.x;
             shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
         }
