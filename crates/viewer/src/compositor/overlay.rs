@@ -1,6 +1,45 @@
 //! Pipelines that draw over the frame's colour target in place (the bounce light, the spheres
 //! seen in specular reflections, the shadows' second bounce): the mask and depth stay as the
 //! backdrop left them, so the depth test always passes and nothing but colour is written.
+//! Also the full-screen passes those draw from, which fill a target of their own.
+
+/// The full-screen triangle's vertex stage (`vs_fullscreen`).
+pub(super) fn fullscreen_vertex(module: &wgpu::ShaderModule) -> wgpu::VertexState<'_> {
+    wgpu::VertexState {
+        module,
+        entry_point: Some("vs_fullscreen"),
+        compilation_options: Default::default(),
+        buffers: &[],
+    }
+}
+
+/// A full-screen pass of `layout` that writes the fragment entry point `fragment` into one
+/// target of its own (`format`: no depth, no blending), for a pass whose result another reads.
+pub(super) fn offscreen_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    (label, fragment): (&str, &str),
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let targets = [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: fullscreen_vertex(module),
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fragment),
+            compilation_options: Default::default(),
+            targets: &targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
 
 /// The shader module and the frame's target formats an overlay pipeline draws with.
 pub(super) struct Overlay<'a> {

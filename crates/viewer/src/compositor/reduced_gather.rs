@@ -15,7 +15,7 @@
 //! exact from its second frame on.
 
 use super::Compositor;
-use super::overlay::Overlay;
+use super::overlay::{Overlay, fullscreen_vertex, offscreen_pipeline};
 use super::sphere_atlas::DrawnAndRead;
 
 /// Pixels along each side of a block whose centre gathers the bounce light while moving
@@ -61,31 +61,9 @@ impl ReducedGather {
         (module, frame_only): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         (linear_format, depth_format): (wgpu::TextureFormat, wgpu::TextureFormat),
     ) -> Self {
-        let vertex = wgpu::VertexState {
-            module,
-            entry_point: Some("vs_fullscreen"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        };
-        let alone = |label: &str, entry: &'static str, format: wgpu::TextureFormat| {
-            let targets =
-                [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(frame_only),
-                vertex: vertex.clone(),
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    targets: &targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let vertex = fullscreen_vertex(module);
+        let alone = |label: &str, entry: &str, format: wgpu::TextureFormat| {
+            offscreen_pipeline(device, module, frame_only, (label, entry), format)
         };
         let overlay = Overlay { module, linear_format, mask_format: super::MASK_FORMAT, depth_format };
         ReducedGather {

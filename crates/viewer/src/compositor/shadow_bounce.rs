@@ -22,7 +22,7 @@
 
 use super::Compositor;
 use super::lighting::FrameUniform;
-use super::overlay::Overlay;
+use super::overlay::{Overlay, fullscreen_vertex, offscreen_pipeline};
 use super::sphere_atlas::DrawnAndRead;
 
 /// Fine clusters along each side of the shadows' scissor, and coarse ones (4x4 fine ones each;
@@ -135,31 +135,9 @@ impl ShadowBounce {
         textures: ShadowBounceTextures,
         setup: &ShadowBounceSetup<'_>,
     ) -> ShadowBounce {
-        let vertex = wgpu::VertexState {
-            module: setup.module,
-            entry_point: Some("vs_fullscreen"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        };
-        let alone = |label: &str, entry: &'static str, format: wgpu::TextureFormat| {
-            let targets =
-                [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(setup.frame_only),
-                vertex: vertex.clone(),
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: setup.module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    targets: &targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let vertex = fullscreen_vertex(setup.module);
+        let alone = |label: &str, entry: &str, format: wgpu::TextureFormat| {
+            offscreen_pipeline(device, setup.module, setup.frame_only, (label, entry), format)
         };
         let cluster_pipeline =
             alone("shadow bounce clusters", "fs_shadow_bounce_clusters", setup.linear_format);
