@@ -101,6 +101,27 @@ fn differing_rows(a: &[f32], b: &[f32]) -> Vec<usize> {
     (0..a.len() / row).filter(|&j| a[j * row..(j + 1) * row] != b[j * row..(j + 1) * row]).collect()
 }
 
+/// The four frames one compositor draws for `live` at `HERE`, then at `THERE` three times (a
+/// moving frame, the first frame at rest, a still one), checked to be the same in both
+/// compositing modes.
+fn moved_then_resting(
+    settings: impl Fn(CompositeMode) -> CompositorSettings,
+    live: impl Fn(DVec3) -> LiveObjects,
+) -> Vec<Vec<f32>> {
+    let mut frames = Vec::new();
+    for mode in [CompositeMode::Fullscreen, CompositeMode::Points] {
+        let mut c = Compositor::new(&gpu(), &scene(), settings(mode)).unwrap();
+        let mut seen = Vec::new();
+        for centre in [HERE, THERE, THERE, THERE] {
+            c.render(&live(centre)).unwrap();
+            seen.push(c.read_back_linear().unwrap().rgba);
+        }
+        frames.push(seen);
+    }
+    assert!(frames[0] == frames[1], "the two compositing paths differ");
+    frames.swap_remove(0)
+}
+
 /// The first frame is exact; the frame after a move differs from the exact one only outside the
 /// band it redrew (the top rows, the first band); the next frame at rest is exact again, and the
 /// two compositing modes stay bit-identical throughout.
@@ -111,18 +132,8 @@ fn a_moving_frame_redraws_one_band_and_the_frame_at_rest_is_exact() {
     let moved_rows = differing_rows(&exact_here, &exact_there);
     let band = 512 / viewer::compositor::SHADOW_BOUNCE_BANDS as usize;
     assert!(moved_rows.iter().any(|&j| j < band), "the move changes nothing in the first band");
-    let mut frames = Vec::new();
-    for mode in [CompositeMode::Fullscreen, CompositeMode::Points] {
-        let mut c = Compositor::new(&gpu(), &scene(), settings(mode, true)).unwrap();
-        let mut seen = Vec::new();
-        for live in [sphere(HERE), sphere(THERE), sphere(THERE), sphere(THERE)] {
-            c.render(&live).unwrap();
-            seen.push(c.read_back_linear().unwrap().rgba);
-        }
-        frames.push(seen);
-    }
-    assert!(frames[0] == frames[1], "the two compositing paths differ");
-    let [first, moving, resting, still] = &frames[0][..] else { unreachable!() };
+    let frames = moved_then_resting(|mode| settings(mode, true), sphere);
+    let [first, moving, resting, still] = &frames[..] else { unreachable!() };
     assert!(*first == exact_here, "the first frame is not the exact one");
     let stale = differing_rows(moving, &exact_there);
     assert!(!stale.is_empty(), "the moving frame redrew everything");
@@ -178,18 +189,8 @@ fn a_moving_frame_at_reduced_resolution_is_near_the_exact_one_and_the_frame_at_r
         )
     };
     let (exact_here, exact_there) = (exact(&matte_sphere(HERE)), exact(&matte_sphere(THERE)));
-    let mut frames = Vec::new();
-    for mode in [CompositeMode::Fullscreen, CompositeMode::Points] {
-        let mut c = Compositor::new(&gpu(), &scene(), all_on(mode)).unwrap();
-        let mut seen = Vec::new();
-        for live in [matte_sphere(HERE), matte_sphere(THERE), matte_sphere(THERE), matte_sphere(THERE)] {
-            c.render(&live).unwrap();
-            seen.push(c.read_back_linear().unwrap().rgba);
-        }
-        frames.push(seen);
-    }
-    assert!(frames[0] == frames[1], "the two compositing paths differ");
-    let [first, moving, resting, still] = &frames[0][..] else { unreachable!() };
+    let frames = moved_then_resting(all_on, matte_sphere);
+    let [first, moving, resting, still] = &frames[..] else { unreachable!() };
     assert!(*first == exact_here, "the first frame is not the exact one");
     // The pixels the sphere changes at its new place (its own pixels are drawn exactly in every
     // frame).
