@@ -194,17 +194,8 @@ fn writer_refuses_non_finite_values_and_keeps_the_old_file() {
 
 #[test]
 fn reflection_layers_are_written_when_a_pixel_reflects_and_read_all_or_none() {
-    let dir = tempfile::TempDir::new().unwrap();
-    let path = SidecarPaths::for_depth(&dir.path().join("out.depth")).layers;
-    let channel_count = |path: &Path| {
-        let image = read_all_data_from_file(path).unwrap();
-        image.layer_data[0].channel_data.list.len()
-    };
+    let (_dir, path, plain) = optional_layers_fixture();
     // Without a specular reflection the file is what it was before the optional layers.
-    let mut plain = sample_layers(2);
-    for l in &mut plain.lights {
-        l.description = l.description.replace('é', "?");
-    }
     write_layers(&plain, &path).unwrap();
     assert_eq!(channel_count(&path), channel_names(2).len());
     assert_eq!(read_layers(&path, &expectation(&plain), Default::default()).unwrap(), plain);
@@ -221,16 +212,7 @@ fn reflection_layers_are_written_when_a_pixel_reflects_and_read_all_or_none() {
 
 #[test]
 fn glossy_layers_are_written_when_a_pixel_has_a_lobe_and_read_all_or_none() {
-    let dir = tempfile::TempDir::new().unwrap();
-    let path = SidecarPaths::for_depth(&dir.path().join("out.depth")).layers;
-    let channel_count = |path: &Path| {
-        let image = read_all_data_from_file(path).unwrap();
-        image.layer_data[0].channel_data.list.len()
-    };
-    let mut plain = sample_layers(2);
-    for l in &mut plain.lights {
-        l.description = l.description.replace('é', "?");
-    }
+    let (_dir, path, plain) = optional_layers_fixture();
     assert!(!plain.has_glossy());
     // A glossy pixel adds both glossy layers; a file with a mirror as well holds both groups.
     let mut glossy = plain.clone();
@@ -247,6 +229,23 @@ fn glossy_layers_are_written_when_a_pixel_has_a_lobe_and_read_all_or_none() {
     assert_eq!(read_layers(&path, &expectation(&both), Default::default()).unwrap(), both);
     // `glossy` without its exponent is refused, naming the missing channel.
     assert_half_a_group_is_refused(&path, "glossy", "glossy_exponent.");
+}
+
+/// A directory for a layers file, the file's path and layers of two lights without optional
+/// layers (their descriptions in ASCII, which the file keeps exactly).
+fn optional_layers_fixture() -> (tempfile::TempDir, std::path::PathBuf, LightLayers) {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = SidecarPaths::for_depth(&dir.path().join("out.depth")).layers;
+    let mut plain = sample_layers(2);
+    for l in &mut plain.lights {
+        l.description = l.description.replace('é', "?");
+    }
+    (dir, path, plain)
+}
+
+/// The number of channels in the layers file at `path`.
+fn channel_count(path: &Path) -> usize {
+    read_all_data_from_file(path).unwrap().layer_data[0].channel_data.list.len()
 }
 
 /// A file with the layers of two lights and only `present` of an optional group of two
