@@ -40,31 +40,17 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     let reflectance = textureLoad(light_layers, pixel, i32(frame.reflection.y), 0).rgb;
     let centre = surface_point(pixel);
     let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
-    if frame.reflection.x != 1u || all(reflectance <= vec3<f32>(0.0)) || centre.w < 0.5
-        || dot(n_raw, n_raw) <= 1e-12 {
+    if all(reflectance <= vec3<f32>(0.0)) || centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
         discard;
     }
     let p = centre.xyz;
     let n = normalize(n_raw);
     let view = view_direction_to(p);
     let dir = view - 2.0 * dot(view, n) * n;
-    var nearest = -1.0;
-    var nearest_row = 0u;
-    for (var i = 0u; i < min(frame.layer_info.w, 8u); i = i + 1u) {
-        let sphere = frame.shadow_spheres[i];
-        let to_sphere = sphere.xyz - p;
-        let b = dot(to_sphere, dir);
-        let disc = sphere.w * sphere.w - (dot(to_sphere, to_sphere) - b * b);
-        if disc < 0.0 {
-            continue;
-        }
-        let t = b - sqrt(disc);
-        if t > 0.0 && (nearest < 0.0 || t < nearest) {
-            nearest = t;
-            nearest_row = i;
-        }
-    }
-    if nearest < 0.0 || nearest_row != in.row || !scene_lets_light(p, n, dir, nearest, 0.0) {
+    // The first sphere along the mirror direction; this draw shows its own sphere only.
+    let first = first_sphere(p, dir);
+    let nearest = first.y;
+    if u32(first.x) != in.row || !scene_lets_light(p, n, dir, nearest, 0.0) {
         discard;
     }
     let sphere = frame.shadow_spheres[in.row];
