@@ -162,6 +162,9 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     var albedo = 0.0;
     var met = 0.0;
     var met_count = 0u;
+    // Which of the GLOSSY_TRACED directions met the sphere, so that the shading loop below
+    // visits only those it shades.
+    var met_mask = vec2<u32>(0u);
     var shadowed = vec3<f32>(0.0);
     for (var i = 0u; i < GLOSSY_TRACED; i++) {
         let d = glossy_direction(i, exponent, n, t, b, v, turn);
@@ -173,6 +176,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
         if u32(first.x) == in.row {
             met += d.w;
             met_count += 1u;
+            met_mask[i / 32u] |= 1u << (i % 32u);
         } else if shadows_seen && first.x > 7.5 {
             let at = march_to_surface(p, d.xyz, 0.01 * far, far);
             if at.x >= 0 {
@@ -196,18 +200,15 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
         var shaded = vec3<f32>(0.0);
         var shaded_weight = 0.0;
         for (var i = 0u; i < GLOSSY_TRACED; i++) {
-            let d = glossy_direction(i, exponent, n, t, b, v, turn);
-            if d.w <= 0.0 {
-                continue;
-            }
-            let first = first_sphere(p, d.xyz);
-            if u32(first.x) != in.row {
+            if (met_mask[i / 32u] & (1u << (i % 32u))) == 0u {
                 continue;
             }
             k += 1u;
             if (k - 1u) % stride != 0u {
                 continue;
             }
+            let d = glossy_direction(i, exponent, n, t, b, v, turn);
+            let first = first_sphere(p, d.xyz);
             shaded_weight += d.w;
             if !scene_lets_light(p, n, d.xyz, first.y, 0.0) {
                 continue;
