@@ -154,17 +154,28 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// What a render was made from besides its RIB text: the sample count and the text of the
-/// live archive it reads (`archive`, empty for none). `--reuse` takes a render made from the
-/// same RIB text, archive and sample count, trusting that the renderer has not changed in
-/// between (use it to remeasure the viewer, not the renderer).
-fn render_stamp(spp: u32, archive: &str) -> String {
-    format!("spp {spp}\n{archive}")
+/// What a render was made from besides its RIB text: the sample count and `made_from` (the
+/// text of the live archive it reads, or the renderer's digest; empty for none). `--reuse`
+/// takes a render made from the same RIB text, archive and sample count, trusting that the
+/// renderer has not changed in between (use it to remeasure the viewer, not the renderer).
+fn render_stamp(spp: u32, made_from: &str) -> String {
+    format!("spp {spp}\n{made_from}")
+}
+
+/// A digest of the renderer's binary, so that the frame-time renders, which are always reused,
+/// are made again when the renderer changes (a new sidecar layer must reach the viewer's
+/// frame). `DefaultHasher::new()` has fixed keys, so the digest is the same run after run.
+fn renderer_digest(lrt: &Path) -> Result<String, String> {
+    use std::hash::Hasher;
+    let bytes = std::fs::read(lrt).map_err(|e| format!("cannot read {}: {e}", lrt.display()))?;
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    hasher.write(&bytes);
+    Ok(format!("renderer {:016x} ({} bytes)", hasher.finish(), bytes.len()))
 }
 
 /// Renders `rib_text` with `lrt-depth` into `dir/name.exr` and `dir/name.depth` (with its
 /// light layers beside them); with `reuse`, a render already there from the same RIB text,
-/// sample count and binary is taken as it is.
+/// sample count and `made_from` is taken as it is.
 fn render(
     lrt: &Path,
     dir: &Path,
@@ -172,12 +183,12 @@ fn render(
     rib_text: &str,
     spp: u32,
     reuse: bool,
-    archive: &str,
+    made_from: &str,
 ) -> Result<(PathBuf, PathBuf), String> {
     let rib = dir.join(format!("{name}.rib"));
     let (image, depth) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.depth")));
     let stamp_path = dir.join(format!("{name}.stamp"));
-    let stamp = render_stamp(spp, archive);
+    let stamp = render_stamp(spp, made_from);
     if reuse
         && image.exists()
         && depth.exists()
@@ -340,7 +351,8 @@ fn frame_time(
 ) -> Result<f64, String> {
     let text = std::fs::read_to_string(&scene.rib).map_err(|e| format!("{}: {e}", scene.rib.display()))?;
     let name = format!("{}-frames-{size}", scene.name);
-    let (image, depth) = render(lrt, dir, &name, &scene_rib(&text, size, None)?, 1, true, "")?;
+    let digest = renderer_digest(lrt)?;
+    let (image, depth) = render(lrt, dir, &name, &scene_rib(&text, size, None)?, 1, true, &digest)?;
     let live = dir.join(format!("{name}-live.rib"));
     write(&live, &live_rib(&scene.placements[0], MATERIALS[1].1))?;
     let mut cmd = Command::new(viewer);
@@ -589,6 +601,18 @@ mod tests {
         for bad in ["room", "room:1,2,3", "room:1,2,3,0", "room:1,2,x,1", "room:1,2,3,nan"] {
             assert!(parse_placements(bad).unwrap_err().contains("--placements"), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_changed_renderer_changes_the_frame_renders_stamp() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        std::fs::write(&a, b"renderer one").unwrap();
+        std::fs::write(&b, b"renderer two").unwrap();
+        let digest_a = renderer_digest(&a).unwrap();
+        assert_eq!(digest_a, renderer_digest(&a).unwrap());
+        assert_ne!(render_stamp(1, &digest_a), render_stamp(1, &renderer_digest(&b).unwrap()));
+        assert!(renderer_digest(&dir.path().join("missing")).is_err());
     }
 
     #[test]
