@@ -464,6 +464,8 @@ fn whitted(
     if depth == 0 {
         crate::light_layers::primary_vertex(world, &si, material, &bsdf, weight);
     }
+    let directions = bsdf.specular_directions(si.wo, TransportMode::Radiance);
+    let chain = crate::transmission_layers::vertex(depth, si.p, &bsdf, directions);
     if !bsdf.is_black() {
         if bsdf.has_non_specular() {
             let set = world.light_set(si.attributes);
@@ -483,12 +485,14 @@ fn whitted(
             crate::light_layers::end_primary();
         }
         if depth < max_depth {
-            for (wi, w, flags) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
+            for (k, (wi, w, flags)) in directions.into_iter().enumerate() {
                 if w == Vec3::ZERO {
                     continue;
                 }
+                let link = crate::transmission_layers::branch(chain == Some(k), si.p, wi, w, weight);
                 let mut sub = 0;
                 let r = whitted(world, si.spawn_ray(wi), depth + 1, max_depth, sampler, counters, &mut sub);
+                crate::transmission_layers::after_branch(link, r.rgb);
                 counters.bounce += sub;
                 l += w * r.rgb;
                 if depth == 0 && flags.intersects(LobeFlags::REFLECTION) {
@@ -560,6 +564,8 @@ fn path(
     let mut specular_bounce = true;
     // The sample's colour when it left the primary vertex by its specular reflection.
     let mut reflection_from: Option<Vec3> = None;
+    // The primary hit's transmitted chain while the path follows it (docs/sidecar.md).
+    let mut chain = crate::transmission_layers::PathChain::default();
     let mut eta_scale = 1.0f32;
     // The previous vertex (for MIS of emitters hit by BSDF sampling).
     let mut prev: Option<(glam::DVec3, f32, rib_parser::scene::AttributesId)> = None;
@@ -614,6 +620,7 @@ fn path(
         if depth == 0 {
             crate::light_layers::primary_vertex(world, &si, material, &bsdf, beta);
         }
+        crate::transmission_layers::path_reached(&mut chain, depth, si.p, si.wo, &bsdf);
         if bsdf.is_black() || depth >= max_depth {
             break;
         }
@@ -655,9 +662,11 @@ fn path(
                 beta /= 1.0 - q;
             }
         }
+        crate::transmission_layers::path_sampled(&mut chain, si.p, bs.wi, bs.flags, beta, l);
     }
     if let Some(before) = reflection_from {
         crate::light_layers::primary_reflection_weighted(l - before);
     }
+    crate::transmission_layers::path_end(&chain, l);
     Radiance { rgb: sanitize(l), alpha }
 }

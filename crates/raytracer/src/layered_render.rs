@@ -7,6 +7,7 @@ use crate::integrators::{Integrator, RayCounters};
 use crate::light_layers;
 use crate::render::{Frame, TILE};
 use crate::sampler::PixelSampler;
+use crate::transmission_layers;
 use crate::world::World;
 use glam::DVec2;
 use rayon::prelude::*;
@@ -14,9 +15,18 @@ use rib_parser::scene::Scene;
 use sidecar::{LightLayers, LightSource, depth_fingerprint, light_layer_count, light_layer_of};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Channels of a sample or pixel before the light layers: RGBA, emission, normal, albedo,
-/// reflectance, reflected, glossy, the glossy-weighted exponent (three channels, one used).
+/// Channels of a sample or pixel before the transmission channels: RGBA, emission, normal,
+/// albedo, reflectance, reflected, glossy, the glossy-weighted exponent (three channels, one
+/// used).
 const FIXED_CHANNELS: usize = 25;
+
+/// The transmitted chain's channels after them ([`crate::transmission_layers`]):
+/// transmittance, transmitted, then the exit ray's origin, direction and distance each times
+/// the averaging weight, then that weight.
+const TRANSMISSION_CHANNELS: usize = 14;
+
+/// The first light layer's channel.
+const LIGHTS_START: usize = FIXED_CHANNELS + TRANSMISSION_CHANNELS;
 
 /// How a world's lights map to layers, and the channel layout of a layered sample.
 #[derive(Clone, Debug)]
@@ -24,8 +34,11 @@ pub(crate) struct LayerPlan {
     /// The layer of each of `World::lights`.
     layer_of_light: Vec<usize>,
     layers: usize,
-    /// Channels per sample and pixel: `FIXED_CHANNELS + 3 * layers`.
+    /// Channels per sample and pixel: `LIGHTS_START + 3 * layers`.
     pub stride: usize,
+    /// World space from the integrators' render space (the exit rays' origins are stored in
+    /// world space).
+    world_from_render: glam::DMat4,
 }
 
 impl LayerPlan {
@@ -33,12 +46,18 @@ impl LayerPlan {
         let n = scene.lights.len();
         let layer_of_light = world.light_sources.iter().map(|&s| light_layer_of(s as usize, n)).collect();
         let layers = light_layer_count(n);
-        LayerPlan { layer_of_light, layers, stride: FIXED_CHANNELS + 3 * layers }
+        LayerPlan {
+            layer_of_light,
+            layers,
+            stride: LIGHTS_START + 3 * layers,
+            world_from_render: world.render_from_world.inverse(),
+        }
     }
 
     /// Starts recording a camera sample on this thread.
     pub fn arm(&self) {
         light_layers::arm(self.layer_of_light.len());
+        transmission_layers::arm();
     }
 
     /// Ends the sample and appends its channels after the RGBA already in `values`; a sample
@@ -50,6 +69,15 @@ impl LayerPlan {
             return;
         }
         let out = &mut values[start..];
+        transmission_layers::disarm(|t| {
+            let out = &mut out[FIXED_CHANNELS - 4..LIGHTS_START - 4];
+            out[0..3].copy_from_slice(&t.transmittance.to_array());
+            out[3..6].copy_from_slice(&t.transmitted.to_array());
+            out[6..9].copy_from_slice(&t.origin.to_array());
+            out[9..12].copy_from_slice(&t.direction.to_array());
+            out[12] = t.distance;
+            out[13] = t.weight;
+        });
         light_layers::disarm(|t| {
             out[0..3].copy_from_slice(&t.emission.to_array());
             out[3..6].copy_from_slice(&t.normal.to_array());
@@ -59,7 +87,7 @@ impl LayerPlan {
             out[15..18].copy_from_slice(&t.glossy.to_array());
             out[18] = t.glossy_exponent;
             for (light, d) in t.direct.iter().enumerate() {
-                let k = FIXED_CHANNELS - 4 + 3 * self.layer_of_light[light];
+                let k = LIGHTS_START - 4 + 3 * self.layer_of_light[light];
                 for c in 0..3 {
                     out[k + c] += d[c];
                 }
@@ -256,12 +284,13 @@ pub(crate) fn assemble(
         let weight = out.glossy[p].iter().fold(0.0f32, |m, &v| m.max(v));
         let exponent = if weight > 0.0 { (px[22] / weight).clamp(1.0, 10_000.0) } else { 0.0 };
         out.glossy_exponent[p] = [exponent; 3];
+        assemble_transmission(&mut out, p, &px[FIXED_CHANNELS..LIGHTS_START], &plan.world_from_render);
         let mut indirect = [f64::from(px[0]), f64::from(px[1]), f64::from(px[2])];
         for c in 0..3 {
             indirect[c] -= f64::from(px[4 + c]);
         }
         for k in 0..plan.layers {
-            let l = v3(FIXED_CHANNELS + 3 * k);
+            let l = v3(LIGHTS_START + 3 * k);
             out.light[k][p] = l;
             for c in 0..3 {
                 indirect[c] -= f64::from(l[c]);
@@ -270,4 +299,23 @@ pub(crate) fn assemble(
         out.indirect[p] = indirect.map(|v| v as f32);
     }
     out
+}
+
+/// Pixel `p`'s transmission layers from its filtered transmission channels (laid out as
+/// [`TRANSMISSION_CHANNELS`]): the exit ray's values are their weighted means (its origin
+/// moved to world space), zero where no sample's chain ended (or the filter's weights cancel).
+fn assemble_transmission(out: &mut LightLayers, p: usize, channels: &[f32], world_from_render: &glam::DMat4) {
+    let v3 = |k: usize| [channels[k], channels[k + 1], channels[k + 2]];
+    out.transmittance[p] = v3(0);
+    out.transmitted[p] = v3(3);
+    let weight = channels[13];
+    let mean = |v: f32| v / weight;
+    let (origin, direction, distance) = (v3(6).map(mean), v3(9).map(mean), mean(channels[12]));
+    let finite = origin.iter().chain(&direction).all(|v| v.is_finite()) && distance.is_finite();
+    if weight > 0.0 && finite {
+        let world = world_from_render.transform_point3(glam::DVec3::from_array(origin.map(f64::from)));
+        out.transmission_origin[p] = world.as_vec3().to_array();
+        out.transmission_direction[p] = direction;
+        out.transmission_distance[p] = [distance; 3];
+    }
 }

@@ -70,6 +70,7 @@ pub mod sampling;
 pub mod shapes;
 #[doc(hidden)]
 pub mod testing;
+pub mod transmission_layers;
 /// Texture maps (moved to `tessellate`, which the haptics' displaced surfaces read them with).
 pub mod texture {
     pub use tessellate::texture::*;

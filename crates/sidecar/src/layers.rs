@@ -31,8 +31,19 @@ pub const REFLECTION_LAYERS: [&str; 2] = ["reflectance", "reflected"];
 /// `glossy_exponent`, both present or both absent (absent: zero).
 pub const GLOSSY_LAYERS: [&str; 2] = ["glossy", "glossy_exponent"];
 
+/// The optional layers of a frame whose primary hits include a specular transmission (glass):
+/// the transmitted chain's weight and radiance and its exit ray (origin, direction, and the
+/// distance to the surface it meets), all present or all absent (absent: zero).
+pub const TRANSMISSION_LAYERS: [&str; 5] = [
+    "transmittance",
+    "transmitted",
+    "transmission_origin",
+    "transmission_direction",
+    "transmission_distance",
+];
+
 /// The optional layer groups, each all or none, in the order the format lists them.
-pub const OPTIONAL_LAYER_GROUPS: [[&str; 2]; 2] = [REFLECTION_LAYERS, GLOSSY_LAYERS];
+pub const OPTIONAL_LAYER_GROUPS: [&[&str]; 3] = [&REFLECTION_LAYERS, &GLOSSY_LAYERS, &TRANSMISSION_LAYERS];
 
 /// One light of the scene as the layers refer to it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -102,6 +113,27 @@ pub struct LightLayers {
     /// of their `glossy` (so that an edge against a surface without a lobe keeps the lobe's
     /// exponent); zero where `glossy` is. Written with `glossy`.
     pub glossy_exponent: Vec<[f32; 3]>,
+    /// `transmittance`: the pixel-filtered weight of the primary hit's transmitted chain (the
+    /// product of the specular transmissions' weights, or total internal reflections', from
+    /// the primary hit until the chain's exit ray meets a surface that does not transmit
+    /// specularly), times the hit's opacity; zero where the primary hit does not transmit or
+    /// the chain was cut short. Written only when some pixel has one.
+    pub transmittance: Vec<[f32; 3]>,
+    /// `transmitted`: the radiance the exit ray brought, weighted by `transmittance` (a part of
+    /// `indirect`). Written with `transmittance`.
+    pub transmitted: Vec<[f32; 3]>,
+    /// `transmission_origin`: the world-space origin of the exit ray (the chain's last specular
+    /// vertex), averaged over the pixel's samples with the weight of their transmittance's
+    /// largest channel. Written with `transmittance`.
+    pub transmission_origin: Vec<[f32; 3]>,
+    /// `transmission_direction`: the exit ray's world-space unit direction, averaged as the
+    /// origin is (not renormalised: its length below 1 tells that the samples' chains diverge).
+    /// Written with `transmittance`.
+    pub transmission_direction: Vec<[f32; 3]>,
+    /// `transmission_distance`: the distance along the exit ray to the surface it meets (1e30
+    /// where it leaves the scene), averaged as the origin is, in all three channels. Written
+    /// with `transmittance`.
+    pub transmission_distance: Vec<[f32; 3]>,
 }
 
 impl LightLayers {
@@ -122,7 +154,12 @@ impl LightLayers {
             reflectance: zero.clone(),
             reflected: zero.clone(),
             glossy: zero.clone(),
-            glossy_exponent: zero,
+            glossy_exponent: zero.clone(),
+            transmittance: zero.clone(),
+            transmitted: zero.clone(),
+            transmission_origin: zero.clone(),
+            transmission_direction: zero.clone(),
+            transmission_distance: zero,
         }
     }
 
@@ -169,9 +206,16 @@ impl LightLayers {
         self.glossy.iter().any(|p| p.iter().any(|&v| v != 0.0))
     }
 
+    /// Whether some pixel's primary hit transmits specularly: the file then holds the optional
+    /// [`TRANSMISSION_LAYERS`].
+    pub fn has_transmission(&self) -> bool {
+        self.transmittance.iter().any(|p| p.iter().any(|&v| v != 0.0))
+    }
+
     /// Every buffer with its EXR layer name, in the order the format lists them (the
     /// [`REFLECTION_LAYERS`] only when [`LightLayers::has_reflection`], the [`GLOSSY_LAYERS`]
-    /// only when [`LightLayers::has_glossy`]).
+    /// only when [`LightLayers::has_glossy`], the [`TRANSMISSION_LAYERS`] only when
+    /// [`LightLayers::has_transmission`]).
     pub fn named_buffers(&self) -> Vec<(String, &[[f32; 3]])> {
         let mut out: Vec<(String, &[[f32; 3]])> = Vec::new();
         for (k, layer) in self.light.iter().enumerate() {
@@ -188,6 +232,18 @@ impl LightLayers {
         if self.has_glossy() {
             out.push((GLOSSY_LAYERS[0].into(), &self.glossy));
             out.push((GLOSSY_LAYERS[1].into(), &self.glossy_exponent));
+        }
+        if self.has_transmission() {
+            let buffers = [
+                &self.transmittance,
+                &self.transmitted,
+                &self.transmission_origin,
+                &self.transmission_direction,
+                &self.transmission_distance,
+            ];
+            for (name, buffer) in TRANSMISSION_LAYERS.iter().zip(buffers) {
+                out.push(((*name).into(), buffer));
+            }
         }
         out
     }
@@ -207,13 +263,27 @@ impl LightLayers {
         out.push((REFLECTION_LAYERS[1].into(), &mut self.reflected));
         out.push((GLOSSY_LAYERS[0].into(), &mut self.glossy));
         out.push((GLOSSY_LAYERS[1].into(), &mut self.glossy_exponent));
+        let transmission = [
+            &mut self.transmittance,
+            &mut self.transmitted,
+            &mut self.transmission_origin,
+            &mut self.transmission_direction,
+            &mut self.transmission_distance,
+        ];
+        for (name, buffer) in TRANSMISSION_LAYERS.iter().zip(transmission) {
+            out.push(((*name).into(), buffer));
+        }
         out
     }
 }
 
-/// The channel suffixes of a buffer: `X`, `Y`, `Z` for `normal`, `R`, `G`, `B` otherwise.
+/// The channel suffixes of a buffer: `X`, `Y`, `Z` for the vectors (`normal`, the exit ray's
+/// `transmission_origin` and `transmission_direction`), `R`, `G`, `B` otherwise.
 pub(crate) fn channel_suffixes(layer: &str) -> [&'static str; 3] {
-    if layer == "normal" { ["X", "Y", "Z"] } else { ["R", "G", "B"] }
+    match layer {
+        "normal" | "transmission_origin" | "transmission_direction" => ["X", "Y", "Z"],
+        _ => ["R", "G", "B"],
+    }
 }
 
 #[cfg(test)]

@@ -189,7 +189,7 @@ fn read_layers_inner(
     let mut layers = LightLayers::new(expect.width, expect.height, fingerprint, lights);
     let width = expect.width.max(1) as usize;
     let expected_names = channel_names(layers.light.len());
-    let group_names = |group: &[&str; 2]| -> Vec<String> {
+    let group_names = |group: &&[&str]| -> Vec<String> {
         group.iter().flat_map(|layer| channel_suffixes(layer).map(|c| format!("{layer}.{c}"))).collect()
     };
     let optional_names: Vec<String> = OPTIONAL_LAYER_GROUPS.iter().flat_map(group_names).collect();
@@ -198,9 +198,9 @@ fn read_layers_inner(
     {
         return Err(SidecarErrorKind::UnexpectedChannel { name: extra.clone() });
     }
-    // The optional groups (the reflection and glossy layers: older files, frames without such
+    // The optional groups (the reflection, glossy and transmission layers: older files, frames without such
     // surfaces) are read with all of their channels or not at all.
-    let absent_groups: Vec<&[&str; 2]> = OPTIONAL_LAYER_GROUPS
+    let absent_groups: Vec<&&[&str]> = OPTIONAL_LAYER_GROUPS
         .iter()
         .filter(|group| !group_names(group).iter().any(|name| channels.contains_key(name)))
         .collect();

@@ -43,7 +43,7 @@ pub use exr_file::sort_exr_header_attributes;
 pub use fingerprint::depth_fingerprint;
 pub use layers::{
     GLOSSY_LAYERS, LayerExpectation, LightLayers, LightSource, MAX_LIGHT_LAYERS, OPTIONAL_LAYER_GROUPS,
-    REFLECTION_LAYERS, light_layer_count, light_layer_of,
+    REFLECTION_LAYERS, TRANSMISSION_LAYERS, light_layer_count, light_layer_of,
 };
 pub use layers_io::{ReadLimits, channel_names, read_layers, write_layers};
 pub use paths::SidecarPaths;

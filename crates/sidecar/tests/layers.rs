@@ -231,6 +231,39 @@ fn glossy_layers_are_written_when_a_pixel_has_a_lobe_and_read_all_or_none() {
     assert_half_a_group_is_refused(&path, "glossy", "glossy_exponent.");
 }
 
+#[test]
+fn transmission_layers_are_written_when_a_pixel_transmits_and_read_all_or_none() {
+    let (_dir, path, plain) = optional_layers_fixture();
+    assert!(!plain.has_transmission());
+    // A glass pixel adds the five transmission layers (the vectors with X, Y, Z channels).
+    let mut glass = plain.clone();
+    glass.transmittance[4] = [0.9, 0.9, 0.9];
+    glass.transmitted[4] = [0.25, 0.5, 0.125];
+    glass.transmission_origin[4] = [0.4, -0.6, 0.75];
+    glass.transmission_direction[4] = [0.0, -0.6, -0.8];
+    glass.transmission_distance[4] = [1.25; 3];
+    write_layers(&glass, &path).unwrap();
+    assert_eq!(channel_count(&path), channel_names(2).len() + 15);
+    let channels: Vec<String> = read_all_data_from_file(&path).unwrap().layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    assert!(channels.contains(&"transmission_origin.X".to_string()), "{channels:?}");
+    assert!(channels.contains(&"transmission_direction.Z".to_string()), "{channels:?}");
+    assert_eq!(read_layers(&path, &expectation(&glass), Default::default()).unwrap(), glass);
+    // With a mirror as well, both groups are written and read back exactly.
+    let mut both = glass.clone();
+    both.reflectance[3] = [0.95, 0.9, 0.85];
+    both.reflected[3] = [1.5, 0.25, 0.125];
+    write_layers(&both, &path).unwrap();
+    assert_eq!(channel_count(&path), channel_names(2).len() + 21);
+    assert_eq!(read_layers(&path, &expectation(&both), Default::default()).unwrap(), both);
+    // Part of the group is refused, naming a missing channel.
+    assert_half_a_group_is_refused(&path, "transmittance", "transmitted.");
+}
+
 /// A directory for a layers file, the file's path and layers of two lights without optional
 /// layers (their descriptions in ASCII, which the file keeps exactly).
 fn optional_layers_fixture() -> (tempfile::TempDir, std::path::PathBuf, LightLayers) {

@@ -225,6 +225,8 @@ impl PhotonMapper {
         if depth == 0 {
             crate::light_layers::primary_vertex(world, &si, material, &bsdf, weight);
         }
+        let directions = bsdf.specular_directions(si.wo, TransportMode::Radiance);
+        let chain = crate::transmission_layers::vertex(depth, si.p, &bsdf, directions);
         if !bsdf.is_black() {
             if bsdf.has_non_specular() {
                 l += self.direct(world, &si, &bsdf, sampler, counters, scratch);
@@ -248,11 +250,13 @@ impl PhotonMapper {
                 }
             }
             if depth < self.settings.max_depth {
-                for (wi, w, flags) in bsdf.specular_directions(si.wo, TransportMode::Radiance) {
+                for (k, (wi, w, flags)) in directions.into_iter().enumerate() {
                     if w == Vec3::ZERO {
                         continue;
                     }
+                    let link = crate::transmission_layers::branch(chain == Some(k), si.p, wi, w, weight);
                     let r = self.li_depth(world, si.spawn_ray(wi), depth + 1, sampler, counters, scratch);
+                    crate::transmission_layers::after_branch(link, r.rgb);
                     l += w * r.rgb;
                     if depth == 0 && flags.intersects(LobeFlags::REFLECTION) {
                         crate::light_layers::primary_reflection(w * r.rgb);

@@ -140,6 +140,8 @@ impl Compositor {
             // The spheres seen in mirrors and glass, after the bounce light they may reflect.
             self.record_reflections(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
             lap(&mut encoder, "spheres in reflections");
+            self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
+            lap(&mut encoder, "spheres seen through glass");
             self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
             lap(&mut encoder, "second bounce: what each pixel loses");
             self.record_shadow_bounce(&mut encoder, &uniform);

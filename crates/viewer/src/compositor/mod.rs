@@ -23,6 +23,7 @@ mod shadow_bounce;
 mod shadows;
 mod specular;
 mod sphere_atlas;
+mod transmission;
 
 pub use pass_timing::{PassTime, process_cpu_time};
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
@@ -110,8 +111,9 @@ pub struct Compositor {
     /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
     /// the pass that adds it.
     bounce: bounce::Bounce,
-    /// The live spheres seen in the scene's specular reflections.
+    /// The live spheres seen in the scene's specular reflections, and through its glass.
     specular: specular::SpecularReflections,
+    transmission: Option<transmission::Transmission>,
     /// The light the shadows take from the rest of the scene: its clusters (binding 16), what
     /// each pixel loses (binding 17) and the passes that draw and remove it.
     shadow_bounce: shadow_bounce::ShadowBounce,
@@ -134,6 +136,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/specular.wgsl"),
+    include_str!("../shaders/transmission.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
     include_str!("../shaders/reduced_gather.wgsl"),
 );
@@ -433,6 +436,10 @@ impl Compositor {
             &with_mesh,
             gpu_layers.specular_rect(),
         );
+        let formats = (linear_format, depth_format);
+        let layouts = [&frame_layout, &mesh_layout];
+        let transmission =
+            transmission::Transmission::new(gpu, &projection, bound_layers, &module, formats, layouts);
         let shadow_bounce = shadow_bounce::ShadowBounce::new(
             device,
             shadow_bounce_textures,
@@ -681,6 +688,7 @@ impl Compositor {
             loss_maps,
             bounce,
             specular,
+            transmission,
             shadow_bounce,
             antialias,
             antialias_off,
