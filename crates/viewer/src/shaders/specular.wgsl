@@ -78,7 +78,10 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
 // through). And in the first sphere's draw, every direction that meets no sphere reads, where a
 // march finds the surface it meets, what the live objects' shadows took from that surface: a
 // metal reflects the spheres' shadows on the scene too (every direction: a fourth of them left
-// the gold cylinder under the spot light's shadow noisy enough to be worse than before). Surfaces with a diffuse
+// the gold cylinder under the spot light's shadow noisy enough to be worse than before). Where
+// no march finds it (hidden from the eye: the room's floor between the gold cylinder and a
+// sphere beside it, behind the torus), the scene's triangles do, and the share of its light the
+// live objects block (live_shadow_share) is taken from the lobe's mean radiance. Surfaces with a diffuse
 // albedo as well (plastic) are left to the shadow pass's occlusion of indirect light, which
 // takes what the sphere hides from the whole of their indirect light (the layers do not split
 // it into the two lobes' shares): adding the sphere's radiance on top made the room's rows
@@ -165,7 +168,12 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     // Which of the GLOSSY_TRACED directions met the sphere, so that the shading loop below
     // visits only those it shades.
     var met_mask = vec2<u32>(0u);
+    // Which free directions met a surface no march finds (the eye does not see it).
+    var hidden_mask = vec2<u32>(0u);
     var shadowed = vec3<f32>(0.0);
+    // The lobe's weight times the share of light the live objects take, summed over the free
+    // directions that meet a surface the eye does not see.
+    var hidden_taken = vec3<f32>(0.0);
     for (var i = 0u; i < GLOSSY_TRACED; i++) {
         let d = glossy_direction(i, exponent, n, t, b, v, turn);
         if d.w <= 0.0 {
@@ -183,18 +191,34 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
                 let now = textureLoad(backdrop_shadowed, at, 0).rgb;
                 let before = textureLoad(backdrop_colour, at, 0).rgb;
                 shadowed += d.w * (now - before);
+            } else {
+                hidden_mask[i / 32u] |= 1u << (i % 32u);
             }
         }
     }
-    if met_count == 0u && all(shadowed == vec3<f32>(0.0)) {
+    // A surface the eye does not see (behind another, or off screen) has no shadowed pixel to
+    // read: the scene's triangles find it, and the share of its light the live objects take is
+    // rebuilt there (its radiance taken as the lobe's mean, below).
+    for (var i = 0u; i < GLOSSY_TRACED; i++) {
+        if (hidden_mask[i / 32u] & (1u << (i % 32u))) == 0u {
+            continue;
+        }
+        let d = glossy_direction(i, exponent, n, t, b, v, turn);
+        let hit = scene_first_hit(p + n * ray_offset(p), d.xyz, 3.0e38);
+        if hit.w > 0.0 {
+            hidden_taken += d.w * live_shadow_share(p + hit.w * d.xyz, hit.xyz);
+        }
+    }
+    if met_count == 0u && all(shadowed == vec3<f32>(0.0)) && all(hidden_taken == vec3<f32>(0.0)) {
         discard;
     }
-    var change = shadowed;
+    // The lobe's mean incoming radiance: what a direction hides, or sends from a surface the eye
+    // does not see, where no march finds it.
+    let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
+    let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED), vec3<f32>(1e-6));
+    var change = shadowed - mean * hidden_taken;
     if met_count > 0u {
         let material = live_sphere_material(in.row);
-        // The lobe's mean incoming radiance: what a direction hides where no march finds it.
-        let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
-        let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED), vec3<f32>(1e-6));
         let stride = (met_count + GLOSSY_SHADED - 1u) / GLOSSY_SHADED;
         var k = 0u;
         var shaded = vec3<f32>(0.0);
@@ -245,4 +269,130 @@ fn hidden_radiance(p: vec3<f32>, dir: vec3<f32>, beyond: f32, fallback: vec3<f32
         behind += textureLoad(light_layers, at, i32(slice), 0).rgb;
     }
     return behind;
+}
+
+// The first triangle of the tessellated scene along unit `dir` from camera-space `origin`
+// (t up to t_max): xyz its unit normal turned toward the origin, w the distance (-1: none, or
+// no hierarchy). bvh_blocks' traversal, keeping the nearest hit and cutting the segment there.
+fn scene_first_hit(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> vec4<f32> {
+    let bvh = frame.scene_occluders;
+    var best = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    if bvh.z == 0u {
+        return best;
+    }
+    var t_far = t_max;
+    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
+    var stack: array<u32, OCCLUDER_STACK>;
+    stack[0] = 0u;
+    var top = 1u;
+    while top > 0u {
+        top -= 1u;
+        let k = bvh.x + stack[top];
+        let lo = occluder_nodes[2u * k];
+        let hi = occluder_nodes[2u * k + 1u];
+        let t0 = (lo.xyz - origin) * inv;
+        let t1 = (hi.xyz - origin) * inv;
+        let tn = min(t0, t1);
+        let tf = max(t0, t1);
+        if max(max(tn.x, tn.y), max(tn.z, 0.0)) > min(min(tf.x, tf.y), min(tf.z, t_far)) {
+            continue;
+        }
+        let a = bitcast<u32>(lo.w);
+        let count = bitcast<u32>(hi.w);
+        if count == 0u {
+            if top + 2u <= OCCLUDER_STACK {
+                stack[top] = a;
+                stack[top + 1u] = a + 1u;
+                top += 2u;
+            }
+            continue;
+        }
+        for (var i = bvh.y + a; i < bvh.y + a + count; i++) {
+            let v0 = occluder_triangles[3u * i].xyz;
+            let e1 = occluder_triangles[3u * i + 1u].xyz;
+            let e2 = occluder_triangles[3u * i + 2u].xyz;
+            let pv = cross(dir, e2);
+            let det = dot(e1, pv);
+            if det == 0.0 {
+                continue;
+            }
+            let inv_det = 1.0 / det;
+            let tv = origin - v0;
+            let u = dot(tv, pv) * inv_det;
+            let qv = cross(tv, e1);
+            let v = dot(dir, qv) * inv_det;
+            if u < -EDGE_SLACK || v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
+                continue;
+            }
+            let t = dot(e2, qv) * inv_det;
+            if t > 0.0 && t < t_far {
+                t_far = t;
+                let g = normalize(cross(e1, e2));
+                best = vec4<f32>(select(g, -g, dot(g, dir) > 0.0), t);
+            }
+        }
+    }
+    return best;
+}
+
+// At most this many of an area light's samples weigh its light at a surface point the eye does
+// not see (every k-th, each standing for k).
+const HIDDEN_AREA_SAMPLES: u32 = 16u;
+
+// The share of the light that pre-rendered surface point q (camera space, unit normal nq on
+// the side it is seen from) receives which the live objects take, per channel: each light's
+// irradiance there and the part live_blocks finds blocked (an area light over every k-th of
+// its samples from the light layers), the irradiance probes' indirect light and the spheres'
+// occlusion of it (indirect_occlusion, as the shadow pass takes it), and the ambient light as
+// the irradiance pi L that a Lambertian surface turns into L. For a surface without a shadowed
+// pixel to read (hidden from the eye), whose light is in no layer: its Lambertian radiance
+// scales with what it receives, so this share of any estimate of that radiance is what the
+// live objects take from it. The scene's own shadows at q are not traced (every light is
+// taken to reach it): a second hierarchy traversal beside scene_first_hit's in one shader made
+// lavapipe's glossy_direction return wrong directions for the rest of the fragment.
+fn live_shadow_share(q: vec3<f32>, nq: vec3<f32>) -> vec3<f32> {
+    let occluded = indirect_occlusion(q, nq);
+    let count = min(frame.counts.x, MAX_LIGHTS);
+    var received = vec3<f32>(0.0);
+    var taken = vec3<f32>(0.0);
+    for (var k = 0u; k < count; k++) {
+        let light = frame.lights[k];
+        let kind = u32(light.position.w + 0.5);
+        let slot = frame.shadow_slots[k];
+        if kind == LIGHT_AMBIENT {
+            received += PI * light.colour.rgb;
+            continue;
+        }
+        let area = kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u;
+        let samples = select(1u, min(slot.z, MAX_AREA_SAMPLES), area);
+        let stride = (samples + HIDDEN_AREA_SAMPLES - 1u) / HIDDEN_AREA_SAMPLES;
+        for (var j = 0u; j < samples; j += stride) {
+            var l: vec3<f32>;
+            var distance: f32;
+            var e: vec3<f32>;
+            if area {
+                let s = area_sample_toward(slot.y + j, q);
+                l = s.l;
+                distance = sqrt(s.dist2);
+                e = light.params.rgb * (f32(stride) * s.weight * s.cos_e / s.dist2);
+            } else {
+                let toward = light_toward(k, q);
+                l = toward.l;
+                distance = toward.distance;
+                e = toward.e;
+            }
+            let cos_q = dot(nq, l);
+            if cos_q <= 0.0 || all(e <= vec3<f32>(0.0)) {
+                continue;
+            }
+            received += e * cos_q;
+            if live_blocks(q, l, distance) {
+                taken += e * cos_q;
+            }
+        }
+    }
+    let indirect = probe_irradiance(q, nq, vec3<f32>(0.0));
+    received += indirect;
+    taken += occluded * indirect;
+    return select(vec3<f32>(0.0), min(taken / max(received, vec3<f32>(1e-30)), vec3<f32>(1.0)), received > vec3<f32>(0.0));
 }
