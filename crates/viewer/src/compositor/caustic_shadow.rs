@@ -23,9 +23,7 @@ struct PixelGrid {
 impl PixelGrid {
     fn new(caustics: &CausticPhotons) -> Option<PixelGrid> {
         let cell = f64::from(caustics.max_radius());
-        if !(cell > 0.0) || !cell.is_finite() {
-            return None;
-        }
+        (cell.is_finite() && cell > 0.0).then_some(())?;
         let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
         for (k, px) in caustics.pixels.iter().enumerate() {
             if px.radius2 > 0.0 {
