@@ -99,6 +99,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
     }
     attach_probes(settings, &mut scene)?;
     attach_reflections(settings, &mut scene)?;
+    attach_caustics(settings, &mut scene)?;
     let mut live = LiveObjects { sphere: initial_sphere(settings, &scene), meshes: Vec::new() };
     if let Some(path) = &settings.live {
         let objects = crate::live_rib::read_live_rib(path).map_err(Failure)?;
@@ -202,6 +203,20 @@ fn attach_reflections(settings: &Settings, scene: &mut ViewerScene) -> Result<()
         return Ok(());
     };
     scene.set_reflections(probes).map_err(|e| Failure(format!("{}: error: {e}", path.display())))
+}
+
+/// Finds the caustic photons `lrt-depth` wrote for this render (docs/sidecar.md): live spheres
+/// then take the caustic light whose photons they block. A render without a caustic map has
+/// none, and nothing is said.
+fn attach_caustics(settings: &Settings, scene: &mut ViewerScene) -> Result<(), Failure> {
+    let candidates = sidecar::SidecarPaths::candidates(&settings.image, &settings.depth);
+    let Some(path) = candidates.iter().map(|c| &c.caustics).find(|p| p.exists()) else {
+        return Ok(());
+    };
+    let fingerprint = sidecar::depth_fingerprint(scene.depth().values());
+    let caustics =
+        sidecar::read_caustics(path, scene.size(), Some(fingerprint)).map_err(|e| Failure(e.to_string()))?;
+    scene.set_caustics(caustics).map_err(|e| Failure(format!("{}: error: {e}", path.display())))
 }
 
 /// The sphere at start: where `--sphere` puts it; in a window without `--sphere`, in front of

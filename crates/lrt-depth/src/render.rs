@@ -446,6 +446,34 @@ fn write_depth(
                         );
                     }
                 }
+                let caustics_path = sidecar::SidecarPaths::for_depth(&request.path).caustics;
+                match &out.caustics {
+                    Some(caustics) => {
+                        let caustics = sidecar::CausticPhotons {
+                            depth_fingerprint: layers.depth_fingerprint,
+                            ..caustics.clone()
+                        };
+                        if let Err(e) = sidecar::write_caustics(&caustics, &caustics_path) {
+                            return fail(&e);
+                        }
+                        if !settings.quiet {
+                            println!(
+                                "wrote {} ({} caustic photons, {} path segments)",
+                                caustics_path.display(),
+                                caustics.photons.len(),
+                                caustics.segments.len()
+                            );
+                        }
+                    }
+                    // A render without caustics leaves no caustics file of an earlier one behind.
+                    None => {
+                        if caustics_path.exists()
+                            && let Err(e) = std::fs::remove_file(&caustics_path)
+                        {
+                            return fail(&format!("{}: {e}", caustics_path.display()));
+                        }
+                    }
+                }
             }
             None => {
                 if !settings.quiet {

@@ -365,6 +365,15 @@ pub trait Integrator: Sync {
     fn next_pass(&mut self, _world: &World) -> Option<Box<dyn Integrator>> {
         None
     }
+    /// The sidecar's caustics file for the view of `rays` (the photon mapper's caustic map, when
+    /// prepared with `PrepareContext::caustic_paths`); `None` for a render without one.
+    fn caustic_photons(
+        &self,
+        _world: &World,
+        _rays: &crate::render::CameraRays,
+    ) -> Option<sidecar::CausticPhotons> {
+        None
+    }
 }
 
 /// The view an image is rendered from: its camera rays, its pixels (`(x0, y0, x1, y1)`, the
@@ -384,6 +393,8 @@ pub struct ViewContext<'a> {
 pub struct PrepareContext {
     pub seed: u64,
     pub threads: usize,
+    /// Keep what the sidecar's caustics file needs (the caustic photons' paths).
+    pub caustic_paths: bool,
 }
 
 impl IntegratorKind {
@@ -391,6 +402,7 @@ impl IntegratorKind {
     pub fn prepare(&self, world: &World, context: PrepareContext) -> Box<dyn Integrator> {
         match *self {
             IntegratorKind::PhotonMap(settings) => {
+                let settings = PhotonMapSettings { caustic_paths: context.caustic_paths, ..settings };
                 Box::new(PhotonMapper::prepare(world, settings, context.seed))
             }
             IntegratorKind::DirectLighting { max_depth } => Box::new(DirectLighting { max_depth }),

@@ -115,6 +115,9 @@ pub struct RenderOutput {
     pub probes: Option<sidecar::ProbeGrid>,
     /// The reflection probes, baked with the layers.
     pub reflections: Option<sidecar::ReflectionProbes>,
+    /// The caustic photons and their estimates' kernels, with the layers and depth table where
+    /// the photon mapper has a caustic map.
+    pub caustics: Option<sidecar::CausticPhotons>,
     pub stats: RenderStats,
     pub warnings: Vec<Warning>,
 }
@@ -338,7 +341,10 @@ fn render_in_pool(
 
     let kind = options.integrator.unwrap_or_else(|| choose_integrator(scene, &mut diagnostics));
     let prepare_start = Instant::now();
-    let mut integrator = kind.prepare(&world, PrepareContext { seed: options.seed, threads });
+    let mut integrator = kind.prepare(
+        &world,
+        PrepareContext { seed: options.seed, threads, caustic_paths: options.layers && options.depth },
+    );
     let mut time_prepare = prepare_start.elapsed();
     let filter = crate::film::filter_from_settings(&scene.render.pixel_filter).unwrap_or_else(|why| {
         diagnostics.warn_once(None, format!("{why}: using gaussian 2 2"));
@@ -431,6 +437,12 @@ fn render_in_pool(
         reflections = Some(probes);
     }
     let time_reflections = reflections_start.elapsed();
+    // The caustic photons go with the layers, where the photon mapper has a caustic map.
+    let caustics = if layer_pixels.is_some() && options.depth {
+        integrator.caustic_photons(&world, &rays)
+    } else {
+        None
+    };
 
     // Depth: only when asked for.
     let depth_start = Instant::now();
@@ -488,7 +500,17 @@ fn render_in_pool(
     let fingerprint = depth.as_ref().map_or(0, |d| sidecar::depth_fingerprint(&d.values));
     let probes = probes.map(|p| sidecar::ProbeGrid { depth_fingerprint: fingerprint, ..p });
     let reflections = reflections.map(|r| sidecar::ReflectionProbes { depth_fingerprint: fingerprint, ..r });
-    Ok(RenderOutput { image, depth, layers, probes, reflections, stats, warnings: diagnostics.warnings })
+    let caustics = caustics.map(|c| sidecar::CausticPhotons { depth_fingerprint: fingerprint, ..c });
+    Ok(RenderOutput {
+        image,
+        depth,
+        layers,
+        probes,
+        reflections,
+        caustics,
+        stats,
+        warnings: diagnostics.warnings,
+    })
 }
 
 /// What every pass of a render shares: the world, the camera rays, the filter and the pixels.

@@ -11,6 +11,8 @@
 //! - [`ProbeGrid`] ([`write_probes`], [`read_probes`]): irradiance probes (SH + visibility).
 //! - [`ReflectionProbes`] ([`write_reflections`], [`read_reflections`]): octahedral radiance
 //!   maps prefiltered per roughness ([`reflection_level`]) with a distance map each.
+//! - [`CausticPhotons`] ([`write_caustics`], [`read_caustics`]): the caustic photons the
+//!   primary hits' estimates read, their light paths' segments and each pixel's estimate kernel.
 //!
 //! ```
 //! use sidecar::{LayerExpectation, LightLayers, LightSource, SidecarPaths, depth_fingerprint};
@@ -26,6 +28,8 @@
 //! assert_eq!(back.beauty()[0], [0.5, 0.25, 0.125]);
 //! ```
 
+mod caustics;
+mod caustics_io;
 mod error;
 mod exr_file;
 mod fingerprint;
@@ -38,6 +42,11 @@ mod reflections;
 mod reflections_io;
 pub mod sh;
 
+pub use caustics::{
+    CAUSTIC_NORMAL_COSINE, CausticFilter, CausticPhoton, CausticPhotons, CausticPixel, MAX_CAUSTIC_PHOTONS,
+    MAX_CAUSTIC_SEGMENTS, segment_meets_sphere,
+};
+pub use caustics_io::{read_caustics, write_caustics};
 pub use error::{SidecarError, SidecarErrorKind};
 pub use exr_file::sort_exr_header_attributes;
 pub use fingerprint::depth_fingerprint;

@@ -12,6 +12,8 @@ pub struct SidecarPaths {
     pub probes: PathBuf,
     /// Reflection probes: `STEM.reflections.exr`.
     pub reflections: PathBuf,
+    /// Caustic photons and their estimates' kernels: `STEM.caustics.exr`.
+    pub caustics: PathBuf,
 }
 
 impl SidecarPaths {
@@ -49,6 +51,7 @@ impl SidecarPaths {
             layers: with(".layers.exr"),
             probes: with(".probes.exr"),
             reflections: with(".reflections.exr"),
+            caustics: with(".caustics.exr"),
         }
     }
 }
@@ -73,6 +76,7 @@ mod tests {
         assert_eq!(p.layers, Path::new("dir/out.layers.exr"));
         assert_eq!(p.probes, Path::new("dir/out.probes.exr"));
         assert_eq!(p.reflections, Path::new("dir/out.reflections.exr"));
+        assert_eq!(p.caustics, Path::new("dir/out.caustics.exr"));
         assert_eq!(SidecarPaths::for_depth(Path::new("out.depth.exr")).layers, Path::new("out.layers.exr"));
         assert_eq!(SidecarPaths::for_depth(Path::new("z.exr")).layers, Path::new("z.layers.exr"));
         assert_eq!(SidecarPaths::for_depth(Path::new("noext")).layers, Path::new("noext.layers.exr"));

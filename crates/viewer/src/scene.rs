@@ -19,6 +19,7 @@ pub struct ViewerScene {
     layers: Option<std::sync::Arc<SceneLayers>>,
     probes: Option<std::sync::Arc<sidecar::ProbeGrid>>,
     reflections: Option<std::sync::Arc<sidecar::ReflectionProbes>>,
+    caustics: Option<std::sync::Arc<sidecar::CausticPhotons>>,
     pixel_filter: PixelFilter,
     occluders: Option<std::sync::Arc<crate::occluders::SceneOccluders>>,
 }
@@ -86,6 +87,7 @@ impl ViewerScene {
             layers: None,
             probes: None,
             reflections: None,
+            caustics: None,
             pixel_filter: PixelFilter::BOX,
             occluders: None,
         })
@@ -135,6 +137,29 @@ impl ViewerScene {
 
     pub(crate) fn probes_arc(&self) -> Option<std::sync::Arc<sidecar::ProbeGrid>> {
         self.probes.clone()
+    }
+
+    /// Binds the renderer's caustic photons: live spheres then take from the image the caustic
+    /// light whose photons they block (docs/viewer.md). Refuses photons of another frame size.
+    pub fn set_caustics(&mut self, caustics: sidecar::CausticPhotons) -> Result<(), ViewerError> {
+        let (width, height) = self.size();
+        if (caustics.width, caustics.height) != (width, height) {
+            return Err(ViewerError::Unsupported(format!(
+                "caustic photons for {}x{}, the image is {width}x{height}",
+                caustics.width, caustics.height
+            )));
+        }
+        self.caustics = Some(std::sync::Arc::new(caustics));
+        Ok(())
+    }
+
+    /// The bound caustic photons, if any.
+    pub fn caustics(&self) -> Option<&sidecar::CausticPhotons> {
+        self.caustics.as_deref()
+    }
+
+    pub(crate) fn caustics_arc(&self) -> Option<std::sync::Arc<sidecar::CausticPhotons>> {
+        self.caustics.clone()
     }
 
     /// Binds the renderer's reflection probes: glossy live surfaces then reflect the scene's

@@ -126,7 +126,7 @@ impl Nearest {
 /// part of that disc on the surface. A disc that reaches past an edge (a wall meeting the floor,
 /// a box's side meeting its top) holds fewer photons than its area says: it grows to find its
 /// `k` photons, and the estimate would be dark along every edge without the cut.
-fn gather_photons(map: &KdTree<Photon>, q: &Query, nearest: &mut Nearest) -> (f32, f32) {
+pub(crate) fn gather_photons(map: &KdTree<Photon>, q: &Query, nearest: &mut Nearest) -> (f32, f32) {
     let r2 = nearest_on_surface(map, q, nearest);
     (r2, nearest.area_fraction(q, r2))
 }

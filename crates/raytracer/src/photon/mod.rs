@@ -30,6 +30,7 @@
 //! kd-trees are built deterministically, so an image depends only on the seed, never on the
 //! thread count.
 
+pub mod caustic_export;
 pub mod clip;
 pub mod cull;
 pub mod estimate;
@@ -109,6 +110,9 @@ pub struct PhotonMapSettings {
     pub passes: u32,
     /// `irradiancecache` and its parameters ([`irradiance_cache`]).
     pub irradiance_cache: irradiance_cache::IrradianceCacheSettings,
+    /// Keep the caustic photons' light paths for the sidecar's caustics file
+    /// ([`caustic_export`]); not a RIB parameter: set when the render writes a depth table.
+    pub caustic_paths: bool,
 }
 
 impl Default for PhotonMapSettings {
@@ -132,6 +136,7 @@ impl Default for PhotonMapSettings {
             alpha: progressive::DEFAULT_ALPHA,
             passes: progressive::DEFAULT_PASSES,
             irradiance_cache: irradiance_cache::IrradianceCacheSettings::default(),
+            caustic_paths: false,
         }
     }
 }
@@ -455,6 +460,8 @@ pub struct PhotonMapper {
     pass: u32,
     /// The radii of the first pass, which later passes shrink.
     first_radii: Option<progressive::Radii>,
+    /// With `caustic_paths`, the caustic map's photons in shooting order and their paths.
+    caustic_paths: Option<caustic_export::CausticPaths>,
 }
 
 impl PhotonMapper {
@@ -539,6 +546,7 @@ impl PhotonMapper {
             seed,
             pilot_paths: PILOT_PATHS,
             max_paths: 200 * u64::from(settings.caustic_photons.max(settings.indirect_photons)) + (1 << 20),
+            caustic_paths: settings.caustic_paths && !settings.progressive,
         };
         let shoot_start = Instant::now();
         let aim = (want_caustic && settings.caustic_aim)
@@ -598,6 +606,10 @@ impl PhotonMapper {
         let (_, scene_radius) = world.bounding_sphere();
         let max_dist_of =
             |m: &search_radius::Measured| search_radius::chosen(settings.max_dist, m, scene_radius);
+        let recorded = shot.caustic_vertices.len() == shot.caustic.len();
+        let caustic_paths = (request.caustic_paths && recorded && !shot.caustic.is_empty()).then(|| {
+            caustic_export::CausticPaths { photons: shot.caustic.clone(), vertices: shot.caustic_vertices }
+        });
         let (caustic, direct, indirect, fixed, first_radii, measured) = if settings.progressive {
             let photons = [shot.caustic, shot.direct, shot.indirect];
             let maps =
@@ -679,6 +691,7 @@ impl PhotonMapper {
             seed: render_seed,
             pass,
             first_radii,
+            caustic_paths,
         }
     }
 
@@ -758,6 +771,14 @@ impl Integrator for PhotonMapper {
 
     fn default_passes(&self) -> Option<u32> {
         self.settings.progressive.then_some(self.settings.passes)
+    }
+
+    fn caustic_photons(
+        &self,
+        world: &World,
+        rays: &crate::render::CameraRays,
+    ) -> Option<sidecar::CausticPhotons> {
+        PhotonMapper::caustic_photons(self, world, rays)
     }
 
     /// Drops this pass's grids before the next pass builds its own: nothing reads them again.

@@ -113,7 +113,7 @@ pub(super) fn facing_normal(si: &SurfaceInteraction) -> Vec3 {
 /// Hemispherical reflectance of the non-specular lobes, as a radiance photon's irradiance is
 /// turned into exitant radiance (`rho / pi * E`): exact for matte surfaces, the lobe's scale for
 /// glossy ones (pbrt-v2 does the same with a sampled albedo).
-fn non_specular_albedo(bsdf: &Bsdf) -> Vec3 {
+pub(super) fn non_specular_albedo(bsdf: &Bsdf) -> Vec3 {
     bsdf.lobes()
         .iter()
         .map(|l| match l {

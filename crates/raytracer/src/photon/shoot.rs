@@ -55,12 +55,18 @@ pub(crate) struct ShootRequest {
     pub pilot_paths: u64,
     /// No more paths than this, whatever the targets.
     pub max_paths: u64,
+    /// Keep each caustic photon's path vertices (for the sidecar's caustics file).
+    pub caustic_paths: bool,
 }
 
 /// The photons shot, with the number of paths each map's photons are normalised by.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ShootResult {
     pub caustic: Vec<Photon>,
+    /// With `ShootRequest::caustic_paths`, each caustic photon's path from the light: the
+    /// emission point and every specular vertex, in render space (the photon's own position
+    /// ends it).
+    pub caustic_vertices: Vec<Vec<Vec3>>,
     pub caustic_paths: u64,
     pub direct: Vec<Photon>,
     pub indirect: Vec<Photon>,
@@ -84,6 +90,8 @@ const CHUNK: u64 = 1024;
 #[derive(Default)]
 struct ChunkOut {
     photons: Vec<(u64, PhotonKind, Photon)>,
+    /// The path vertices of the chunk's caustic photons, in order, when requested.
+    caustic_vertices: Vec<Vec<Vec3>>,
     sites: Vec<(u64, RadianceSite)>,
     rays: u64,
 }
@@ -255,6 +263,7 @@ pub(crate) fn shoot(
             );
             ShootResult {
                 caustic: caustic.caustic,
+                caustic_vertices: caustic.caustic_vertices,
                 caustic_paths: caustic.caustic_paths,
                 caustic_abandoned: caustic.caustic_abandoned,
                 paths_traced: global.paths_traced + caustic.paths_traced,
@@ -303,10 +312,15 @@ fn shoot_pass(world: &World, emitters: &Emitters, request: &ShootRequest, aim: O
         let mut indirect_cut: Option<u64> = None;
         for out in &outs {
             result.rays += out.rays;
+            let mut vertices = out.caustic_vertices.iter();
             for &(path, kind, photon) in &out.photons {
+                let path_vertices = if kind == PhotonKind::Caustic { vertices.next() } else { None };
                 match kind {
                     PhotonKind::Caustic if caustic_open && caustic_cut.is_none_or(|c| path <= c) => {
                         result.caustic.push(photon);
+                        if let Some(v) = path_vertices {
+                            result.caustic_vertices.push(v.clone());
+                        }
                         if caustic_cut.is_none() && result.caustic.len() >= caustic_target {
                             caustic_cut = Some(path);
                         }
@@ -378,6 +392,7 @@ fn shoot_pass(world: &World, emitters: &Emitters, request: &ShootRequest, aim: O
     scale(&mut result.indirect, result.indirect_paths);
     if result.caustic_abandoned {
         result.caustic.clear();
+        result.caustic_vertices.clear();
     }
     if result.indirect_abandoned {
         result.direct.clear();
@@ -598,6 +613,8 @@ fn trace_path(
     let mut rng = Sampler::from_rng(Rng::new(mix64(seed ^ 0x7068_6f74_6f6e), path));
     let mut ray = Ray::new(origin, direction);
     let mut specular_path = true;
+    // The caustic path's vertices so far, kept only for the sidecar's caustics file.
+    let mut vertices = if request.caustic_paths && want_caustic { vec![origin] } else { Vec::new() };
     for depth in 0..request.max_depth {
         let mut rays = 0;
         let found = find_surface(world, ray, &mut rng, &mut rays);
@@ -633,6 +650,9 @@ fn trace_path(
             };
             if keep {
                 out.photons.push((path, kind, photon));
+                if kind == PhotonKind::Caustic && request.caustic_paths {
+                    out.caustic_vertices.push(vertices.clone());
+                }
             }
             if want_indirect && request.radiance_fraction > 0.0 && rng.uniform() < request.radiance_fraction {
                 out.sites.push((path, RadianceSite { p: si.p, n }));
@@ -664,6 +684,9 @@ fn trace_path(
             alpha = next;
         }
         specular_path &= bs.is_specular();
+        if specular_path && request.caustic_paths && want_caustic {
+            vertices.push(si.p);
+        }
         if !specular_path && !want_indirect {
             // Only the caustic map is still filling: this path can add nothing more to it.
             break;

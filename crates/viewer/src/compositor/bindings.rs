@@ -103,6 +103,8 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             // A moving frame's samples of the bounce light or the second bounce
             // (compositor/reduced_gather.rs).
             texture_entry(22, wgpu::ShaderStages::FRAGMENT),
+            // What live objects take from the caustics (caustic_shadow.rs).
+            texture_entry(30, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }

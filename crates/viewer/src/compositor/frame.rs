@@ -15,6 +15,7 @@ impl Compositor {
             self.ensure_points()?;
         }
         self.occluders.update_live(&self.gpu.queue, live, self.projection.camera().camera_from_world());
+        self.caustic_shadow.update(&self.gpu.queue, super::caustic_shadow::blocking_spheres(live));
         let mut uniform = self.frame_uniform(live);
         uniform.shadow_bounce = self.shadow_bounce_uniform(&uniform);
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));

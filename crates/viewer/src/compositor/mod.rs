@@ -5,6 +5,7 @@ mod antialias;
 mod backdrop_points;
 mod bindings;
 mod bounce;
+mod caustic_shadow;
 mod encode;
 mod frame;
 mod irradiance;
@@ -125,6 +126,8 @@ pub struct Compositor {
     reduced: reduced_gather::ReducedGather,
     /// Each pass's time, when frames are timed (`set_pass_timing`).
     pass_timing: pass_timing::PassTiming,
+    /// What the live spheres take from the caustics (binding 30).
+    caustic_shadow: caustic_shadow::CausticShadow,
 }
 
 /// The compositing shaders: one module from the files of its parts (WGSL has no includes).
@@ -318,6 +321,8 @@ impl Compositor {
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
+        let caustic_shadow =
+            caustic_shadow::CausticShadow::new(device, scene.caustics_arc(), (width, height));
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -379,6 +384,10 @@ impl Compositor {
                 wgpu::BindGroupEntry {
                     binding: 22,
                     resource: wgpu::BindingResource::TextureView(&reduced_grid.read_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 30,
+                    resource: wgpu::BindingResource::TextureView(&caustic_shadow.view()),
                 },
             ],
         });
@@ -694,6 +703,7 @@ impl Compositor {
             antialias_off,
             reduced,
             pass_timing: pass_timing::PassTiming::default(),
+            caustic_shadow,
         })
     }
 

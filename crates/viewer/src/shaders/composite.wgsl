@@ -121,6 +121,19 @@ struct AreaSamples {
 // The backdrop after the live objects' shadows (a copy of the frame before live objects are
 // drawn): with `backdrop_colour`, the light the shadows took from each pixel's surface.
 @group(0) @binding(11) var backdrop_shadowed: texture_2d<f32>;
+// The caustic light the live objects block, per pixel (caustic_shadow.rs); a 1x1 placeholder
+// without the renderer's caustic photons.
+@group(0) @binding(30) var caustic_loss: texture_2d<f32>;
+
+// The backdrop's colour less the caustic light live objects block: exactly `colour` where
+// they block none (x - 0 is x), and never below zero.
+fn caustic_removed(pixel: vec2<i32>, colour: vec4<f32>) -> vec4<f32> {
+    if textureDimensions(caustic_loss).x == 1u {
+        return colour;
+    }
+    let loss = textureLoad(caustic_loss, pixel, 0).rgb;
+    return vec4<f32>(colour.rgb - min(loss, max(colour.rgb, vec3<f32>(0.0))), colour.a);
+}
 
 struct MeshUniform {
     camera_from_object: mat4x4<f32>,
@@ -183,7 +196,7 @@ fn vs_fullscreen(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f
 fn fs_backdrop_fullscreen(@builtin(position) position: vec4<f32>) -> BackdropOut {
     let pixel = vec2<i32>(position.xy);
     var out: BackdropOut;
-    out.colour = textureLoad(backdrop_colour, pixel, 0);
+    out.colour = caustic_removed(pixel, textureLoad(backdrop_colour, pixel, 0));
     out.mask = vec4<f32>(0.0);
     out.depth = textureLoad(backdrop_window_depth, pixel, 0).r;
     return out;
@@ -212,7 +225,7 @@ fn vs_backdrop_points(@location(0) raster_depth: vec3<f32>, @location(1) colour:
 
 @fragment
 fn fs_backdrop_points(in: PointOut) -> BackdropOut {
-    return BackdropOut(in.colour, vec4<f32>(0.0), in.depth);
+    return BackdropOut(caustic_removed(vec2<i32>(in.position.xy), in.colour), vec4<f32>(0.0), in.depth);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -327,7 +327,7 @@ fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         if all(removed <= vec3<f32>(0.0)) {
             discard;
         }
-        let before = textureLoad(backdrop_colour, pixel, 0);
+        let before = caustic_removed(pixel, textureLoad(backdrop_colour, pixel, 0));
         return vec4<f32>(max(before.rgb - removed, vec3<f32>(0.0)), before.a);
     }
     let p = centre.xyz;
@@ -391,6 +391,6 @@ fn fs_shadow(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         }
     }
     let keep = 1.0 - frame.shadow_params.y * hidden;
-    let backdrop = textureLoad(backdrop_colour, pixel, 0);
+    let backdrop = caustic_removed(pixel, textureLoad(backdrop_colour, pixel, 0));
     return vec4<f32>(backdrop.rgb * keep, backdrop.a);
 }
