@@ -17,7 +17,6 @@ impl Compositor {
         self.occluders.update_live(&self.gpu.queue, live, self.projection.camera().camera_from_world());
         let mut uniform = self.frame_uniform(live);
         uniform.shadow_bounce = self.shadow_bounce_uniform(&uniform);
-        self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 
         let loss_map_rows = loss_map::mesh_rows(&uniform, live);
         // Meshes: register new ones, then one uniform slot per instance.
@@ -80,6 +79,16 @@ impl Compositor {
         let reduce = self.settings.amortise_while_moving && self.settings.reduce_while_moving;
         self.reduced.begin_frame(frame_key, reduce);
         let moving = self.reduced.moving();
+        // The uniform the shaders read: a moving frame whose radiosity maps are drawn (this
+        // frame, before the live objects) shades the cursor sphere, their row 0, from its map
+        // (composite.wgsl shade_cursor_sphere). The flag stays out of the keys above, so that
+        // the frame at rest after a move is known as such and shades the sphere exactly.
+        let bounce_rect = if keep_shadowed { self.bounce_scissor(&uniform) } else { None };
+        let mut written = uniform;
+        if moving && sphere && bounce_rect.is_some() && uniform.layer_info[3] >= 1 {
+            written.tone[1] = 1.0;
+        }
+        self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&written));
         // Timed frames (pass_timing.rs) draw the backdrop, its shadows and the live objects in
         // passes of their own, which gives the same pixels.
         let timing = &self.pass_timing;
@@ -127,7 +136,7 @@ impl Compositor {
             lap(&mut encoder, "second bounce: clusters");
             // The light the spheres reflect onto the scene, from their radiosity maps, which
             // read the loss maps (bounce.rs).
-            if let Some(rect) = self.bounce_scissor(&uniform) {
+            if let Some(rect) = bounce_rect {
                 self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
                 lap(&mut encoder, "radiosity maps");
                 if moving {
