@@ -3,7 +3,7 @@
 
 use super::lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
 use super::pass_timing::PassTime;
-use super::{CompositeMode, Compositor, loss_map};
+use super::{CompositeMode, Compositor, loss_map, reduced_gather};
 use crate::error::ViewerError;
 use crate::live::LiveObjects;
 use glam::{DMat3, Mat4};
@@ -88,7 +88,23 @@ impl Compositor {
         if moving && sphere && bounce_rect.is_some() && uniform.layer_info[3] >= 1 {
             written.tone[1] = 1.0;
         }
+        // A moving frame gathers the layered shadows at reduced resolution (reduced_gather.rs)
+        // after the backdrop's pass.
+        let shadows_reduced = (moving
+            && uniform.counts[1] == 1
+            && uniform.layer_info[0] == 1
+            && reduced_gather::shadows_fit(&uniform))
+        .then(|| self.shadow_scissor_all(&uniform))
+        .flatten();
+        self.reduced.shadows_reduced.set(shadows_reduced.is_some());
+        if shadows_reduced.is_some() {
+            written.tone[2] = 1.0;
+        }
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&written));
+        // The maps and reflections kept while their inputs stay (loss, radiosity, specular) are
+        // keyed with these flags too: what a moving frame drew of them from its approximate
+        // shadows or shading is drawn again at rest.
+        let keyed = written;
         // Timed frames (pass_timing.rs) draw the backdrop, its shadows and the live objects in
         // passes of their own, which gives the same pixels.
         let timing = &self.pass_timing;
@@ -98,7 +114,7 @@ impl Compositor {
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass);
-            if !at_rest && !timing.on {
+            if !at_rest && !timing.on && shadows_reduced.is_none() {
                 self.record_layered_shadows(&mut pass, &uniform);
             }
             if live_drawn && !keep_shadowed && !timing.on {
@@ -106,7 +122,10 @@ impl Compositor {
             }
         }
         lap(&mut encoder, "backdrop");
-        if timing.on && !at_rest {
+        if let Some(rect) = shadows_reduced {
+            self.record_shadows_reduced(&mut encoder, rect);
+            lap(&mut encoder, "layered shadows");
+        } else if timing.on && !at_rest {
             self.record_layered_shadows(&mut self.begin_frame_pass(&mut encoder, target, false), &uniform);
             lap(&mut encoder, "layered shadows");
         }
@@ -129,7 +148,7 @@ impl Compositor {
                 frame_extent,
             );
             lap(&mut encoder, "copy of the backdrop after shadows");
-            self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            self.record_loss_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
             lap(&mut encoder, "own-shadow loss maps");
             // What the shadows took, before the bounce light adds to the backdrop after them.
             self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);
@@ -137,7 +156,7 @@ impl Compositor {
             // The light the spheres reflect onto the scene, from their radiosity maps, which
             // read the loss maps (bounce.rs).
             if let Some(rect) = bounce_rect {
-                self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+                self.record_radiosity_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
                 lap(&mut encoder, "radiosity maps");
                 if moving {
                     self.record_bounce_reduced(&mut encoder, rect);
@@ -147,7 +166,7 @@ impl Compositor {
                 lap(&mut encoder, "bounce light");
             }
             // The spheres seen in mirrors and glass, after the bounce light they may reflect.
-            self.record_reflections(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            self.record_reflections(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
             lap(&mut encoder, "spheres in reflections");
             self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
             lap(&mut encoder, "second bounce: what each pixel loses");
