@@ -409,9 +409,11 @@ fn print_stats(
     eprintln!("shadows' second bounce: {}", compositor.shadow_bounce_summary());
     match (s.amortise_while_moving, s.reduce_while_moving) {
         (true, true) => eprintln!(
-            "while live objects move: the bounce light gathered at one pixel in {b}x{b}, the shadows' \
-             second bounce at one in {l}x{l}, spread along each surface; exact from the second frame \
-             at rest (--exact-while-moving: every frame exact)",
+            "while live objects move: the area lights' layered shadows gathered at one pixel in \
+             {s}x{s}, the bounce light at one in {b}x{b}, the shadows' second bounce at one in \
+             {l}x{l}, spread along each surface; the cursor sphere shaded from its radiosity map; \
+             exact from the second frame at rest (--exact-while-moving: every frame exact)",
+            s = viewer::compositor::MOVING_SHADOW_STRIDE,
             b = viewer::compositor::MOVING_BOUNCE_STRIDE,
             l = viewer::compositor::MOVING_LOSS_STRIDE
         ),

@@ -3,7 +3,7 @@
 
 use super::lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
 use super::pass_timing::PassTime;
-use super::{CompositeMode, Compositor, loss_map};
+use super::{CompositeMode, Compositor, loss_map, reduced_gather};
 use crate::error::ViewerError;
 use crate::live::LiveObjects;
 use glam::{DMat3, Mat4};
@@ -18,7 +18,6 @@ impl Compositor {
         self.caustic_shadow.update(&self.gpu.queue, super::caustic_shadow::blocking_spheres(live));
         let mut uniform = self.frame_uniform(live);
         uniform.shadow_bounce = self.shadow_bounce_uniform(&uniform);
-        self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
 
         let loss_map_rows = loss_map::mesh_rows(&uniform, live);
         // Meshes: register new ones, then one uniform slot per instance.
@@ -81,6 +80,32 @@ impl Compositor {
         let reduce = self.settings.amortise_while_moving && self.settings.reduce_while_moving;
         self.reduced.begin_frame(frame_key, reduce);
         let moving = self.reduced.moving();
+        // The uniform the shaders read: a moving frame whose radiosity maps are drawn (this
+        // frame, before the live objects) shades the cursor sphere, their row 0, from its map
+        // (composite.wgsl shade_cursor_sphere). The flag stays out of the keys above, so that
+        // the frame at rest after a move is known as such and shades the sphere exactly.
+        let bounce_rect = if keep_shadowed { self.bounce_scissor(&uniform) } else { None };
+        let mut written = uniform;
+        if moving && sphere && bounce_rect.is_some() && uniform.layer_info[3] >= 1 {
+            written.tone[1] = 1.0;
+        }
+        // A moving frame gathers the layered shadows at reduced resolution (reduced_gather.rs)
+        // after the backdrop's pass.
+        let shadows_reduced = (moving
+            && uniform.counts[1] == 1
+            && uniform.layer_info[0] == 1
+            && reduced_gather::shadows_fit(&uniform))
+        .then(|| self.shadow_scissor_all(&uniform))
+        .flatten();
+        self.reduced.shadows_reduced.set(shadows_reduced.is_some());
+        if shadows_reduced.is_some() {
+            written.tone[2] = 1.0;
+        }
+        self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&written));
+        // The maps and reflections kept while their inputs stay (loss, radiosity, specular) are
+        // keyed with these flags too: what a moving frame drew of them from its approximate
+        // shadows or shading is drawn again at rest.
+        let keyed = written;
         // Timed frames (pass_timing.rs) draw the backdrop, its shadows and the live objects in
         // passes of their own, which gives the same pixels.
         let timing = &self.pass_timing;
@@ -90,7 +115,7 @@ impl Compositor {
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass);
-            if !at_rest && !timing.on {
+            if !at_rest && !timing.on && shadows_reduced.is_none() {
                 self.record_layered_shadows(&mut pass, &uniform);
             }
             if live_drawn && !keep_shadowed && !timing.on {
@@ -98,7 +123,10 @@ impl Compositor {
             }
         }
         lap(&mut encoder, "backdrop");
-        if timing.on && !at_rest {
+        if let Some(rect) = shadows_reduced {
+            self.record_shadows_reduced(&mut encoder, rect);
+            lap(&mut encoder, "layered shadows");
+        } else if timing.on && !at_rest {
             self.record_layered_shadows(&mut self.begin_frame_pass(&mut encoder, target, false), &uniform);
             lap(&mut encoder, "layered shadows");
         }
@@ -121,15 +149,15 @@ impl Compositor {
                 frame_extent,
             );
             lap(&mut encoder, "copy of the backdrop after shadows");
-            self.record_loss_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            self.record_loss_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
             lap(&mut encoder, "own-shadow loss maps");
             // What the shadows took, before the bounce light adds to the backdrop after them.
             self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);
             lap(&mut encoder, "second bounce: clusters");
             // The light the spheres reflect onto the scene, from their radiosity maps, which
             // read the loss maps (bounce.rs).
-            if let Some(rect) = self.bounce_scissor(&uniform) {
-                self.record_radiosity_maps(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            if let Some(rect) = bounce_rect {
+                self.record_radiosity_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
                 lap(&mut encoder, "radiosity maps");
                 if moving {
                     self.record_bounce_reduced(&mut encoder, rect);
@@ -139,7 +167,7 @@ impl Compositor {
                 lap(&mut encoder, "bounce light");
             }
             // The spheres seen in mirrors and glass, after the bounce light they may reflect.
-            self.record_reflections(&mut encoder, &uniform, &loss_map_rows, &mesh_bytes);
+            self.record_reflections(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
             lap(&mut encoder, "spheres in reflections");
             self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
             lap(&mut encoder, "spheres seen through glass");

@@ -59,6 +59,8 @@ pub(super) struct FrameUniform {
     pub(super) clip_from_raster: [[f32; 4]; 4],
     pub(super) screen_window: [f32; 4],
     pub(super) raster: [f32; 4],
+    /// x: radiance to image units; y: 1 when a moving frame shades the cursor sphere from its
+    /// radiosity map (`frame.rs`, set only in the buffer the shaders read).
     pub(super) tone: [f32; 4],
     pub(super) counts: [u32; 4],
     pub(super) shadow_light: [f32; 4],

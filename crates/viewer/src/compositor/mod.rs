@@ -28,7 +28,10 @@ mod transmission;
 
 pub use pass_timing::{PassTime, process_cpu_time};
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
-pub use reduced_gather::{BOUNCE_STRIDE as MOVING_BOUNCE_STRIDE, LOSS_STRIDE as MOVING_LOSS_STRIDE};
+pub use reduced_gather::{
+    BOUNCE_STRIDE as MOVING_BOUNCE_STRIDE, LOSS_STRIDE as MOVING_LOSS_STRIDE,
+    SHADOW_STRIDE as MOVING_SHADOW_STRIDE,
+};
 pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,

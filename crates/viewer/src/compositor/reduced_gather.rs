@@ -1,5 +1,5 @@
-//! A moving frame's bounce light and shadows' second bounce, gathered at reduced resolution
-//! (`shaders/reduced_gather.wgsl`).
+//! A moving frame's layered shadows, bounce light and shadows' second bounce, gathered at
+//! reduced resolution (`shaders/reduced_gather.wgsl`).
 //!
 //! Both are a receiver's albedo times a function of its surface point and normal that varies
 //! smoothly along a surface (the light the spheres send it; what the shadowed surfaces no longer
@@ -15,6 +15,11 @@
 //! exact from its second frame on.
 
 use super::Compositor;
+use super::layers::NO_LAYER;
+use super::lighting::FrameUniform;
+
+/// The area light's kind in `GpuLight::position`'s w (composite.wgsl LIGHT_AREA).
+const LIGHT_AREA: f32 = 4.0;
 use super::overlay::{Overlay, fullscreen_vertex, offscreen_pipeline};
 use super::sphere_atlas::DrawnAndRead;
 
@@ -25,10 +30,21 @@ pub const BOUNCE_STRIDE: u32 = 4;
 /// bounce light, smooth, and gathered over the whole frame (256 clusters a sample: at 8, its
 /// samples cost 130 ms of CPU a frame in the Cornell box on lavapipe).
 pub const LOSS_STRIDE: u32 = 16;
-// The grid is sized for the finer stride, the bounce light's.
-const _: () = assert!(BOUNCE_STRIDE <= LOSS_STRIDE);
+/// The same for the layered shadows (REDUCED_SHADOW_STRIDE): the share of each area light they
+/// hide, soft but with kinks where the penumbra meets the umbra (at 4 the moving frame's relMSE
+/// over the pixels a sphere changes in `tests/moving_frames.rs` was 3.2e-3, at 2 1.1e-3).
+pub const SHADOW_STRIDE: u32 = 2;
+/// The most area lights whose layered shadows a moving frame gathers at reduced resolution
+/// (REDUCED_SHADOW_LIGHTS: a share each in the grid's colour, the occlusion of indirect light in
+/// its alpha). With more, or with a light with a layer that is no area light (hard shadows,
+/// whose edges a block would spread), or with layers that hold several lights, a moving frame
+/// draws the shadows in full.
+pub const SHADOW_LIGHTS: usize = 3;
+/// The finest stride, which the grid is sized for.
+const GRID_STRIDE: u32 = if SHADOW_STRIDE < BOUNCE_STRIDE { SHADOW_STRIDE } else { BOUNCE_STRIDE };
+const _: () = assert!(GRID_STRIDE <= LOSS_STRIDE);
 
-/// The grid of samples (binding 22), sized for the finer stride, and its pipelines.
+/// The grid of samples (binding 22), sized for the finest stride, and its pipelines.
 #[derive(Debug)]
 pub(super) struct ReducedGather {
     grid: DrawnAndRead,
@@ -36,10 +52,16 @@ pub(super) struct ReducedGather {
     bounce_spread: wgpu::RenderPipeline,
     loss_gather: wgpu::RenderPipeline,
     loss_spread: wgpu::RenderPipeline,
+    shadow_gather: wgpu::RenderPipeline,
+    shadow_spread: wgpu::RenderPipeline,
     /// The inputs of the frame before (empty before the first): a frame with others moves.
     last_frame: std::cell::RefCell<Vec<u8>>,
     /// Whether the frame being drawn moves (and amortises): set by [`ReducedGather::begin_frame`].
     moving: std::cell::Cell<bool>,
+    /// Whether the frame being drawn gathers the layered shadows at reduced resolution (then
+    /// what reads the backdrop after shadows and is kept, such as the second bounce's clusters,
+    /// is drawn again at rest).
+    pub(super) shadows_reduced: std::cell::Cell<bool>,
 }
 
 /// The grid's textures for a frame of `width` x `height`: made before the frame bind group.
@@ -48,7 +70,7 @@ pub(super) fn grid_textures(
     (width, height): (u32, u32),
     linear_format: wgpu::TextureFormat,
 ) -> DrawnAndRead {
-    let size = (width.div_ceil(BOUNCE_STRIDE), height.div_ceil(BOUNCE_STRIDE));
+    let size = (width.div_ceil(GRID_STRIDE), height.div_ceil(GRID_STRIDE));
     DrawnAndRead::new(device, "reduced gather", linear_format, size)
 }
 
@@ -81,9 +103,18 @@ impl ReducedGather {
                 "fs_loss_spread",
                 super::shadow_bounce::TAKEN_FORMAT,
             ),
+            shadow_gather: alone("layered shadows, reduced", "fs_shadow_gather", linear_format),
+            shadow_spread: overlay.pipeline(
+                device,
+                "layered shadows, spread",
+                frame_only,
+                vertex.clone(),
+                "fs_shadow_spread",
+            ),
             grid,
             last_frame: Default::default(),
             moving: Default::default(),
+            shadows_reduced: Default::default(),
         }
     }
 
@@ -109,6 +140,17 @@ fn grid_rect([x, y, w, h]: [u32; 4], stride: u32, grid: (u32, u32)) -> [u32; 4] 
     let x1 = ((x + w) / stride + 2).min(grid.0);
     let y1 = ((y + h) / stride + 2).min(grid.1);
     [x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)]
+}
+
+/// Whether a moving frame can gather the layered shadows of `uniform` at reduced resolution:
+/// each layer holds one light, and the lights with a layer are one to [`SHADOW_LIGHTS`] area
+/// lights.
+pub(super) fn shadows_fit(uniform: &FrameUniform) -> bool {
+    let lights = (uniform.counts[0] as usize).min(uniform.shadow_slots.len());
+    let layered: Vec<usize> = (0..lights).filter(|&i| uniform.shadow_slots[i][0] != NO_LAYER).collect();
+    uniform.shadow_params[2] < 0.5
+        && (1..=SHADOW_LIGHTS).contains(&layered.len())
+        && layered.iter().all(|&i| uniform.lights[i].position[3] == LIGHT_AREA)
 }
 
 impl Compositor {
@@ -156,6 +198,21 @@ impl Compositor {
         self.copy_to_shadowed(encoder, rect);
     }
 
+    /// The layered shadows of a moving frame within `rect` (`Compositor::shadow_scissor_all`):
+    /// the share of each light the live objects hide and their occlusion of indirect light
+    /// gathered on the grid, then the backdrop (drawn before, in the frame) darkened by them
+    /// through each pixel's own layers.
+    pub(super) fn record_shadows_reduced(&self, encoder: &mut wgpu::CommandEncoder, rect: [u32; 4]) {
+        let reduced = &self.reduced;
+        let gather = (&reduced.shadow_gather, "layered shadows: samples (moving)");
+        self.record_grid(encoder, gather, SHADOW_STRIDE, rect);
+        let [x, y, w, h] = rect;
+        let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+        pass.set_scissor_rect(x, y, w, h);
+        pass.set_pipeline(&reduced.shadow_spread);
+        pass.draw(0..3, 0..1);
+    }
+
     /// What each pixel of the whole frame loses to the second bounce, gathered on the grid and
     /// spread into `taken` (drawn, then copied where the removing pass reads it).
     pub(super) fn record_loss_reduced(&self, encoder: &mut wgpu::CommandEncoder, taken: &DrawnAndRead) {
@@ -176,7 +233,7 @@ impl Compositor {
 
 #[cfg(test)]
 mod tests {
-    use super::{BOUNCE_STRIDE, LOSS_STRIDE, grid_rect};
+    use super::{BOUNCE_STRIDE, LOSS_STRIDE, SHADOW_LIGHTS, SHADOW_STRIDE, grid_rect};
 
     /// The shader's strides are the ones the grid's passes are sized and scissored for.
     #[test]
@@ -185,6 +242,8 @@ mod tests {
         for line in [
             format!("const REDUCED_BOUNCE_STRIDE: i32 = {BOUNCE_STRIDE};"),
             format!("const REDUCED_LOSS_STRIDE: i32 = {LOSS_STRIDE};"),
+            format!("const REDUCED_SHADOW_STRIDE: i32 = {SHADOW_STRIDE};"),
+            format!("const REDUCED_SHADOW_LIGHTS: u32 = {SHADOW_LIGHTS}u;"),
         ] {
             assert!(wgsl.lines().any(|l| l == line), "reduced_gather.wgsl lacks `{line}`");
         }

@@ -118,6 +118,8 @@ pub(super) struct ShadowBounce {
     drawn_from: super::DrawnFrom,
     /// Which bands of the loss were drawn from them.
     bands: TakenBands,
+    /// Whether the clusters were last drawn from a moving frame's reduced shadows.
+    clusters_from_reduced_shadows: std::cell::Cell<bool>,
 }
 
 /// What the pipelines are built from.
@@ -158,6 +160,7 @@ impl ShadowBounce {
             apply_pipeline,
             drawn_from: super::DrawnFrom::default(),
             bands: TakenBands::default(),
+            clusters_from_reduced_shadows: Default::default(),
         }
     }
 }
@@ -266,9 +269,12 @@ impl Compositor {
         if uniform.shadow_bounce[0] != 1 {
             return;
         }
-        if bounce.drawn_from.is_current(uniform, mesh_bytes) {
+        // Clusters drawn from a moving frame's reduced shadows are drawn again.
+        let approximate = bounce.clusters_from_reduced_shadows.get();
+        if bounce.drawn_from.is_current(uniform, mesh_bytes) && !approximate {
             return;
         }
+        bounce.clusters_from_reduced_shadows.set(self.reduced.shadows_reduced.get());
         // The fine rows from the pixels, then the coarse rows from the copy of the fine ones.
         let clusters = &bounce.textures.clusters;
         for (load, [x, y, w, h]) in [

@@ -45,7 +45,8 @@ struct Frame {
     screen_window: vec4<f32>,
     // width, height, tan(fov / 2) (0 when orthographic), 1 when perspective.
     raster: vec4<f32>,
-    // x: scale from radiance to the image's units (Exposure's gain, which lrt-depth applies).
+    // x: scale from radiance to the image's units (Exposure's gain, which lrt-depth applies);
+    // y: 1 in a moving frame whose cursor sphere is shaded from its radiosity map (shade_moving).
     tone: vec4<f32>,
     // light count, shadow on, sphere on, irradiance probes on.
     counts: vec4<u32>,
@@ -634,6 +635,11 @@ struct DirectLight {
 }
 
 fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_specular: bool) -> DirectLight {
+    return direct_light_with(p, n, v, exponent, with_specular, true);
+}
+
+// direct_light, with the scene's shadow rays (`shadowed`) or without (every light reaching p).
+fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_specular: bool, shadowed: bool) -> DirectLight {
     var ambient = vec3<f32>(0.0);
     var diffuse = vec3<f32>(0.0);
     var specular = vec3<f32>(0.0);
@@ -652,12 +658,15 @@ fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_sp
             let sample_count = min(slot.z, MAX_AREA_SAMPLES);
             // The radiance each sample carries (compositor/lighting.rs).
             let radiance = light.params.rgb;
-            let clear = scene_clear_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
+            var clear = 1.0;
+            if shadowed {
+                clear = scene_clear_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
+            }
             for (var i = 0u; i < sample_count; i++) {
                 let s = area_sample_toward(slot.y + i, p);
                 let l = s.l;
                 let n_dot_l = dot(n, l);
-                if n_dot_l <= 0.0 || s.cos_e <= 0.0 || !scene_lets_light(p, n, l, sqrt(s.dist2), clear) {
+                if n_dot_l <= 0.0 || s.cos_e <= 0.0 || (shadowed && !scene_lets_light(p, n, l, sqrt(s.dist2), clear)) {
                     continue;
                 }
                 let e = radiance * (s.weight * s.cos_e / s.dist2);
@@ -672,7 +681,7 @@ fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_sp
         let l = toward.l;
         let e = toward.e;
         let n_dot_l = dot(n, l);
-        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || !scene_lets_light(p, n, l, toward.distance, 0.0) {
+        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || (shadowed && !scene_lets_light(p, n, l, toward.distance, 0.0)) {
             continue;
         }
         diffuse += e * n_dot_l;
@@ -711,6 +720,24 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
 }
 
 fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    return shade_with(material, p, n_in, view_dir, false);
+}
+
+// The cursor sphere's radiance at p (unit outward normal n) seen along view_dir: in a moving
+// frame whose radiosity maps hold it (frame.tone.y, compositor/frame.rs) and seen from outside,
+// from its map (shade_with's `from_map`), else exactly.
+fn shade_cursor_sphere(p: vec3<f32>, n: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    let from_map = frame.tone.y > 0.5 && dot(n, view_dir) < 0.0;
+    return shade_with(frame.sphere_material, p, n, view_dir, from_map);
+}
+
+// shade. With `from_map` (a moving frame: the cursor sphere, row 0 of the radiosity maps, seen
+// from outside) the costliest terms come from the sphere's radiosity map, drawn this frame by
+// the same diffuse_radiance: its diffuse and ambient radiance (bilinear between the map's
+// texels), and its lights' highlights integrated without the scene's shadow rays, scaled by
+// the share of the lights' light the scene lets reach p (the map's alpha); the reflection
+// probes' part is as shade's.
+fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, from_map: bool) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
@@ -724,19 +751,29 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
     // The reflection probes hold the scene's radiance without the lights' emission (the bake
     // leaves the emitters it sees directly out): every light's glossy reflection is added here.
     let reflections = frame.reflection_origin.w > 0.5 && ks != 0.0;
-    let lit = direct_light(p, n, v, exponent, true);
+    var map = vec4<f32>(0.0);
+    if from_map {
+        map = radiosity_lookup(0u, n);
+    }
+    // From the map, only the highlights need the lights.
+    var lit = DirectLight(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    if !from_map || ks != 0.0 {
+        lit = direct_light_with(p, n, v, exponent, true, !from_map);
+    }
     var diffuse = lit.diffuse;
-    var specular = lit.specular;
+    var specular = lit.specular * select(1.0, map.a, from_map);
     // The probes saw the scene before the live objects' shadows took light from it.
     var loss = ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
-    if frame.counts.y == 1u && (frame.counts.w == 1u || reflections) {
+    if frame.counts.y == 1u && ((frame.counts.w == 1u && !from_map) || reflections) {
         loss = own_shadow_loss(p, n, v, exponent);
         let to_radiance = 1.0 / max(frame.tone.x, 1e-30);
         loss = ShadowLoss(loss.irradiance * to_radiance, loss.glossy * to_radiance);
     }
     // With the renderer's irradiance probes, the scene's indirect light at this fragment
     // (compositor/irradiance.rs) joins the lights', less what the shadows took.
-    diffuse += probe_irradiance(p, n, loss.irradiance);
+    if !from_map {
+        diffuse += probe_irradiance(p, n, loss.irradiance);
+    }
     // With the reflection probes, the scene's radiance averaged over the lobe's own directions
     // times the lobe's albedo, less what the shadows took.
     if reflections {
@@ -747,8 +784,13 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
             * glossy_reflection(p_world, n_world, v_world, exponent);
         specular += max(reflected - loss.glossy, vec3<f32>(0.0));
     }
+    let glossy = material.specular_colour.rgb * ks * specular;
+    if from_map {
+        // The map's diffuse_radiance: the ambient, the lights' and the probes' diffuse terms.
+        return map.rgb + glossy;
+    }
     let cs = material.colour.rgb;
-    return cs * (ka * lit.ambient + kd / PI * diffuse) + material.specular_colour.rgb * ks * specular;
+    return cs * (ka * lit.ambient + kd / PI * diffuse) + glossy;
 }
 
 // Radiance in the image's own units, into the linear frame (the encode pass displays it).
@@ -848,7 +890,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
     loss_map_row = 0;
     var out: LiveOut;
-    out.colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(position.xy).direction));
+    out.colour = to_image_units(shade_cursor_sphere(p, n, ray_through_raster(position.xy).direction));
     out.mask = vec4<f32>(1.0);
     out.depth = hit.w;
     return out;

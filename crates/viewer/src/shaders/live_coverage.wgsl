@@ -138,7 +138,7 @@ fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
     loss_map_row = 0;
-    let colour = to_image_units(shade(frame.sphere_material, p, n, ray_through_raster(raster).direction));
+    let colour = to_image_units(shade_cursor_sphere(p, n, ray_through_raster(raster).direction));
     return CoverageOut(coverage_colour(colour), hit.w, samples);
 }
 

@@ -220,8 +220,7 @@ fn hidden_share(i: u32, pixel: vec2<i32>, p: vec3<f32>, n: vec3<f32>) -> vec2<f3
 // the sphere's occlusion of indirect light (cosine-weighted solid angle, (r/d)^2 cos) of the
 // indirect layer, both in the image's units.
 fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
-    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
-    let n = select(vec3<f32>(0.0), normalize(n_raw), dot(n_raw, n_raw) > 1e-12);
+    let n = layer_normal(pixel);
     var removed = vec3<f32>(0.0);
     if frame.shadow_params.z < 0.5 {
         // Every layer holds one light (the usual case): its own share, no bookkeeping.
@@ -238,6 +237,18 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
     } else {
         removed = shared_layer_shadow(pixel, p, n);
     }
+    return (removed + indirect_occlusion(p, n) * occludable_indirect(pixel)) * frame.tone.x;
+}
+
+// The unit normal the light layers hold at `pixel` (zero where they hold none).
+fn layer_normal(pixel: vec2<i32>) -> vec3<f32> {
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    return select(vec3<f32>(0.0), normalize(n_raw), dot(n_raw, n_raw) > 1e-12);
+}
+
+// The indirect light at `pixel` that the spheres' occlusion hides (indirect_occlusion's share
+// of it), in the layers' units.
+fn occludable_indirect(pixel: vec2<i32>) -> vec3<f32> {
     // A specular reflection's light is not hidden evenly: the reflection pass traces its one
     // direction (specular.wgsl, fs_reflection), so only the rest of the indirect light is. A
     // surface with a glossy lobe and no diffuse one (metal) has its lobe traced there too
@@ -257,7 +268,7 @@ fn layered_shadow(pixel: vec2<i32>, p: vec3<f32>) -> vec3<f32> {
             indirect = vec3<f32>(0.0);
         }
     }
-    return (removed + indirect_occlusion(p, n) * indirect) * frame.tone.x;
+    return indirect;
 }
 
 // Layers that hold several lights (scenes with more than 16): each light's share weighted by
