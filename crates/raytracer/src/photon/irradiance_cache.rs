@@ -21,7 +21,8 @@
 //! gather runs as without the cache. Surfaces with a glossy lobe (plastic, metal) and those seen
 //! only through specular surfaces keep the per-sample gather.
 
-use super::{PhotonMapper, bool_param, int_param};
+use super::PhotonMapper;
+use super::settings::{bool_param, int_param};
 use crate::bsdf::{Bsdf, Lobe};
 use crate::integrators::{RayCounters, ViewContext, find_surface_or_escape};
 use crate::sampler::PixelSampler;
