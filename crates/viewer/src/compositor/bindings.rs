@@ -4,6 +4,26 @@
 //! shadow-ray hierarchies' nodes and triangles, the own-shadow loss maps, the radiosity maps, the clusters of what the shadows took, what each pixel loses to them, and a moving frame's
 //! samples of the bounce light or that loss.
 
+/// A texture the CPU fills (`COPY_DST`) and the shaders read, of one mip level: the light
+/// layers, the transmission layers, the caustic loss.
+pub(super) fn input_texture(
+    device: &wgpu::Device,
+    label: &str,
+    size: wgpu::Extent3d,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    })
+}
+
 /// A layout entry for a float texture the shaders read.
 pub(super) fn texture_layout_entry(
     binding: u32,

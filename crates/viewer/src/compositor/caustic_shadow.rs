@@ -61,16 +61,12 @@ impl CausticShadow {
             .filter(|c| (c.width, c.height) == (width, height))
             .and_then(|c| PixelGrid::new(&c).map(|grid| (c, grid)));
         let (w, h) = if caustics.is_some() { (width, height) } else { (1, 1) };
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("caustic loss"),
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = super::bindings::input_texture(
+            device,
+            "caustic loss",
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            wgpu::TextureFormat::Rgba32Float,
+        );
         CausticShadow { caustics, texture, spheres: None, holds_loss: false }
     }
 

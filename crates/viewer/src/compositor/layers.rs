@@ -142,16 +142,12 @@ pub(super) fn upload(
     }
     let (w, h) = if layers.is_some() { (width, height) } else { (1, 1) };
     let count = slices.len().max(2) as u32;
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("light layers"),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: count },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba16Float,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+    let texture = super::bindings::input_texture(
+        device,
+        "light layers",
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: count },
+        wgpu::TextureFormat::Rgba16Float,
+    );
     for (z, slice) in slices.iter().enumerate() {
         let texels: Vec<u16> = slice
             .iter()

@@ -86,16 +86,12 @@ impl Transmission {
         let (slices, rect) = exit_ray_slices(layers, projection)?;
         let device = &gpu.device;
         let (width, height) = (layers.width, layers.height);
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("transmission layers"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: slices.len() as u32 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = super::bindings::input_texture(
+            device,
+            "transmission layers",
+            wgpu::Extent3d { width, height, depth_or_array_layers: slices.len() as u32 },
+            wgpu::TextureFormat::Rgba32Float,
+        );
         for (z, slice) in slices.iter().enumerate() {
             gpu.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {

@@ -15,6 +15,29 @@ const OCCLUDER_STACK: u32 = 40u;
 // that edges shared by two triangles leak no light.
 const EDGE_SLACK: f32 = 1e-5;
 
+// Where the ray from `origin` along unit `dir` meets occluder triangle i (Moeller-Trumbore, its
+// edges widened by EDGE_SLACK), NO_TRIANGLE_HIT where it does not.
+const NO_TRIANGLE_HIT: f32 = -3.0e38;
+fn occluder_triangle_t(i: u32, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let v0 = occluder_triangles[3u * i].xyz;
+    let e1 = occluder_triangles[3u * i + 1u].xyz;
+    let e2 = occluder_triangles[3u * i + 2u].xyz;
+    let pv = cross(dir, e2);
+    let det = dot(e1, pv);
+    if det == 0.0 {
+        return NO_TRIANGLE_HIT;
+    }
+    let inv_det = 1.0 / det;
+    let tv = origin - v0;
+    let u = dot(tv, pv) * inv_det;
+    let qv = cross(tv, e1);
+    let v = dot(dir, qv) * inv_det;
+    if u < -EDGE_SLACK || v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
+        return NO_TRIANGLE_HIT;
+    }
+    return dot(e2, qv) * inv_det;
+}
+
 // Whether a triangle of hierarchy `bvh` (first node, first triangle, node count) blocks the
 // segment from `origin` along unit `dir` between t_min and t_max.
 fn bvh_blocks(bvh: vec4<u32>, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> bool {
@@ -51,23 +74,7 @@ fn bvh_blocks(bvh: vec4<u32>, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_m
             continue;
         }
         for (var i = bvh.y + a; i < bvh.y + a + count; i++) {
-            let v0 = occluder_triangles[3u * i].xyz;
-            let e1 = occluder_triangles[3u * i + 1u].xyz;
-            let e2 = occluder_triangles[3u * i + 2u].xyz;
-            let pv = cross(dir, e2);
-            let det = dot(e1, pv);
-            if det == 0.0 {
-                continue;
-            }
-            let inv_det = 1.0 / det;
-            let tv = origin - v0;
-            let u = dot(tv, pv) * inv_det;
-            let qv = cross(tv, e1);
-            let v = dot(dir, qv) * inv_det;
-            if u < -EDGE_SLACK || v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
-                continue;
-            }
-            let t = dot(e2, qv) * inv_det;
+            let t = occluder_triangle_t(i, origin, dir);
             if t > t_min && t < t_max {
                 return true;
             }

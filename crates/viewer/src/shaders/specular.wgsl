@@ -308,26 +308,10 @@ fn scene_first_hit(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> vec4<f32> {
             continue;
         }
         for (var i = bvh.y + a; i < bvh.y + a + count; i++) {
-            let v0 = occluder_triangles[3u * i].xyz;
-            let e1 = occluder_triangles[3u * i + 1u].xyz;
-            let e2 = occluder_triangles[3u * i + 2u].xyz;
-            let pv = cross(dir, e2);
-            let det = dot(e1, pv);
-            if det == 0.0 {
-                continue;
-            }
-            let inv_det = 1.0 / det;
-            let tv = origin - v0;
-            let u = dot(tv, pv) * inv_det;
-            let qv = cross(tv, e1);
-            let v = dot(dir, qv) * inv_det;
-            if u < -EDGE_SLACK || v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
-                continue;
-            }
-            let t = dot(e2, qv) * inv_det;
+            let t = occluder_triangle_t(i, origin, dir);
             if t > 0.0 && t < t_far {
                 t_far = t;
-                let g = normalize(cross(e1, e2));
+                let g = normalize(cross(occluder_triangles[3u * i + 1u].xyz, occluder_triangles[3u * i + 2u].xyz));
                 best = vec4<f32>(select(g, -g, dot(g, dir) > 0.0), t);
             }
         }
