@@ -46,7 +46,8 @@ fn to_the_walls(o: DVec3, d: DVec3) -> f64 {
 /// An exit ray: origin, unit direction, distance to the box's walls.
 type ExitRay = (DVec3, DVec3, f64);
 
-/// The Cornell camera and depth with a flat backdrop of `LEVEL` and no lights; the pixels whose
+/// The Cornell camera and depth with a flat backdrop of `LEVEL`, no lights and a uniform probe
+/// field; the pixels whose
 /// camera ray meets the glass sphere transmit `TRANSMITTANCE`, and all their light (`LEVEL`)
 /// came through the glass (`transmitted` and `indirect`). Returns each pixel's exit ray.
 fn glass_scene() -> (ViewerScene, Vec<Option<ExitRay>>) {
@@ -76,6 +77,9 @@ fn glass_scene() -> (ViewerScene, Vec<Option<ExitRay>>) {
         }
     }
     s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
+    // All the scene's light is indirect, from a uniform surround, so the share of it a sphere
+    // takes from a surface is its occlusion of indirect light there.
+    s.set_probes(uniform_probe([LEVEL; 3]));
     (s, exits)
 }
 
