@@ -6,9 +6,12 @@
 // reflection): the render's `reflected` layer is the radiance that reflection brought at the
 // primary hit, weighted by its `reflectance`; where the mirror direction from the pixel's
 // surface point meets a sphere first (and the scene lets it see the sphere), that light is
-// hidden and the sphere's own radiance toward the pixel, times the reflectance, is seen instead.
-// One ray per pixel, through its centre. Drawn once per sphere (its material bound in group 1,
-// its row as the instance): a pixel changes only in the draw of the sphere its ray meets first.
+// hidden and the sphere's own radiance toward the pixel, times the reflectance, is seen instead;
+// where it meets none, the reflectance times what the live objects changed on the surface it
+// meets (seen_surface_change: their shadows, bounce light and occlusion) is added. One ray per
+// pixel, through its centre. Drawn once per sphere (its material bound in group 1, its row as
+// the instance): a pixel changes only in the draw of the sphere its ray meets first, or in the
+// first draw when it meets none.
 struct ReflectionOut {
     @builtin(position) position: vec4<f32>,
     @location(0) @interpolate(flat) row: u32,
