@@ -46,12 +46,23 @@ fn to_the_walls(o: DVec3, d: DVec3) -> f64 {
 /// An exit ray: origin, unit direction, distance to the box's walls.
 type ExitRay = (DVec3, DVec3, f64);
 
-/// The Cornell camera and depth with a flat backdrop of `LEVEL` and no lights; the pixels whose
+/// The Cornell camera and depth with a flat backdrop of `LEVEL`, no lights and a uniform probe
+/// field; the pixels whose
 /// camera ray meets the glass sphere transmit `TRANSMITTANCE`, and all their light (`LEVEL`)
 /// came through the glass (`transmitted` and `indirect`). Returns each pixel's exit ray.
 fn glass_scene() -> (ViewerScene, Vec<Option<ExitRay>>) {
+    let (mut s, exits) = glass_scene_lit_by(vec![]);
+    // All the scene's light is indirect, from a uniform surround, so the share of it a sphere
+    // takes from a surface is its occlusion of indirect light there.
+    s.set_probes(uniform_probe([LEVEL; 3]));
+    (s, exits)
+}
+
+/// `glass_scene` lit by `lights` (their light in no layer) and without probes.
+fn glass_scene_lit_by(lights: Vec<viewer::LiveLight>) -> (ViewerScene, Vec<Option<ExitRay>>) {
     let (w, h) = (512u32, 512u32);
-    let mut s = flat_cornell(LEVEL, vec![]);
+    let unlayered = vec![None; lights.len()];
+    let mut s = flat_cornell(LEVEL, lights);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
     let camera = s.camera().clone();
@@ -75,7 +86,8 @@ fn glass_scene() -> (ViewerScene, Vec<Option<ExitRay>>) {
             layers.transmission_distance[k] = [distance as f32; 3];
         }
     }
-    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
+    let area_samples = vec![vec![]; unlayered.len()];
+    s.set_light_layers(SceneLayers { layers, layer_of_light: unlayered, area_samples }).unwrap();
     (s, exits)
 }
 
@@ -163,4 +175,44 @@ fn a_glass_sphere_shows_the_sphere_behind_it() {
     assert!(c.read_back_linear().unwrap().rgba == linear, "a frame after a move differs from a fresh one");
     c.render(&live).unwrap();
     assert!(c.read_back_linear().unwrap().rgba == linear, "a still frame differs from the first");
+}
+
+/// A point light before the box and an unlit sphere between the glass sphere and the back wall,
+/// no probes: every glass pixel whose exit ray meets no sphere shows `LEVEL`, or nothing where
+/// the sphere hides the light from the surface the exit ray meets (an f64 segment-sphere test
+/// from that point toward the light: its light is all the point light's). Per pixel within
+/// 1e-3 but on the shadow's edge (at most 4 % of the shadowed pixels); before the pass took the
+/// shadow there, it took only the sphere's occlusion of indirect light.
+#[test]
+fn glass_shows_the_shadow_a_sphere_casts_behind_it() {
+    let light = DVec3::new(0.95, -0.1, -0.3);
+    let point = viewer::LiveLight::Point { position: light, colour: Vec3::ONE };
+    let (s, exits) = glass_scene_lit_by(vec![point]);
+    let (centre, radius) = (DVec3::new(0.5, -0.2, -0.75), 0.2);
+    let (linear, mask) = render(&s, &unlit(centre, radius));
+    let (mut shadowed, mut lit, mut wrong) = (0, 0, 0);
+    for (k, exit) in exits.iter().enumerate() {
+        let Some((o, d, distance)) = *exit else { continue };
+        if next_to_mask(&mask, 512, k) || ray_sphere(o, d, centre, radius).is_some_and(|t| t < distance) {
+            continue;
+        }
+        let x = o + distance * d;
+        let to_light = light - x;
+        if (-d).dot(to_light) <= 0.0 {
+            continue;
+        }
+        let blocked =
+            ray_sphere(x, to_light.normalize(), centre, radius).is_some_and(|t| t < to_light.length());
+        let want = if blocked { 0.0 } else { LEVEL };
+        if blocked {
+            shadowed += 1;
+        } else {
+            lit += 1;
+        }
+        if (linear[4 * k] - want).abs() > 1e-3 {
+            wrong += 1;
+        }
+    }
+    assert!(shadowed > 300 && lit > 300, "{shadowed} glass pixels see the shadow, {lit} the lit walls");
+    assert!(wrong * 25 <= shadowed, "{wrong} glass pixels off, {shadowed} seeing the shadow");
 }

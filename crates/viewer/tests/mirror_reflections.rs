@@ -60,8 +60,9 @@ fn render(scene: &ViewerScene, live: &LiveObjects, mode: CompositeMode) -> (Vec<
 /// A white matte sphere above a mirror floor, lit by a uniform probe field of radiance `L` (so
 /// its radiance is `L` everywhere): every floor pixel whose mirror direction meets the sphere
 /// (an f64 ray test from the pixel's surface point) shows `REFLECTANCE L`, every other floor
-/// pixel keeps `LEVEL` exactly (the sphere's occlusion of indirect light leaves a specular
-/// reflection's light to the traced direction); at most 2 % of the pixels may disagree about
+/// pixel keeps at least `LEVEL` (the sphere's occlusion of indirect light leaves a specular
+/// reflection's light to the traced direction, and what that direction sees gains only the
+/// sphere's bounce light); at most 2 % of the pixels may disagree about
 /// the hit (the reflection's silhouette, where f32 and f64 rays part). Both compositing modes
 /// give the same colour, and so do a still frame and a frame after a move.
 #[test]
@@ -85,7 +86,9 @@ fn a_mirror_floor_shows_the_sphere_it_reflects() {
             let got = linear[4 * k];
             let hit = ray_sphere(p, dir, centre, radius).is_some();
             let shows_sphere = (got - REFLECTANCE * l).abs() <= 2e-3;
-            let keeps_level = got == LEVEL;
+            // The mirror also sees the sphere's bounce light on the walls, and nothing there
+            // loses light (no lights; the walls' indirect light is not in the layers).
+            let keeps_level = got >= LEVEL;
             assert!(shows_sphere || keeps_level, "floor pixel ({i}, {j}): {got}");
             if hit != shows_sphere {
                 disagree += 1;
@@ -110,4 +113,99 @@ fn a_mirror_floor_shows_the_sphere_it_reflects() {
     assert!(c.read_back_linear().unwrap().rgba == linear, "a frame after a move differs from a fresh one");
     c.render(&live).unwrap();
     assert!(c.read_back_linear().unwrap().rgba == linear, "a still frame differs from the first");
+}
+
+/// Whether world point `x` lies in front of the surface the Cornell depth table sees along its
+/// pixel's ray (in the box's free space: nothing the eye sees is nearer), and whether it lies on
+/// that surface (within `1e-3`): what the depth table says of a point, without the viewer.
+fn against_the_depth(s: &ViewerScene, x: DVec3) -> (bool, bool) {
+    let raster = raster_of(s.camera(), x);
+    if raster.x < 0.0 || raster.y < 0.0 || raster.x >= 512.0 || raster.y >= 512.0 {
+        return (false, false);
+    }
+    let (i, j) = (raster.x as u32, raster.y as u32);
+    let Some(r) = s.depth().get(i, j).filter(|r| r.is_finite()) else { return (false, false) };
+    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
+    let d = (x - eye).length();
+    let ray = s.camera().pixel_centre_ray(i, j);
+    let seen = s.camera().world_from_camera().transform_point3(ray.origin + ray.direction * f64::from(r));
+    (d < (seen - eye).length() - 1e-3, (seen - eye).length() - d < 1e-2 && (x.z - seen.z).abs() < 1e-3)
+}
+
+/// A mirror floor reflecting the back wall in a black sphere's shadow from a point light: a
+/// floor pixel whose mirror direction meets the back wall (f64; only where the depth table sees
+/// that wall point and the whole segment to it lies in front of what the eye sees, so that the
+/// box's blocks hide neither) and no sphere shows `LEVEL` less the reflectance times the point
+/// light's light that the sphere takes from that wall point (the wall's light is all the point
+/// light's: an f64 segment-sphere test toward the light). The sphere is black, so it sends the
+/// wall no bounce light. Per pixel within 1e-3 but on the shadow's edge (the wall pixel's
+/// footprint against one f64 point: at most 4 % of the shadowed pixels); before the pass
+/// showed the shadow, the floor kept `LEVEL` everywhere.
+#[test]
+fn a_mirror_floor_shows_the_shadow_a_sphere_casts_on_the_wall() {
+    let (w, h) = (512u32, 512u32);
+    let light = DVec3::new(-0.95, 0.3, 0.9);
+    let (centre, radius) = (DVec3::new(-0.82, -0.5, -0.45), 0.18);
+    let point = viewer::LiveLight::Point { position: light, colour: Vec3::ONE };
+    let mut s = flat_cornell(LEVEL, vec![point]);
+    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers =
+        sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "pointlight")]);
+    let mut mirror = vec![None; (w * h) as usize];
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            let Some(p) = floor_point(&s, i, j) else {
+                // The back wall's light is all the point light's; the rest's comes from nothing
+                // the sphere blocks.
+                layers.albedo[k] = [0.8; 3];
+                layers.normal[k] = [0.0, 0.0, 1.0];
+                layers.light[0][k] = [LEVEL; 3];
+                continue;
+            };
+            layers.normal[k] = [0.0, 1.0, 0.0];
+            layers.reflectance[k] = [REFLECTANCE; 3];
+            layers.reflected[k] = [LEVEL; 3];
+            layers.indirect[k] = [LEVEL; 3];
+            mirror[k] = Some(p);
+        }
+    }
+    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![Some(0)], area_samples: vec![vec![]] })
+        .unwrap();
+    let material = Material { colour: Vec3::ZERO, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let (linear, mask) = render(&s, &live, CompositeMode::Fullscreen);
+    let (mut shadowed, mut lit, mut wrong) = (0, 0, 0);
+    for (k, p) in mirror.iter().enumerate() {
+        let Some(p) = *p else { continue };
+        if next_to_mask(&mask, w as usize, k) {
+            continue;
+        }
+        let view = (p - eye).normalize();
+        let dir = DVec3::new(view.x, -view.y, view.z);
+        if dir.z >= 0.0 || ray_sphere(p, dir, centre, radius).is_some() {
+            continue;
+        }
+        let f = p + dir * ((-1.0 - p.z) / dir.z);
+        let free = (1..60).all(|t| against_the_depth(&s, p + (f - p) * (f64::from(t) / 64.0)).0);
+        if f.x.abs() >= 0.99 || f.y >= 0.99 || !free || !against_the_depth(&s, f).1 {
+            continue;
+        }
+        let to_light = light - f;
+        let blocked =
+            ray_sphere(f, to_light.normalize(), centre, radius).is_some_and(|t| t < to_light.length());
+        let want = LEVEL - if blocked { REFLECTANCE * LEVEL } else { 0.0 };
+        let got = linear[4 * k];
+        if blocked {
+            shadowed += 1;
+        } else {
+            lit += 1;
+        }
+        if (got - want).abs() > 1e-3 {
+            wrong += 1;
+        }
+    }
+    assert!(shadowed > 500 && lit > 500, "{shadowed} reflections of the shadow, {lit} of the lit wall");
+    assert!(wrong * 25 <= shadowed, "{wrong} floor pixels off, {shadowed} reflecting the shadow");
 }

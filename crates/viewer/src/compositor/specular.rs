@@ -68,8 +68,8 @@ impl Compositor {
     /// Shows the live spheres in the scene's specular reflections (`fs_reflection`): within the
     /// pixels that have one, each sphere's draw (its material bound at its mesh slot, `rows`
     /// as for the radiosity maps) replaces the reflected light by the sphere where the mirror
-    /// direction meets it first (a pixel that meets no sphere is discarded and keeps its
-    /// value), then each sphere's glossy draw adds what it changes in the glossy lobes; the
+    /// direction meets it first (a pixel that meets no sphere takes, in the first draw, what
+    /// the live objects changed on the surface it reflects), then each sphere's glossy draw adds what it changes in the glossy lobes; the
     /// rectangle is copied into the backdrop after shadows after each pass. Runs after the bounce
     /// light. What it leaves depends only on the frame's and meshes' uniforms (`mesh_bytes`;
     /// the image never changes under a compositor), so the rectangle is kept, and a frame drawn

@@ -6,9 +6,12 @@
 // reflection): the render's `reflected` layer is the radiance that reflection brought at the
 // primary hit, weighted by its `reflectance`; where the mirror direction from the pixel's
 // surface point meets a sphere first (and the scene lets it see the sphere), that light is
-// hidden and the sphere's own radiance toward the pixel, times the reflectance, is seen instead.
-// One ray per pixel, through its centre. Drawn once per sphere (its material bound in group 1,
-// its row as the instance): a pixel changes only in the draw of the sphere its ray meets first.
+// hidden and the sphere's own radiance toward the pixel, times the reflectance, is seen instead;
+// where it meets none, the reflectance times what the live objects changed on the surface it
+// meets (seen_surface_change: their shadows, bounce light and occlusion) is added. One ray per
+// pixel, through its centre. Drawn once per sphere (its material bound in group 1, its row as
+// the instance): a pixel changes only in the draw of the sphere its ray meets first, or in the
+// first draw when it meets none.
 struct ReflectionOut {
     @builtin(position) position: vec4<f32>,
     @location(0) @interpolate(flat) row: u32,
@@ -47,10 +50,25 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     let n = normalize(n_raw);
     let view = view_direction_to(p);
     let dir = view - 2.0 * dot(view, n) * n;
-    // The first sphere along the mirror direction; this draw shows its own sphere only.
+    // The first sphere along the mirror direction; its draw shows it where the scene lets the
+    // direction reach it. Elsewhere the mirror shows the scene's surface there, and the first
+    // draw adds what the live objects changed on it (each pixel changes in one draw).
     let first = first_sphere(p, dir);
     let nearest = first.y;
-    if u32(first.x) != in.row || !scene_lets_light(p, n, dir, nearest, 0.0) {
+    let sees_sphere = first.x < 7.5 && scene_lets_light(p, n, dir, nearest, 0.0);
+    let reflected = textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    if !sees_sphere {
+        if in.row != 0u {
+            discard;
+        }
+        let change = seen_surface_change(p, p + n * ray_offset(p), dir, reflectance, reflected);
+        if all(change == vec3<f32>(0.0)) {
+            discard;
+        }
+        return vec4<f32>(max(before.rgb + change, vec3<f32>(0.0)), before.a);
+    }
+    if u32(first.x) != in.row {
         discard;
     }
     let sphere = frame.shadow_spheres[in.row];
@@ -61,9 +79,36 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     // the eye), gathered at the point on the other half.
     loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
     let seen = shade(material, q, m, dir);
-    let reflected = textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
-    let before = textureLoad(backdrop_shadowed, pixel, 0);
     return vec4<f32>(max(before.rgb + reflectance * seen * frame.tone.x - reflected, vec3<f32>(0.0)), before.a);
+}
+
+// What the live objects change (shadows, bounce light, occlusion of indirect light) in the
+// radiance that unit `dir` from camera-space p brings from the pre-rendered surface it meets
+// first, seen with `weight` (a mirror's reflectance, a glass chain's weight) and bringing
+// `brought` (that radiance times the weight, in the layers' units): where a march through the
+// depth finds the surface's pixel, the weight times that pixel's change so far (the backdrop
+// after shadows less the image: a Lambertian surface sends p what it sends the eye); where it
+// finds none (hidden from the eye, off screen), the scene's triangles find the surface from
+// `origin` (p off its surface) and the share of its light the live objects take
+// (live_shadow_share) is taken from `brought`. Zero when shadows are off or neither finds it.
+fn seen_surface_change(p: vec3<f32>, origin: vec3<f32>, dir: vec3<f32>, weight: vec3<f32>, brought: vec3<f32>) -> vec3<f32> {
+    if frame.counts.y != 1u || frame.layer_info.x != 1u {
+        return vec3<f32>(0.0);
+    }
+    let far = bitcast<f32>(frame.bounce.z);
+    if frame.bounce.x == 1u {
+        let at = march_to_surface(p, dir, 0.01 * far, far);
+        if at.x >= 0 {
+            let now = textureLoad(backdrop_shadowed, at, 0).rgb;
+            let image = textureLoad(backdrop_colour, at, 0).rgb;
+            return weight * (now - image);
+        }
+    }
+    let hit = scene_first_hit(origin, dir, 3.0e38);
+    if hit.w <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return -live_shadow_share(origin + hit.w * dir, hit.xyz) * brought * frame.tone.x;
 }
 
 // A live sphere seen in the pixel's glossy lobe (the ray tracer's Blinn lobe of metal and

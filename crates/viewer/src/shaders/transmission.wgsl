@@ -11,24 +11,39 @@
 
 @group(2) @binding(26) var transmission_layers: texture_2d_array<f32>;
 
-// The change in the pixel's transmitted light from the spheres' occlusion of indirect light:
-// the shadow pass took it at the glass's surface (shadows.wgsl, layered_shadow, with the
-// pixel's whole indirect light), which is given back, and it is taken at the surface the exit
-// ray meets instead (the point `distance` along it, its normal taken as facing the ray: the
-// layers do not give that surface's normal), as what is seen through the glass, unless a
-// sphere hides that surface (`hit`); in the layers' units.
-fn transmitted_occlusion(pixel: vec2<i32>, transmitted: vec3<f32>, exit: vec4<f32>, dir: vec3<f32>, hit: bool) -> vec3<f32> {
+// The change in the pixel's transmitted light from the live objects, in the frame's units: the
+// shadow pass took the spheres' occlusion of indirect light at the glass's surface
+// (shadows.wgsl, layered_shadow, with the pixel's whole indirect light), which is given back;
+// and unless a sphere hides it (`hit`), the surface the exit ray meets (the point `distance`
+// along it) takes what the live objects change there (seen_surface_change: their shadows from
+// every light, their bounce light and their occlusion of its indirect light, once), seen with
+// the chain's weight.
+fn transmitted_occlusion(pixel: vec2<i32>, transmittance: vec3<f32>, transmitted: vec3<f32>, exit: vec4<f32>, dir: vec3<f32>, hit: bool) -> vec3<f32> {
     let centre = surface_point(pixel);
     if frame.layer_info.x != 1u || frame.counts.y != 1u || centre.w < 0.5 {
         return vec3<f32>(0.0);
     }
     let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
     let n = select(vec3<f32>(0.0), normalize(n_raw), dot(n_raw, n_raw) > 1e-12);
-    var seen = 0.0;
+    var change = indirect_occlusion(centre.xyz, n) * transmitted * frame.tone.x;
     if !hit && exit.w < 1e29 {
-        seen = indirect_occlusion(exit.xyz + exit.w * dir, -dir);
+        // The surface itself: its pixel where the eye sees it, else the scene's triangles from a
+        // little short of it along the exit ray (the layers do not give its normal).
+        let x = exit.xyz + exit.w * dir;
+        let seen = probe_depth(x);
+        if frame.bounce.x == 1u && seen.pixel.x >= 0 && abs(seen.distance - seen.surface) <= 1e-3 * seen.surface {
+            let now = textureLoad(backdrop_shadowed, seen.pixel, 0).rgb;
+            let image = textureLoad(backdrop_colour, seen.pixel, 0).rgb;
+            change += transmittance * (now - image);
+        } else {
+            let short = 1e-3 * max(exit.w, 1e-3);
+            let origin = x - short * dir;
+            let found = scene_first_hit(origin, dir, 2.0 * short);
+            let nx = select(-dir, found.xyz, found.w > 0.0);
+            change -= live_shadow_share(x, nx) * transmitted * frame.tone.x;
+        }
     }
-    return (indirect_occlusion(centre.xyz, n) - seen) * transmitted;
+    return change;
 }
 
 @fragment
@@ -55,18 +70,18 @@ fn fs_transmission(in: ReflectionOut) -> @location(0) vec4<f32> {
     if row != in.row && !(row == 8u && in.row == 0u) {
         discard;
     }
-    var change = transmitted_occlusion(pixel, transmitted, exit, dir, row != 8u);
+    var change = transmitted_occlusion(pixel, transmittance, transmitted, exit, dir, row != 8u);
     if row == in.row {
         let sphere = frame.shadow_spheres[in.row];
         let q = exit.xyz + nearest * dir;
         let m = normalize(q - sphere.xyz);
         let material = live_sphere_material(in.row);
         loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
-        change += transmittance * shade(material, q, m, dir) - transmitted;
+        change += (transmittance * shade(material, q, m, dir) - transmitted) * frame.tone.x;
     }
     if all(change == vec3<f32>(0.0)) {
         discard;
     }
     let before = textureLoad(backdrop_shadowed, pixel, 0);
-    return vec4<f32>(max(before.rgb + change * frame.tone.x, vec3<f32>(0.0)), before.a);
+    return vec4<f32>(max(before.rgb + change, vec3<f32>(0.0)), before.a);
 }
