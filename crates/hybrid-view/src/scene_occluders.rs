@@ -1,5 +1,5 @@
 //! The RIB scene tessellated for the viewer's shadow rays: the scene's own shadows on live
-//! objects (docs/viewer.md, "The scene's shadows on live objects"). With haptics the same
+//! objects (docs/viewer-lighting.md, "The scene's shadows on live objects"). With haptics the same
 //! tessellation is shared with them (at theirs, the finer tolerance), so the scene is
 //! tessellated once at startup.
 

@@ -10,7 +10,7 @@
 //! frames in CPU time of the process's threads (lavapipe's rasteriser threads do the GPU's
 //! work), steadier than wall time on a shared machine.
 //!
-//! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md).
+//! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md).
 
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, SamplingMode, criterion_group, criterion_main};

@@ -140,7 +140,7 @@ impl ViewerScene {
     }
 
     /// Binds the renderer's caustic photons: live spheres then take from the image the caustic
-    /// light whose photons they block (docs/viewer.md). Refuses photons of another frame size.
+    /// light whose photons they block (docs/viewer-specular.md). Refuses photons of another frame size.
     pub fn set_caustics(&mut self, caustics: sidecar::CausticPhotons) -> Result<(), ViewerError> {
         let (width, height) = self.size();
         if (caustics.width, caustics.height) != (width, height) {

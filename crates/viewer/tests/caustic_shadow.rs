@@ -1,4 +1,4 @@
-//! GPU test of the caustic light live spheres block (docs/viewer.md, "Caustics that live objects
+//! GPU test of the caustic light live spheres block (docs/viewer-specular.md, "Caustics that live objects
 //! block"): over the Cornell box's exact depth, photons from a point under the ceiling reach the
 //! floor through a specular vertex each; every backdrop pixel must lose exactly what the f64
 //! reference (`sidecar::CausticPhotons::blocked_loss`) says the blocked photons brought it, in

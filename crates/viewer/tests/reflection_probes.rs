@@ -170,7 +170,7 @@ fn lobe_integral(n: DVec3, v: DVec3, exponent: f64, field: impl Fn(DVec3) -> [f6
 /// within 12 % on average. The split sum (one lookup toward the mirror direction times the
 /// lobe's albedo) fails it: 8 % on average and 37 % at worst on the lower half, 17 % on
 /// average overall. What remains above the horizon is the prefiltered levels' own blur: the
-/// bright half leaks into the dark one (docs/viewer.md, "With the renderer's reflection probes").
+/// bright half leaks into the dark one (docs/viewer-lighting.md, "With the renderer's reflection probes").
 #[test]
 fn a_wide_lobe_seen_at_a_grazing_angle_reflects_what_lies_below_it() {
     let field = |d: [f32; 3]| {

@@ -1,4 +1,4 @@
-//! What live objects take from the scene's caustics (docs/viewer.md, "Caustics that live
+//! What live objects take from the scene's caustics (docs/viewer-specular.md, "Caustics that live
 //! objects block"): the renderer's caustic photons (`sidecar::CausticPhotons`), each with its
 //! light path's segments, are tested against the live spheres; the blocked ones are splatted
 //! with each pixel's own estimate kernel (radius, filter, divisor, reflectance) into a per-pixel

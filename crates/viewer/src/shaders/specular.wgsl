@@ -130,7 +130,7 @@ fn seen_surface_change(p: vec3<f32>, origin: vec3<f32>, dir: vec3<f32>, weight: 
 // albedo as well (plastic) are left to the shadow pass's occlusion of indirect light, which
 // takes what the sphere hides from the whole of their indirect light (the layers do not split
 // it into the two lobes' shares): adding the sphere's radiance on top made the room's rows
-// worse (docs/viewer.md). Drawn once per sphere, each draw adding its
+// worse (docs/viewer-specular.md). Drawn once per sphere, each draw adding its
 // share to the backdrop after shadows as the draws before it left it (compositor/specular.rs
 // copies the frame there between draws).
 const GLOSSY_TRACED: u32 = 64u;
