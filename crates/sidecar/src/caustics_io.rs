@@ -9,7 +9,8 @@ use crate::caustics::{
 };
 use crate::error::{SidecarError, SidecarErrorKind};
 use crate::layers_io::{
-    ATTR_FINGERPRINT, ATTR_KIND, ATTR_VERSION, ReadLimits, exr_error, fingerprint_attribute, read_header,
+    ATTR_FINGERPRINT, ATTR_KIND, ATTR_VERSION, ReadLimits, fingerprint_attribute, read_all_layers,
+    read_header,
 };
 use crate::probes_io::{finite_values, take_channel};
 use exr::prelude::*;
@@ -173,14 +174,7 @@ fn read_inner(
         }
         _ => return Err(SidecarErrorKind::MissingAttribute { name: ATTR_FILTER.into() }),
     };
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .map_err(exr_error)?;
+    let image = read_all_layers(path)?;
     let mut channels: HashMap<String, Vec<f32>> = HashMap::new();
     let mut sizes: HashMap<String, (usize, usize)> = HashMap::new();
     for layer in &image.layer_data {

@@ -318,6 +318,21 @@ pub(crate) fn ascii_text(text: &str) -> Text {
     Text::new_or_none(&ascii).unwrap_or_default()
 }
 
+/// Every layer and channel of the EXR file at `path`, at its largest resolution, as the probe,
+/// reflection and caustics readers take them (each then checks the names and sizes it expects).
+pub(crate) fn read_all_layers(
+    path: &Path,
+) -> Result<Image<Layers<AnyChannels<FlatSamples>>>, SidecarErrorKind> {
+    read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(exr_error)
+}
+
 pub(crate) fn exr_error(e: exr::error::Error) -> SidecarErrorKind {
     match e {
         exr::error::Error::Io(io) => SidecarErrorKind::Io(io),

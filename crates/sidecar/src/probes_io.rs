@@ -5,7 +5,8 @@
 
 use crate::error::{SidecarError, SidecarErrorKind};
 use crate::layers_io::{
-    ATTR_FINGERPRINT, ATTR_KIND, ATTR_VERSION, ReadLimits, exr_error, fingerprint_attribute, read_header,
+    ATTR_FINGERPRINT, ATTR_KIND, ATTR_VERSION, ReadLimits, fingerprint_attribute, read_all_layers,
+    read_header,
 };
 use crate::probes::{ProbeGrid, VISIBILITY_TEXELS};
 use crate::sh::SH_COEFFICIENTS;
@@ -253,14 +254,7 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ProbeGrid, SidecarEr
         }
     };
     let texels = VISIBILITY_TEXELS * VISIBILITY_TEXELS;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .map_err(exr_error)?;
+    let image = read_all_layers(path)?;
     let mut channels: HashMap<String, Vec<f32>> = HashMap::new();
     for layer in &image.layer_data {
         let name = layer.attributes.layer_name.as_ref().map(|t| t.to_string()).unwrap_or_default();

@@ -4,7 +4,7 @@
 //! and the level layout in the header (docs/sidecar.md).
 
 use crate::error::{SidecarError, SidecarErrorKind};
-use crate::layers_io::{ReadLimits, exr_error, fingerprint_attribute, read_header};
+use crate::layers_io::{ReadLimits, fingerprint_attribute, read_all_layers, read_header};
 use crate::probes_io::{GridNames, finite_values, grid_attributes, read_grid, take_channel};
 use crate::reflections::{
     REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, reflection_level_roughness,
@@ -186,14 +186,7 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ReflectionProbes, Si
     let ((origin, spacing, counts), n) =
         read_grid(attrs, &GRID_NAMES, "reflection probe count", MAX_REFLECTION_PROBES)?;
     let sizes: HashMap<String, (usize, usize)> = layer_sizes(n).into_iter().collect();
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .map_err(exr_error)?;
+    let image = read_all_layers(path)?;
     let mut channels: HashMap<String, Vec<f32>> = HashMap::new();
     for layer in &image.layer_data {
         let name = layer.attributes.layer_name.as_ref().map(|t| t.to_string()).unwrap_or_default();
