@@ -20,9 +20,19 @@ const REFLECTANCE: f32 = 0.8;
 /// (and `indirect`); the other surfaces have a diffuse albedo (so the bounce pass runs) and no
 /// indirect light (so the spheres' occlusion of it takes nothing from them).
 fn mirror_floor_scene(probe_radiance: f32) -> (ViewerScene, Vec<bool>) {
+    mirror_floor_scene_with_gain(probe_radiance, 1.0)
+}
+
+/// The same with the RIB's `Exposure` gain: the image holds `LEVEL` (the renderer applies the
+/// gain to the image), the layers `LEVEL / gain` (they are written before it).
+fn mirror_floor_scene_with_gain(probe_radiance: f32, gain: f32) -> (ViewerScene, Vec<bool>) {
     let (w, h) = (512u32, 512u32);
     let n = (w * h) as usize;
-    let mut s = flat_cornell(LEVEL, vec![]);
+    let linear = [LEVEL, LEVEL, LEVEL, 1.0].repeat(n);
+    let backdrop = viewer::Backdrop::from_linear(w, h, linear, 1.0).unwrap();
+    let tone_map = viewer::ToneMap { gain, gamma: 1.0 };
+    let mut s =
+        ViewerScene::with_backdrop(cornell_camera(), backdrop, cornell_depth(), vec![], tone_map).unwrap();
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
     let mut floor = vec![false; n];
@@ -33,8 +43,8 @@ fn mirror_floor_scene(probe_radiance: f32) -> (ViewerScene, Vec<bool>) {
             layers.normal[k] = [0.0, 1.0, 0.0];
             if floor[k] {
                 layers.reflectance[k] = [REFLECTANCE; 3];
-                layers.reflected[k] = [LEVEL; 3];
-                layers.indirect[k] = [LEVEL; 3];
+                layers.reflected[k] = [LEVEL / gain; 3];
+                layers.indirect[k] = [LEVEL / gain; 3];
             } else {
                 layers.albedo[k] = [0.8; 3];
             }
@@ -113,6 +123,36 @@ fn a_mirror_floor_shows_the_sphere_it_reflects() {
     assert!(c.read_back_linear().unwrap().rgba == linear, "a frame after a move differs from a fresh one");
     c.render(&live).unwrap();
     assert!(c.read_back_linear().unwrap().rgba == linear, "a still frame differs from the first");
+}
+
+/// Under an `Exposure` gain of 2 the layers are half the image: a floor pixel whose mirror
+/// direction meets the sphere trades its `reflected` light, scaled by the gain as the image
+/// is, for the sphere's radiance times the gain, `2 REFLECTANCE L` (the pass once subtracted
+/// `reflected` unscaled, `LEVEL / 2` too much light left).
+#[test]
+fn a_mirror_floor_under_an_exposure_gain_shows_the_sphere_in_the_images_units() {
+    let (l, gain) = (0.3f32, 2.0f32);
+    let (s, floor) = mirror_floor_scene_with_gain(l, gain);
+    let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
+    let (linear, mask) = render(&s, &white_matte(centre, radius), CompositeMode::Fullscreen);
+    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
+    let (mut hits, mut right) = (0, 0);
+    for j in 0..512u32 {
+        for i in 0..512u32 {
+            let k = (j * 512 + i) as usize;
+            if !floor[k] || next_to_mask(&mask, 512, k) {
+                continue;
+            }
+            let p = floor_point(&s, i, j).unwrap();
+            let view = (p - eye).normalize();
+            if ray_sphere(p, DVec3::new(view.x, -view.y, view.z), centre, radius).is_some() {
+                hits += 1;
+                right += usize::from((linear[4 * k] - gain * REFLECTANCE * l).abs() <= 4e-3);
+            }
+        }
+    }
+    assert!(hits > 500, "{hits} reflections of the sphere");
+    assert!(right * 50 >= hits * 49, "{right} of {hits} pixels show the sphere at the gain");
 }
 
 /// Whether world point `x` lies in front of the surface the Cornell depth table sees along its

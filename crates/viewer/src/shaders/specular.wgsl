@@ -79,7 +79,7 @@ fn fs_reflection(in: ReflectionOut) -> @location(0) vec4<f32> {
     // the eye), gathered at the point on the other half.
     loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
     let seen = shade(material, q, m, dir);
-    return vec4<f32>(max(before.rgb + reflectance * seen * frame.tone.x - reflected, vec3<f32>(0.0)), before.a);
+    return vec4<f32>(max(before.rgb + (reflectance * seen - reflected) * frame.tone.x, vec3<f32>(0.0)), before.a);
 }
 
 // What the live objects change (shadows, bounce light, occlusion of indirect light) in the
