@@ -67,6 +67,31 @@ fn render(scene: &ViewerScene, live: &LiveObjects, mode: CompositeMode) -> (Vec<
     (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
 }
 
+/// The floor pixels away from the sphere's outline, each with whether its mirror direction
+/// meets the sphere (an f64 ray test from the pixel's surface point).
+fn floor_reflections(
+    s: &ViewerScene,
+    floor: &[bool],
+    mask: &[u8],
+    centre: DVec3,
+    radius: f64,
+) -> Vec<(usize, bool)> {
+    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
+    let mut out = Vec::new();
+    for j in 0..512u32 {
+        for i in 0..512u32 {
+            let k = (j * 512 + i) as usize;
+            if !floor[k] || next_to_mask(mask, 512, k) {
+                continue;
+            }
+            let p = floor_point(s, i, j).unwrap();
+            let view = (p - eye).normalize();
+            out.push((k, ray_sphere(p, DVec3::new(view.x, -view.y, view.z), centre, radius).is_some()));
+        }
+    }
+    out
+}
+
 /// A white matte sphere above a mirror floor, lit by a uniform probe field of radiance `L` (so
 /// its radiance is `L` everywhere): every floor pixel whose mirror direction meets the sphere
 /// (an f64 ray test from the pixel's surface point) shows `REFLECTANCE L`, every other floor
@@ -82,32 +107,21 @@ fn a_mirror_floor_shows_the_sphere_it_reflects() {
     let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
     let live = white_matte(centre, radius);
     let (linear, mask) = render(&s, &live, CompositeMode::Fullscreen);
-    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
     let (mut hits, mut misses, mut disagree) = (0, 0, 0);
-    for j in 0..512u32 {
-        for i in 0..512u32 {
-            let k = (j * 512 + i) as usize;
-            if !floor[k] || next_to_mask(&mask, 512, k) {
-                continue;
-            }
-            let p = floor_point(&s, i, j).unwrap();
-            let view = (p - eye).normalize();
-            let dir = DVec3::new(view.x, -view.y, view.z);
-            let got = linear[4 * k];
-            let hit = ray_sphere(p, dir, centre, radius).is_some();
-            let shows_sphere = (got - REFLECTANCE * l).abs() <= 2e-3;
-            // The mirror also sees the sphere's bounce light on the walls, and nothing there
-            // loses light (no lights; the walls' indirect light is not in the layers).
-            let keeps_level = got >= LEVEL;
-            assert!(shows_sphere || keeps_level, "floor pixel ({i}, {j}): {got}");
-            if hit != shows_sphere {
-                disagree += 1;
-            }
-            if hit {
-                hits += 1;
-            } else {
-                misses += 1;
-            }
+    for (k, hit) in floor_reflections(&s, &floor, &mask, centre, radius) {
+        let got = linear[4 * k];
+        let shows_sphere = (got - REFLECTANCE * l).abs() <= 2e-3;
+        // The mirror also sees the sphere's bounce light on the walls, and nothing there
+        // loses light (no lights; the walls' indirect light is not in the layers).
+        let keeps_level = got >= LEVEL;
+        assert!(shows_sphere || keeps_level, "floor pixel ({}, {}): {got}", k % 512, k / 512);
+        if hit != shows_sphere {
+            disagree += 1;
+        }
+        if hit {
+            hits += 1;
+        } else {
+            misses += 1;
         }
     }
     assert!(hits > 500 && misses > 10_000, "{hits} reflections of the sphere, {misses} others");
@@ -135,20 +149,11 @@ fn a_mirror_floor_under_an_exposure_gain_shows_the_sphere_in_the_images_units() 
     let (s, floor) = mirror_floor_scene_with_gain(l, gain);
     let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
     let (linear, mask) = render(&s, &white_matte(centre, radius), CompositeMode::Fullscreen);
-    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
     let (mut hits, mut right) = (0, 0);
-    for j in 0..512u32 {
-        for i in 0..512u32 {
-            let k = (j * 512 + i) as usize;
-            if !floor[k] || next_to_mask(&mask, 512, k) {
-                continue;
-            }
-            let p = floor_point(&s, i, j).unwrap();
-            let view = (p - eye).normalize();
-            if ray_sphere(p, DVec3::new(view.x, -view.y, view.z), centre, radius).is_some() {
-                hits += 1;
-                right += usize::from((linear[4 * k] - gain * REFLECTANCE * l).abs() <= 4e-3);
-            }
+    for (k, hit) in floor_reflections(&s, &floor, &mask, centre, radius) {
+        if hit {
+            hits += 1;
+            right += usize::from((linear[4 * k] - gain * REFLECTANCE * l).abs() <= 4e-3);
         }
     }
     assert!(hits > 500, "{hits} reflections of the sphere");
