@@ -136,6 +136,7 @@ pub struct Compositor {
 /// The compositing shaders: one module from the files of its parts (WGSL has no includes).
 pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/composite.wgsl"),
+    include_str!("../shaders/probes.wgsl"),
     include_str!("../shaders/shadow_loss.wgsl"),
     include_str!("../shaders/shadows.wgsl"),
     include_str!("../shaders/shadow_footprint.wgsl"),

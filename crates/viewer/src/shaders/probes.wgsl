@@ -1,0 +1,323 @@
+// Scene light on live surfaces from the renderer's baked probes: the irradiance field (SH
+// probes with visibility) and the reflection probes (octahedral radiance and distance maps).
+// Part of the compositing module (compositor::COMPOSITE_WGSL); the bindings are composite.wgsl's.
+
+// Irradiance at world-space unit normal n from radiance SH (Ramamoorthi & Hanrahan 2001; the
+// basis and band factors of sidecar::sh).
+fn sh_irradiance(sh: array<vec4<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
+    let a0 = PI;
+    let a1 = 2.0 * PI / 3.0;
+    let a2 = PI / 4.0;
+    var e = a0 * 0.2820948 * sh[0].rgb;
+    e += a1 * 0.4886025 * (n.y * sh[1].rgb + n.z * sh[2].rgb + n.x * sh[3].rgb);
+    e += a2 * (1.0925484 * n.x * n.y * sh[4].rgb + 1.0925484 * n.y * n.z * sh[5].rgb
+        + 0.3153916 * (3.0 * n.z * n.z - 1.0) * sh[6].rgb + 1.0925484 * n.x * n.z * sh[7].rgb
+        + 0.5462742 * (n.x * n.x - n.y * n.y) * sh[8].rgb);
+    return max(e, vec3<f32>(0.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Probe grids (sidecar's cell_probes): the cell around a point and its 8 corners.
+
+struct GridCell {
+    // The cell's first corner, the point's fractions along each axis, the last probe per axis.
+    base: vec3<u32>,
+    alpha: vec3<f32>,
+    last: vec3<u32>,
+}
+
+// The cell of a grid (`origin`, `spacing`, `counts`) around `q`: a point outside the grid is
+// clamped to it; NaN (a point at infinity) goes to the first probe, as the references do.
+fn grid_cell(q: vec3<f32>, origin: vec3<f32>, spacing: vec3<f32>, counts: vec3<u32>) -> GridCell {
+    let last = max(counts, vec3<u32>(1u)) - vec3<u32>(1u);
+    var t = clamp((q - origin) / spacing, vec3<f32>(0.0), vec3<f32>(last));
+    t = select(vec3<f32>(0.0), t, t == t);
+    let base = min(vec3<u32>(floor(t)), max(last, vec3<u32>(1u)) - vec3<u32>(1u));
+    let alpha = select(t - vec3<f32>(base), vec3<f32>(0.0), last == vec3<u32>(0u));
+    return GridCell(base, alpha, last);
+}
+
+struct CellCorner {
+    probe: vec3<u32>,
+    trilinear: f32,
+}
+
+// Corner `corner` (0 to 7) of `cell`: its probe's grid coordinates and trilinear weight.
+fn cell_corner(cell: GridCell, corner: u32) -> CellCorner {
+    let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+    let w3 = select(vec3<f32>(1.0) - cell.alpha, cell.alpha, offset == vec3<u32>(1u));
+    return CellCorner(min(cell.base + offset, cell.last), w3.x * w3.y * w3.z);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The reflection probes: a port of sidecar::ReflectionProbes::glossy_radiance (its reference
+// lookup over the glossy lobe).
+
+const REFLECTION_TEXELS: u32 = 32u;
+
+fn octahedral_uv(d: vec3<f32>) -> vec2<f32> {
+    let l1 = abs(d.x) + abs(d.y) + abs(d.z);
+    var xy = vec2<f32>(0.0);
+    if l1 > 0.0 {
+        xy = d.xy / l1;
+    }
+    if d.z < 0.0 {
+        let o = xy;
+        xy = vec2<f32>(
+            (1.0 - abs(o.y)) * select(-1.0, 1.0, o.x >= 0.0),
+            (1.0 - abs(o.x)) * select(-1.0, 1.0, o.y >= 0.0),
+        );
+    }
+    return xy * 0.5 + 0.5;
+}
+
+fn probe_index(cell: vec3<u32>) -> u32 {
+    let c = frame.reflection_counts;
+    return cell.x + c.x * (cell.y + c.y * cell.z);
+}
+
+fn probe_position(cell: vec3<u32>) -> vec3<f32> {
+    return frame.reflection_origin.xyz + vec3<f32>(cell) * frame.reflection_spacing.xyz;
+}
+
+fn probe_distance_toward(probe: u32, dir: vec3<f32>) -> f32 {
+    let uv = octahedral_uv(dir);
+    let n = f32(REFLECTION_TEXELS);
+    let texel = min(vec2<u32>(uv * n), vec2<u32>(REFLECTION_TEXELS - 1u));
+    return textureLoad(reflection_distance, texel, probe, 0).r;
+}
+
+fn probe_sees(cell: vec3<u32>, p: vec3<f32>) -> bool {
+    let to_p = p - probe_position(cell);
+    let d = length(to_p);
+    if !(d > 0.0) {
+        return true;
+    }
+    return d <= 1.05 * probe_distance_toward(probe_index(cell), to_p / d);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The irradiance probes per fragment: a port of sidecar::ProbeGrid::irradiance_of (DDGI), each
+// probe's SH the scene's indirect light (compositor/irradiance.rs).
+
+const VISIBILITY_TEXELS: u32 = 16u;
+
+fn field_probe_index(cell: vec3<u32>) -> u32 {
+    let c = frame.irradiance_counts;
+    return cell.x + c.x * (cell.y + c.y * cell.z);
+}
+
+// Chebyshev visibility of a point `distance` from `probe` along unit `dir` (from the point
+// toward the probe).
+fn field_visibility(probe: u32, dir: vec3<f32>, distance: f32) -> f32 {
+    let uv = octahedral_uv(-dir);
+    let n = f32(VISIBILITY_TEXELS);
+    let texel = min(vec2<u32>(uv * n), vec2<u32>(VISIBILITY_TEXELS - 1u));
+    let moments = irradiance_visibility[probe * VISIBILITY_TEXELS * VISIBILITY_TEXELS + texel.y * VISIBILITY_TEXELS + texel.x];
+    let mean = moments.x;
+    if distance <= mean {
+        return 1.0;
+    }
+    let variance = max(abs(moments.y - mean * mean), 1e-6 * max(moments.y, 1e-12));
+    let d = distance - mean;
+    let v = variance / (variance + d * d);
+    return max(v * v * v, 0.0);
+}
+
+// Tiny weights crushed (DDGI): the residual glow of a probe seen through a wall goes.
+fn crushed(w: f32) -> f32 {
+    return select(w, w * w * w / 0.04, w < 0.2);
+}
+
+fn probe_sh_irradiance(probe: u32, n: vec3<f32>) -> vec3<f32> {
+    var sh: array<vec4<f32>, 9>;
+    for (var i = 0u; i < 9u; i++) {
+        sh[i] = irradiance_sh[9u * probe + i];
+    }
+    return sh_irradiance(sh, n);
+}
+
+// The scene's indirect irradiance at world point p with world unit normal n.
+fn field_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let spacing = frame.irradiance_spacing.xyz;
+    let bias = 0.1 * min(spacing.x, min(spacing.y, spacing.z));
+    let q = p + n * bias;
+    let grid = grid_cell(q, frame.irradiance_origin.xyz, spacing, frame.irradiance_counts.xyz);
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let c = cell_corner(grid, corner);
+        let trilinear = c.trilinear;
+        if trilinear <= 0.0 {
+            continue;
+        }
+        let cell = c.probe;
+        let probe = field_probe_index(cell);
+        let to_probe = frame.irradiance_origin.xyz + vec3<f32>(cell) * spacing - q;
+        let distance = length(to_probe);
+        var dir = n;
+        if distance > 0.0 {
+            dir = to_probe / distance;
+        }
+        let h = (dot(dir, n) + 1.0) * 0.5;
+        let backface = h * h + 0.2;
+        let w = crushed(trilinear * backface * max(field_visibility(probe, dir, distance), 1e-6));
+        sum += w * probe_sh_irradiance(probe, n);
+        total += w;
+    }
+    if total > 0.0 {
+        return max(sum / total, vec3<f32>(0.0));
+    }
+    return vec3<f32>(0.0);
+}
+
+// The Blinn lobe's directional albedo for the material (linear in its 16-entry table).
+fn blinn_albedo(material: Material, cos_o: f32) -> f32 {
+    let x = clamp(cos_o, 0.0, 1.0) * 15.0;
+    let i = min(u32(x), 14u);
+    let f = x - f32(i);
+    let a = material.albedo[i / 4u][i % 4u];
+    let b = material.albedo[(i + 1u) / 4u][(i + 1u) % 4u];
+    return a + (b - a) * f;
+}
+
+// The reflection probes' mip level whose prefiltering lobe has Blinn exponent e
+// (sidecar::reflection_level of roughness 1 / e).
+fn reflection_level_of_exponent(e: f32) -> f32 {
+    if e >= 64.0 {
+        return 64.0 / e;
+    }
+    return min(1.0 + 0.5 * log2(64.0 / e), 4.0);
+}
+
+// Directions of the Blinn lobe a glossy live fragment reads the reflection probes in
+// (sidecar::GLOSSY_SAMPLES).
+const GLOSSY_SAMPLES: u32 = 16u;
+
+// The reflection probes' radiance averaged over the ray tracer's Blinn lobe (`exponent`) at
+// world point p, unit normal n and unit direction to the eye v: the lobe's own directions
+// (importance-sampled, a fixed stratified set), each weighted by `f cos / pdf` and read at the
+// mip level whose prefiltering lobe is as wide as the solid angle the direction stands for
+// (Krivanek and Colbert 2008); the probe of the largest weight finds where each direction meets
+// the scene, and every probe is read toward those points. A port of
+// sidecar::ReflectionProbes::glossy_radiance. The split sum's single lookup toward the mirror
+// direction assumes the lobe centred there, as it is only at normal incidence; a wide lobe seen at a
+// grazing angle leans toward the normal and loses its part below the horizon, so it reflects
+// what lies under a sphere's lower half, not the horizon the mirror direction meets.
+fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> vec3<f32> {
+    let cos_o = max(dot(n, v), 1e-3);
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t = normalize(cross(helper, n));
+    let b = cross(n, t);
+    var directions: array<vec4<f32>, GLOSSY_SAMPLES>;
+    var weights: array<f32, GLOSSY_SAMPLES>;
+    var total = 0.0;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        weights[i] = 0.0;
+        directions[i] = vec4<f32>(n, 0.0);
+        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
+        let u2 = f32(reverseBits(i)) * 2.3283064365386963e-10;
+        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
+        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+        let phi = 2.0 * PI * u2;
+        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+        let o_dot_h = dot(v, h);
+        if o_dot_h <= 0.0 {
+            continue;
+        }
+        let l = 2.0 * o_dot_h * h - v;
+        let cos_l = dot(n, l);
+        if cos_l <= 0.0 {
+            continue;
+        }
+        // f cos / pdf of raytracer::bsdf's Blinn lobe sampled by its half vector.
+        let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+        weights[i] = g * o_dot_h / cos_o;
+        total += weights[i];
+        // The prefiltering lobe of exponent e spans about 8 pi / e steradians.
+        let pdf = (exponent + 1.0) * pow(cos_h, exponent) / (8.0 * PI * o_dot_h);
+        let omega = 1.0 / (f32(GLOSSY_SAMPLES) * max(pdf, 1e-6));
+        directions[i] = vec4<f32>(l, reflection_level_of_exponent(8.0 * PI / omega));
+    }
+    if !(total > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let grid = grid_cell(p, frame.reflection_origin.xyz, frame.reflection_spacing.xyz, frame.reflection_counts.xyz);
+    // The probes around p and their weights; the one with the largest weight that sees p
+    // finds where each direction meets the scene (its distance map, parallax-corrected).
+    var cells: array<vec3<u32>, 8>;
+    var probe_weights: array<f32, 8>;
+    var nearest = 0u;
+    var nearest_weight = -1.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let c = cell_corner(grid, corner);
+        cells[corner] = c.probe;
+        probe_weights[corner] = 0.0;
+        if c.trilinear <= 0.0 {
+            continue;
+        }
+        let sees = probe_sees(c.probe, p);
+        probe_weights[corner] = select(1e-3 * c.trilinear, c.trilinear, sees);
+        if probe_weights[corner] > nearest_weight {
+            nearest_weight = probe_weights[corner];
+            nearest = corner;
+        }
+    }
+    var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        if weights[i] > 0.0 {
+            hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
+        }
+    }
+    var sum = vec3<f32>(0.0);
+    var probes_total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let w = probe_weights[corner];
+        if w <= 0.0 {
+            continue;
+        }
+        let probe = probe_index(cells[corner]);
+        let origin = probe_position(cells[corner]);
+        var lobe = vec3<f32>(0.0);
+        for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+            if weights[i] > 0.0 {
+                let to_hit = hits[i] - origin;
+                let len = length(to_hit);
+                let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
+                lobe += weights[i] * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, directions[i].w).rgb;
+            }
+        }
+        sum += w * lobe;
+        probes_total += w;
+    }
+    if probes_total > 0.0 {
+        return sum / (probes_total * total);
+    }
+    return vec3<f32>(0.0);
+}
+
+// Where the ray p + t r meets the surface a probe's distance map describes (world space; the
+// fixed-point steps of sidecar::ReflectionProbes::hit_toward).
+fn probe_hit(cell: vec3<u32>, p: vec3<f32>, r: vec3<f32>) -> vec3<f32> {
+    let probe = probe_index(cell);
+    let origin = probe_position(cell);
+    let pc = p - origin;
+    var hit = pc;
+    var dir = r;
+    for (var step = 0; step < 3; step++) {
+        let radius = probe_distance_toward(probe, dir);
+        let b = dot(pc, r);
+        let disc = b * b - (dot(pc, pc) - radius * radius);
+        if disc < 0.0 {
+            break;
+        }
+        let t = max(-b + sqrt(disc), 0.0);
+        hit = pc + t * r;
+        let len = length(hit);
+        if !(len > 0.0) {
+            break;
+        }
+        dir = hit / len;
+    }
+    return origin + hit;
+}
