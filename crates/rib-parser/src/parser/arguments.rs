@@ -205,35 +205,29 @@ impl Reader {
         request: &str,
         what: &str,
     ) -> PResult<()> {
-        let bytes = self.bytes();
-        let max = self.options.limits.max_array_len;
-        match self.input().lexer.read_number_array(out, max, |n, b| Some(n.to_f32(b))) {
-            Ok(ArrayRead::Closed) => return Ok(()),
-            Ok(ArrayRead::Interrupted) => {}
-            Err(e) => {
-                self.report_lex_error(e);
-                return Err(Stop);
-            }
-        }
-        loop {
-            let tok = self.tok()?;
-            match tok.kind {
-                TokenKind::Number(n) => {
-                    if out.len() >= max {
-                        self.check_array_len(out.len() + 1, tok.start, request)?;
-                    }
-                    out.push(n.to_f32(&bytes));
-                }
-                TokenKind::ArrayEnd => return Ok(()),
-                _ => return Err(self.arg_error(&tok, request, &format!("numbers or ']' in {what}"))),
-            }
-        }
+        self.read_number_elements(out, request, what, "numbers", |n, b| Some(n.to_f32(b)))
     }
 
+    /// Reads integers up to the closing `]` (the `[` is already read); a number that is not an
+    /// integer is an error.
     pub(super) fn read_int_elements(&mut self, out: &mut Vec<i32>, request: &str, what: &str) -> PResult<()> {
+        self.read_number_elements(out, request, what, "integers", |n, b| n.to_i32(b))
+    }
+
+    /// Reads numbers up to the closing `]`, each converted by `convert` (`None`: not a `noun`):
+    /// the lexer's fast path first, then token by token from wherever it stopped (another
+    /// token, a number `convert` refuses, the array-length limit).
+    fn read_number_elements<T>(
+        &mut self,
+        out: &mut Vec<T>,
+        request: &str,
+        what: &str,
+        noun: &str,
+        convert: impl Fn(Num, &[u8]) -> Option<T> + Copy,
+    ) -> PResult<()> {
         let bytes = self.bytes();
         let max = self.options.limits.max_array_len;
-        match self.input().lexer.read_number_array(out, max, |n, b| n.to_i32(b)) {
+        match self.input().lexer.read_number_array(out, max, convert) {
             Ok(ArrayRead::Closed) => return Ok(()),
             Ok(ArrayRead::Interrupted) => {}
             Err(e) => {
@@ -248,13 +242,13 @@ impl Reader {
                     if out.len() >= max {
                         self.check_array_len(out.len() + 1, tok.start, request)?;
                     }
-                    match n.to_i32(&bytes) {
-                        Some(i) => out.push(i),
-                        None => return Err(self.arg_error(&tok, request, &format!("integers in {what}"))),
+                    match convert(n, &bytes) {
+                        Some(v) => out.push(v),
+                        None => return Err(self.arg_error(&tok, request, &format!("{noun} in {what}"))),
                     }
                 }
                 TokenKind::ArrayEnd => return Ok(()),
-                _ => return Err(self.arg_error(&tok, request, &format!("integers or ']' in {what}"))),
+                _ => return Err(self.arg_error(&tok, request, &format!("{noun} or ']' in {what}"))),
             }
         }
     }
