@@ -102,18 +102,7 @@ impl Quadric {
                 let disc = 4.0 * a * (radius + fl) * (radius - fl);
                 quadratic_from_discriminant(a, b, c, disc, lo, hi, out)
             }
-            QuadricShape::Disk { height, .. } => {
-                if d.z == 0.0 {
-                    return 0;
-                }
-                let t = (height - o.z) / d.z;
-                if t >= lo && t <= hi {
-                    out[0] = t;
-                    1
-                } else {
-                    0
-                }
-            }
+            QuadricShape::Disk { height, .. } => plane_root(o.z, d.z, height, lo, hi, out),
             QuadricShape::Cone { height, radius } => {
                 let k = (radius / height) * (radius / height);
                 let oz = o.z - height;
@@ -136,18 +125,7 @@ impl Quadric {
                     let c = o.x * o.x + o.y * o.y - ka * o.z * o.z - kb * o.z - kc;
                     push_quadratic(a, b, c, out)
                 }
-                HyperboloidSurface::Annulus { z } => {
-                    if d.z == 0.0 {
-                        return 0;
-                    }
-                    let t = (z - o.z) / d.z;
-                    if t >= lo && t <= hi {
-                        out[0] = t;
-                        1
-                    } else {
-                        0
-                    }
-                }
+                HyperboloidSurface::Annulus { z } => plane_root(o.z, d.z, z, lo, hi, out),
             },
             QuadricShape::Torus { major, minor, .. } => {
                 // Solve with a unit direction for conditioning, then scale back.
@@ -349,5 +327,20 @@ fn phi_param(phi: f64, phi_min: f64, phi_max: f64) -> Option<f64> {
         Some((p - TAU - phi_min) / (phi_max - phi_min))
     } else {
         None
+    }
+}
+
+/// The root of `o_z + t d_z = z` in `[lo, hi]` (a disk's or a flat annulus's plane), into
+/// `out[0]`; the number of roots.
+fn plane_root(o_z: f64, d_z: f64, z: f64, lo: f64, hi: f64, out: &mut [f64; 4]) -> usize {
+    if d_z == 0.0 {
+        return 0;
+    }
+    let t = (z - o_z) / d_z;
+    if t >= lo && t <= hi {
+        out[0] = t;
+        1
+    } else {
+        0
     }
 }
