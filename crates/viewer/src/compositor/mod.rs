@@ -21,6 +21,7 @@ mod reduced_gather;
 mod reflections;
 mod scene_shadows;
 mod settings;
+mod settle;
 mod shadow_bounce;
 mod shadows;
 mod specular;
@@ -37,6 +38,7 @@ pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
 };
+pub use settle::SETTLE_PIXELS;
 pub use shadow_bounce::TAKEN_BANDS as SHADOW_BOUNCE_BANDS;
 
 use crate::error::ViewerError;
