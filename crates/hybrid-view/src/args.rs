@@ -80,6 +80,12 @@ pub struct Args {
     /// both at one pixel in 4x4 and 16x16 blocks and spreading them along each surface.
     #[arg(long)]
     pub full_resolution_while_moving: bool,
+    /// Draw the first frame at rest after a move exactly, all of it. By default the frames at
+    /// rest draw the exact bounce light and shadows' second bounce a few bands at a time (the
+    /// frame is exact at most 16 frames after the sphere stops) instead of one multi-second
+    /// frame.
+    #[arg(long)]
+    pub settle_in_one_frame: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -221,6 +227,9 @@ pub struct Settings {
     /// A moving frame's bounce light and second bounce at reduced resolution
     /// (`--full-resolution-while-moving` clears it).
     pub reduce_while_moving: bool,
+    /// The frames at rest after a move made exact over several frames (`--settle-in-one-frame`
+    /// clears it).
+    pub settle_at_rest: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
@@ -288,6 +297,7 @@ impl Args {
             shadow_bounce: !self.no_shadow_bounce,
             amortise_while_moving: !self.exact_while_moving,
             reduce_while_moving: !self.full_resolution_while_moving,
+            settle_at_rest: !self.settle_in_one_frame,
             depth_settings,
             backends,
             stats: self.stats,
@@ -395,5 +405,7 @@ mod tests {
         assert!(!parse(&["--exact-while-moving"]).unwrap().amortise_while_moving);
         assert!(s.reduce_while_moving, "a moving sphere's bounce light is gathered at reduced resolution");
         assert!(!parse(&["--full-resolution-while-moving"]).unwrap().reduce_while_moving);
+        assert!(s.settle_at_rest, "the frames at rest after a move settle over several frames");
+        assert!(!parse(&["--settle-in-one-frame"]).unwrap().settle_at_rest);
     }
 }

@@ -117,6 +117,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         shadow_bounce: settings.shadow_bounce,
         amortise_while_moving: settings.amortise_while_moving,
         reduce_while_moving: settings.reduce_while_moving,
+        settle_at_rest: settings.settle_at_rest,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
 }
@@ -272,17 +273,22 @@ pub fn headless(
     // The first of several frames draws every pass in full: timed alone when it is the only one.
     let first_timed = u64::from(frames > 1);
     let mut times = Vec::with_capacity(frames.min(1 << 20) as usize);
+    // Each frame's CPU time (every thread of the process: lavapipe's rasterisers do the GPU's
+    // work), listed with `--stats` to see single slow frames such as the first at rest.
+    let mut cpu_times = Vec::with_capacity(times.capacity());
     for index in 0..frames {
         let info = FrameInfo { index, time_s: index as f64 / HEADLESS_FRAME_RATE };
         if let Some(u) = updater.as_mut() {
             u.update(&mut live, &info);
         }
         compositor.set_pass_timing(settings.pass_times && index >= first_timed);
-        let start = Instant::now();
+        let (start, cpu_start) = (Instant::now(), viewer::compositor::process_cpu_time());
         compositor.render(&live)?;
         compositor.wait_idle()?;
         if times.len() < (1 << 20) {
             times.push(start.elapsed());
+            let cpu = cpu_start.zip(viewer::compositor::process_cpu_time());
+            cpu_times.push(cpu.map(|(a, b)| b.saturating_sub(a)));
         }
     }
     if settings.screenshot.is_some() || settings.mask.is_some() {
@@ -300,6 +306,7 @@ pub fn headless(
     }
     if settings.stats {
         print_stats(&compositor, &prepared.scene, &prepared.skipped, &live, &times);
+        print_each_frame(&times, &cpu_times);
         if let Some((lo, hi)) = prepared.bounds {
             eprintln!("scene bounds: {lo} .. {hi}");
         }
@@ -308,6 +315,18 @@ pub fn headless(
         print_pass_times(&compositor);
     }
     Ok(())
+}
+
+/// Each frame's wall and CPU time (`--stats`, the first 1000 frames).
+fn print_each_frame(times: &[Duration], cpu_times: &[Option<Duration>]) {
+    let ms = |d: Duration| format!("{:.0}", d.as_secs_f64() * 1e3);
+    let each: Vec<String> = times
+        .iter()
+        .zip(cpu_times)
+        .take(1000)
+        .map(|(&wall, cpu)| format!("{}/{}", ms(wall), cpu.map_or("-".to_string(), ms)))
+        .collect();
+    eprintln!("each frame, wall/CPU ms: {}", each.join(" "));
 }
 
 /// Each pass's time per frame timed (`--pass-times`), the frames it ran in, and the sum.
@@ -412,10 +431,20 @@ fn print_stats(
             "while live objects move: the area lights' layered shadows gathered at one pixel in \
              {s}x{s}, the bounce light at one in {b}x{b}, the shadows' second bounce at one in \
              {l}x{l}, spread along each surface; the cursor sphere shaded from its radiosity map; \
-             exact from the second frame at rest (--exact-while-moving: every frame exact)",
+             {rest} (--exact-while-moving: every frame exact)",
             s = viewer::compositor::MOVING_SHADOW_STRIDE,
             b = viewer::compositor::MOVING_BOUNCE_STRIDE,
-            l = viewer::compositor::MOVING_LOSS_STRIDE
+            l = viewer::compositor::MOVING_LOSS_STRIDE,
+            rest = if s.settle_at_rest {
+                format!(
+                    "at rest the exact bounce light and second bounce drawn over up to {} frames, \
+                     {} pixels a frame at most (--settle-in-one-frame: exact from the second frame at rest)",
+                    viewer::compositor::SHADOW_BOUNCE_BANDS,
+                    viewer::compositor::SETTLE_PIXELS
+                )
+            } else {
+                "exact from the second frame at rest".to_string()
+            }
         ),
         (true, false) => eprintln!(
             "while live objects move: the shadows' second bounce redrawn in one of {} bands a frame, \

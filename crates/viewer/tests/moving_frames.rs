@@ -378,3 +378,44 @@ fn a_point_light_s_shadows_stay_exact_while_moving() {
     }
     assert!(c.read_back_linear().unwrap().rgba == exact_here, "the moving frame's hard shadows differ");
 }
+
+/// With `settle_at_rest`, the frames at rest after a move draw the exact bounce light and second
+/// bounce a band at a time (`compositor/settle.rs`; one band of `SHADOW_BOUNCE_BANDS` a frame at
+/// 512^2): every frame while it settles stays within the moving frame's error bound (relMSE 1e-6
+/// over the pixels the sphere changes; the rows not yet exact are as the moving frame drew them),
+/// the first is not yet the exact one, and the `SHADOW_BOUNCE_BANDS`-th frame at rest and the
+/// one after it are, bit for bit, the frame a fresh compositor draws.
+#[test]
+fn the_frames_at_rest_settle_band_by_band_into_the_exact_frame() {
+    let settling =
+        CompositorSettings { amortise_while_moving: true, settle_at_rest: true, ..Default::default() };
+    let exact_there =
+        fresh_with(CompositorSettings { amortise_while_moving: false, ..settling }, &matte_sphere(THERE));
+    let changed = |k: usize| exact_there[4 * k..4 * k + 3] != [LEVEL; 3];
+    let bands = viewer::compositor::SHADOW_BOUNCE_BANDS as usize;
+    let mut c = Compositor::new(&gpu(), &scene(), settling).unwrap();
+    c.render(&matte_sphere(HERE)).unwrap();
+    c.render(&matte_sphere(THERE)).unwrap();
+    let mut errors = Vec::new();
+    for frame in 1..=bands + 1 {
+        c.render(&matte_sphere(THERE)).unwrap();
+        let image = c.read_back_linear().unwrap().rgba;
+        let (error, pixels) = rel_mse(&image, &exact_there, changed);
+        errors.push(format!("{error:.2e}"));
+        assert!(pixels > 10_000, "the sphere changes only {pixels} pixels");
+        if frame == 1 {
+            assert!(image != exact_there, "the first frame at rest was drawn exactly, all of it");
+        }
+        if frame >= bands {
+            assert!(image == exact_there, "frame {frame} at rest differs from a fresh compositor's");
+        } else {
+            assert!(
+                error <= 1e-6,
+                "frame {frame} at rest: relMSE {error:.3e} over the pixels the sphere changes"
+            );
+        }
+    }
+    eprintln!(
+        "the frames at rest against the exact one, relMSE over the pixels the sphere changes: {errors:?}"
+    );
+}

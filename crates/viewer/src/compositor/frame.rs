@@ -98,6 +98,16 @@ impl Compositor {
         .then(|| self.shadow_scissor_all(&uniform))
         .flatten();
         self.reduced.shadows_reduced.set(shadows_reduced.is_some());
+        // The first frames at rest after a move draw the exact bounce light and second bounce a
+        // few bands at a time (settle.rs), when there are any to draw.
+        let settle = &self.reduced.settle;
+        settle.begin_frame(moving, reduce && self.settings.settle_at_rest);
+        let settling =
+            (keep_shadowed && !at_rest && (bounce_rect.is_some() || uniform.shadow_bounce[0] == 1))
+                .then(|| settle.step((self.width, self.height)))
+                .flatten();
+        // A settling frame after the first keeps the backdrop after the exact shadows (settle.rs).
+        let shadows_kept = settling.is_some_and(|step| !step.first);
         if shadows_reduced.is_some() {
             written.tone[2] = 1.0;
         }
@@ -115,7 +125,7 @@ impl Compositor {
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass);
-            if !at_rest && !timing.on && shadows_reduced.is_none() {
+            if !at_rest && !timing.on && shadows_reduced.is_none() && !shadows_kept {
                 self.record_layered_shadows(&mut pass, &uniform);
             }
             if live_drawn && !keep_shadowed && !timing.on {
@@ -126,7 +136,7 @@ impl Compositor {
         if let Some(rect) = shadows_reduced {
             self.record_shadows_reduced(&mut encoder, rect);
             lap(&mut encoder, "layered shadows");
-        } else if timing.on && !at_rest {
+        } else if timing.on && !at_rest && !shadows_kept {
             self.record_layered_shadows(&mut self.begin_frame_pass(&mut encoder, target, false), &uniform);
             lap(&mut encoder, "layered shadows");
         }
@@ -143,6 +153,12 @@ impl Compositor {
                 frame_extent,
             );
         } else if keep_shadowed {
+            let whole = [0, 0, self.width, self.height];
+            match settling {
+                Some(step) if step.first => self.copy_kept(&mut encoder, whole, true),
+                Some(_) => self.copy_kept(&mut encoder, whole, false),
+                None => {}
+            }
             encoder.copy_texture_to_texture(
                 target_texture.as_image_copy(),
                 self.shadowed_texture.as_image_copy(),
@@ -161,6 +177,8 @@ impl Compositor {
                 lap(&mut encoder, "radiosity maps");
                 if moving {
                     self.record_bounce_reduced(&mut encoder, rect);
+                } else if let Some(step) = settling {
+                    self.record_bounce_settling(&mut encoder, rect, step);
                 } else {
                     self.record_bounce(&mut encoder, rect);
                 }
@@ -171,13 +189,15 @@ impl Compositor {
             lap(&mut encoder, "spheres in reflections");
             self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
             lap(&mut encoder, "spheres seen through glass");
-            self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes);
+            self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes, settling.map(|s| s.bands));
             lap(&mut encoder, "second bounce: what each pixel loses");
             self.record_shadow_bounce(&mut encoder, &uniform);
             lap(&mut encoder, "second bounce: removed");
             // A frame whose second bounce is partly from earlier inputs (amortised), or a moving
             // frame (its bounce light from reduced resolution), is no copy to keep.
-            if self.shadow_bounce_settled(&uniform) && !moving {
+            // A settling frame is exact once its last bands are drawn.
+            let settled = settling.is_none_or(|step| settle.finish(step));
+            if self.shadow_bounce_settled(&uniform) && !moving && settled {
                 self.shadowed_from.renew(&uniform, &rest_key);
             } else {
                 self.shadowed_from.forget();

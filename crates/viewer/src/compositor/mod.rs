@@ -6,6 +6,7 @@ mod backdrop_points;
 mod bindings;
 mod bounce;
 mod caustic_shadow;
+mod drawn_from;
 mod encode;
 mod frame;
 mod irradiance;
@@ -20,6 +21,7 @@ mod reduced_gather;
 mod reflections;
 mod scene_shadows;
 mod settings;
+mod settle;
 mod shadow_bounce;
 mod shadows;
 mod specular;
@@ -36,6 +38,7 @@ pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
 };
+pub use settle::SETTLE_PIXELS;
 pub use shadow_bounce::TAKEN_BANDS as SHADOW_BOUNCE_BANDS;
 
 use crate::error::ViewerError;
@@ -46,6 +49,7 @@ use crate::scene::ViewerScene;
 use glam::DVec3;
 
 use backdrop_points::PointVertex;
+use drawn_from::DrawnFrom;
 use lighting::{FrameUniform, MeshUniform};
 use live_objects::{GpuMesh, MeshVertex};
 use shadows::camera_space_bounds;
@@ -760,39 +764,6 @@ impl Compositor {
     /// Window depths of the pre-rendered pixels, as the compositor writes them.
     pub fn backdrop_window_depths(&self) -> &[f32] {
         &self.window_depths
-    }
-}
-
-/// What a cached pass (the loss maps, the radiosity maps, the shadows' second bounce) was last
-/// drawn from: the frame uniform's bytes and the live meshes' uniforms. Empty: never drawn.
-#[derive(Debug, Default)]
-struct DrawnFrom(std::cell::RefCell<Vec<u8>>);
-
-impl DrawnFrom {
-    fn key(uniform: &FrameUniform, mesh_bytes: &[u8]) -> Vec<u8> {
-        let mut key = bytemuck::bytes_of(uniform).to_vec();
-        key.extend_from_slice(mesh_bytes);
-        key
-    }
-
-    /// Whether the pass was last drawn from `uniform` and `mesh_bytes`.
-    fn is_current(&self, uniform: &FrameUniform, mesh_bytes: &[u8]) -> bool {
-        *self.0.borrow() == Self::key(uniform, mesh_bytes)
-    }
-
-    /// Forgets what the pass was drawn from: it is drawn again next time.
-    fn forget(&self) {
-        self.0.borrow_mut().clear();
-    }
-
-    /// Whether the pass must be drawn again for `uniform` and `mesh_bytes`; if so, records them.
-    fn renew(&self, uniform: &FrameUniform, mesh_bytes: &[u8]) -> bool {
-        let key = Self::key(uniform, mesh_bytes);
-        if *self.0.borrow() == key {
-            return false;
-        }
-        *self.0.borrow_mut() = key;
-        true
     }
 }
 

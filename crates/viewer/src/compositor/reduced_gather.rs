@@ -62,6 +62,8 @@ pub(super) struct ReducedGather {
     /// what reads the backdrop after shadows and is kept, such as the second bounce's clusters,
     /// is drawn again at rest).
     pub(super) shadows_reduced: std::cell::Cell<bool>,
+    /// The first frames at rest after a move (settle.rs).
+    pub(super) settle: super::settle::Settle,
 }
 
 /// The grid's textures for a frame of `width` x `height`: made before the frame bind group.
@@ -115,6 +117,7 @@ impl ReducedGather {
             last_frame: Default::default(),
             moving: Default::default(),
             shadows_reduced: Default::default(),
+            settle: Default::default(),
         }
     }
 

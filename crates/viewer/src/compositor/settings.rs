@@ -118,6 +118,12 @@ pub struct CompositorSettings {
     /// bounce light at full resolution and the second bounce in bands (exact, but up to
     /// `SHADOW_BOUNCE_BANDS - 1` frames old). Either way the second frame at rest is exact.
     pub reduce_while_moving: bool,
+    /// With `amortise_while_moving` and `reduce_while_moving`, the first frames at rest after a
+    /// move draw the exact bounce light and second bounce a few bands of the frame at a time
+    /// (`compositor/settle.rs`: exact, bit for bit, at most `SHADOW_BOUNCE_BANDS` frames after
+    /// the move) instead of all in the first; `false` (the default) draws the first frame at
+    /// rest exactly.
+    pub settle_at_rest: bool,
 }
 
 impl Default for CompositorSettings {
@@ -134,6 +140,7 @@ impl Default for CompositorSettings {
             shadow_bounce: true,
             amortise_while_moving: false,
             reduce_while_moving: true,
+            settle_at_rest: false,
         }
     }
 }

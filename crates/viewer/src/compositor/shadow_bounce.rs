@@ -49,9 +49,10 @@ struct TakenBands {
 impl TakenBands {
     const ALL: u32 = (1 << TAKEN_BANDS) - 1;
 
-    /// The bands to draw this frame (bit k: band k), and records them as drawn. `changed`: the
-    /// inputs differ from those the bands were drawn from.
-    fn to_draw(&self, changed: bool, amortise: bool) -> u32 {
+    /// The bands to draw this frame (bit k: band k), no others than `limit` (a settling frame's,
+    /// settle.rs), and records them as drawn. `changed`: the inputs differ from those the bands
+    /// were drawn from.
+    fn to_draw(&self, changed: bool, amortise: bool, limit: u32) -> u32 {
         if changed {
             self.current.set(0);
         }
@@ -60,7 +61,7 @@ impl TakenBands {
             self.next.set((k + 1) % TAKEN_BANDS);
             1 << k
         } else {
-            Self::ALL & !self.current.get()
+            Self::ALL & !self.current.get() & limit
         };
         self.current.set(self.current.get() | wanted);
         if self.current.get() == Self::ALL {
@@ -71,7 +72,7 @@ impl TakenBands {
 }
 
 /// Band `k`'s rows of a frame `height` rows high: `[x, y, w, h]`, possibly empty.
-fn band_rect(k: u32, (width, height): (u32, u32)) -> [u32; 4] {
+pub(super) fn band_rect(k: u32, (width, height): (u32, u32)) -> [u32; 4] {
     let top = k * height / TAKEN_BANDS;
     let bottom = (k + 1) * height / TAKEN_BANDS;
     [0, top, width, bottom - top]
@@ -201,13 +202,15 @@ impl Compositor {
 
     /// Draws what each pixel loses where it is not already drawn from the same `uniform` and
     /// mesh uniforms (`mesh_bytes`): the whole frame, or while they change one band of it (see
-    /// the module's notes). Reads the backdrop after shadows: runs after the bounce light added
-    /// to it, whose clusters ([`Compositor::record_shadow_bounce_clusters`]) ran before.
+    /// the module's notes), or in a settling frame (settle.rs) the bands of `settling` alone.
+    /// Reads the backdrop after shadows: runs after the bounce light added to it, whose clusters
+    /// ([`Compositor::record_shadow_bounce_clusters`]) ran before.
     pub(super) fn record_shadow_bounce_taken(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         uniform: &FrameUniform,
         mesh_bytes: &[u8],
+        settling: Option<u32>,
     ) {
         let bounce = &self.shadow_bounce;
         if uniform.shadow_bounce[0] != 1 {
@@ -221,7 +224,8 @@ impl Compositor {
             self.record_loss_reduced(encoder, &bounce.textures.taken);
             return;
         }
-        let bands = bounce.bands.to_draw(changed, self.settings.amortise_while_moving);
+        let limit = settling.unwrap_or(TakenBands::ALL);
+        let bands = bounce.bands.to_draw(changed, self.settings.amortise_while_moving, limit);
         if bands == 0 {
             return;
         }
@@ -327,15 +331,31 @@ mod tests {
     #[test]
     fn bands_are_drawn_in_turn_while_moving_and_completed_at_rest() {
         let bands = TakenBands::default();
-        assert_eq!(bands.to_draw(true, true), TakenBands::ALL, "the first frame draws every band");
-        assert_eq!(bands.to_draw(false, true), 0, "a still frame after a whole drawing draws nothing");
+        assert_eq!(
+            bands.to_draw(true, true, TakenBands::ALL),
+            TakenBands::ALL,
+            "the first frame draws every band"
+        );
+        assert_eq!(
+            bands.to_draw(false, true, TakenBands::ALL),
+            0,
+            "a still frame after a whole drawing draws nothing"
+        );
         for k in 0..TAKEN_BANDS + 2 {
-            assert_eq!(bands.to_draw(true, true), 1 << (k % TAKEN_BANDS), "move {k}");
+            assert_eq!(bands.to_draw(true, true, TakenBands::ALL), 1 << (k % TAKEN_BANDS), "move {k}");
         }
         let last = 1 << ((TAKEN_BANDS + 1) % TAKEN_BANDS);
-        assert_eq!(bands.to_draw(false, true), TakenBands::ALL & !last, "at rest the rest is drawn");
-        assert_eq!(bands.to_draw(false, true), 0);
-        assert_eq!(bands.to_draw(true, false), TakenBands::ALL, "exact frames draw every band");
+        assert_eq!(
+            bands.to_draw(false, true, TakenBands::ALL),
+            TakenBands::ALL & !last,
+            "at rest the rest is drawn"
+        );
+        assert_eq!(bands.to_draw(false, true, TakenBands::ALL), 0);
+        assert_eq!(
+            bands.to_draw(true, false, TakenBands::ALL),
+            TakenBands::ALL,
+            "exact frames draw every band"
+        );
     }
 
     /// The bands cover every row once, for heights that do and do not divide evenly.
