@@ -132,6 +132,18 @@ pub fn find_surface(
 /// one stopped after too many layers (`Err(Vec3::ZERO)`).
 pub fn find_surface_or_escape(
     world: &World,
+    ray: Ray,
+    sampler: &mut Sampler,
+    counter: &mut u64,
+) -> Result<(SurfaceInteraction, Vec3), Vec3> {
+    find_surface_or_escape_inlined(world, ray, sampler, counter)
+}
+
+/// [`find_surface_or_escape`], inlined into the path tracer's loop: called out of line, the
+/// surface interaction was copied twice on its way out (the result, then the match).
+#[inline(always)]
+fn find_surface_or_escape_inlined(
+    world: &World,
     mut ray: Ray,
     sampler: &mut Sampler,
     counter: &mut u64,
@@ -279,6 +291,7 @@ fn non_specular(mask: LobeFlags) -> LobeFlags {
 /// Next-event estimation with one light chosen from the surface's light set by power, weighted
 /// for MIS against the BSDF sample the caller follows next (which must weight the emitters it
 /// hits with the complementary weight, as [`PathTracer`]'s `li` does).
+#[inline]
 pub fn sample_one_light(
     world: &World,
     si: &SurfaceInteraction,
@@ -294,6 +307,7 @@ pub fn sample_one_light(
 
 /// Emission, self-emission and ambient light at a surface reached by a ray (all but the
 /// emission of lights, which the integrators weight themselves).
+#[inline]
 pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
     let set = world.light_set(si.attributes);
     if !material.has_surface_terms() {
@@ -584,7 +598,7 @@ fn path(
     let mut depth = 0u32;
     loop {
         let mut rays = 0;
-        let found = find_surface_or_escape(world, ray, sampler, &mut rays);
+        let found = find_surface_or_escape_inlined(world, ray, sampler, &mut rays);
         if depth == 0 {
             counters.camera += rays;
         } else {
@@ -628,7 +642,7 @@ fn path(
             }
         }
         l += beta * surface_terms(world, &si, material);
-        let bsdf = material.bsdf(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
+        let bsdf = material.bsdf_inlined(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
         if depth == 0 {
             crate::light_layers::primary_vertex(world, &si, material, &bsdf, beta);
         }

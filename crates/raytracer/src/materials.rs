@@ -292,6 +292,23 @@ impl Material {
         st: Vec2,
         st_width: f32,
     ) -> Bsdf {
+        self.bsdf_inlined(wo, ng, ns, n_outward, dpdu, st, st_width)
+    }
+
+    /// [`Material::bsdf`], inlined where it is hot (the path tracer's loop): out of line, the
+    /// BSDF (about 200 bytes) was built in the callee's frame and copied out with `memcpy`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn bsdf_inlined(
+        &self,
+        wo: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        n_outward: Vec3,
+        dpdu: Vec3,
+        st: Vec2,
+        st_width: f32,
+    ) -> Bsdf {
         let cs = self.color_at(st, st_width);
         if let Surface::Glass { kr, kt, eta } = self.surface {
             // The frame's +z is the outward normal: the lobe knows which side is inside.
