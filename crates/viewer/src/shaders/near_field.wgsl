@@ -97,7 +97,10 @@ fn near_field_change(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let reach = min(spacing.x, min(spacing.y, spacing.z));
     let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
     let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
-    let sh = field_radiance_sh(p_world, n_world);
+    // The field's radiance SH is blended at the first direction that meets a near surface: a
+    // fragment far from the scene meets none and needs none.
+    var sh: array<vec4<f32>, 9>;
+    var blended = false;
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let t = normalize(cross(helper, n));
     let b = cross(n, t);
@@ -121,6 +124,10 @@ fn near_field_change(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let surface = near_surface_radiance(y);
         if surface.w <= 0.0 {
             continue;
+        }
+        if !blended {
+            sh = field_radiance_sh(p_world, n_world);
+            blended = true;
         }
         change += surface.rgb - sh_radiance(sh, d_world / world_per_camera);
     }
