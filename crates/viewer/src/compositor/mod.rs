@@ -141,7 +141,6 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/shadows.wgsl"),
     include_str!("../shaders/shadow_footprint.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
-    include_str!("../shaders/near_field.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/specular.wgsl"),
     include_str!("../shaders/transmission.wgsl"),

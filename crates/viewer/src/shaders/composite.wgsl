@@ -372,8 +372,7 @@ fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
 }
 
 // The probes' indirect irradiance at camera-space p with unit normal n (zero without probes),
-// less what the live objects' shadows took from it (`loss`, radiance units). Live surfaces
-// take live_probe_irradiance (near_field.wgsl), which adds the scene surfaces near them.
+// less what the live objects' shadows took from it (`loss`, radiance units).
 fn probe_irradiance(p: vec3<f32>, n: vec3<f32>, loss: vec3<f32>) -> vec3<f32> {
     if frame.counts.w != 1u {
         return vec3<f32>(0.0);
@@ -395,7 +394,7 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
     if frame.counts.y == 1u && frame.counts.w == 1u {
         loss = own_shadow_loss(p, n, n, 1.0).irradiance / max(frame.tone.x, 1e-30);
     }
-    let diffuse = lit.diffuse + live_probe_irradiance(p, n, loss);
+    let diffuse = lit.diffuse + probe_irradiance(p, n, loss);
     return material.colour.rgb * (material.coefficients.x * lit.ambient + material.coefficients.y / PI * diffuse);
 }
 
@@ -452,7 +451,7 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
     // With the renderer's irradiance probes, the scene's indirect light at this fragment
     // (compositor/irradiance.rs) joins the lights', less what the shadows took.
     if !from_map {
-        diffuse += live_probe_irradiance(p, n, loss.irradiance);
+        diffuse += probe_irradiance(p, n, loss.irradiance);
     }
     // With the reflection probes, the scene's radiance averaged over the lobe's own directions
     // times the lobe's albedo, less what the shadows took.
