@@ -461,7 +461,7 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
         let v_world = normalize((frame.world_from_camera * vec4<f32>(v, 0.0)).xyz);
         let reflected = blinn_albedo(material, dot(n, v))
             * glossy_reflection(p_world, n_world, v_world, exponent);
-        specular += max(reflected - loss.glossy, vec3<f32>(0.0));
+        specular += reflected;
     }
     let glossy = material.specular_colour.rgb * ks * specular;
     if from_map {

@@ -200,7 +200,9 @@ const GLOSSY_SAMPLES: u32 = 16u;
 // mip level whose prefiltering lobe is as wide as the solid angle the direction stands for
 // (Krivanek and Colbert 2008); the probe of the largest weight finds where each direction meets
 // the scene, and every probe is read toward those points. A port of
-// sidecar::ReflectionProbes::glossy_radiance. The split sum's single lookup toward the mirror
+// sidecar::ReflectionProbes::glossy_radiance, but for the live objects, which the reference
+// does not know: with their shadows on, each direction's radiance loses the share their shadows
+// took from the point it meets (live_share_at_hit). The split sum's single lookup toward the mirror
 // direction assumes the lobe centred there, as it is only at normal incidence; a wide lobe seen at a
 // grazing angle leans toward the normal and loses its part below the horizon, so it reflects
 // what lies under a sphere's lower half, not the horizon the mirror direction meets.
@@ -269,6 +271,16 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) ->
             hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
         }
     }
+    // The probes saw the scene without the live objects: with their shadows on, what those
+    // took from each hit's light (backdrop_shadowed is the frame after the shadow pass) is
+    // taken from its radiance, as the eye sees it taken (live_share_at_hit).
+    var kept: array<vec3<f32>, GLOSSY_SAMPLES>;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        kept[i] = vec3<f32>(1.0);
+        if frame.counts.y == 1u && weights[i] > 0.0 {
+            kept[i] = vec3<f32>(1.0) - live_share_at_hit(cells[nearest], p, directions[i].xyz, hits[i]);
+        }
+    }
     var sum = vec3<f32>(0.0);
     var probes_total = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
@@ -284,7 +296,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) ->
                 let to_hit = hits[i] - origin;
                 let len = length(to_hit);
                 let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
-                lobe += weights[i] * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, directions[i].w).rgb;
+                lobe += weights[i] * kept[i] * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, directions[i].w).rgb;
             }
         }
         sum += w * lobe;
@@ -320,4 +332,99 @@ fn probe_hit(cell: vec3<u32>, p: vec3<f32>, r: vec3<f32>) -> vec3<f32> {
         dir = hit / len;
     }
     return origin + hit;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The live objects' shadows where a glossy live surface's lobe meets the scene.
+
+// The surface point a probe's distance map holds at `texel` (the bake measures each texel's
+// centre), relative to the probe (octahedral_direction is bounce.wgsl's).
+fn probe_texel_point(probe: u32, texel: vec2<u32>) -> vec3<f32> {
+    let dir = octahedral_direction((vec2<f32>(texel) + 0.5) / f32(REFLECTION_TEXELS));
+    return dir * textureLoad(reflection_distance, texel, probe, 0).r;
+}
+
+// The step from surface point `centre` (of `texel`) to its neighbour along one axis of the map,
+// on the side whose surface point lies nearer (the same surface more likely than across an
+// edge); the step back is negated, so both point the same way.
+fn nearer_neighbour(probe: u32, texel: vec2<u32>, axis: vec2<u32>, centre: vec3<f32>) -> vec3<f32> {
+    let t = dot(texel, axis);
+    var best = vec3<f32>(0.0);
+    var best_gap = 3.0e38;
+    if t + 1u < REFLECTION_TEXELS {
+        best = probe_texel_point(probe, texel + axis) - centre;
+        best_gap = dot(best, best);
+    }
+    if t > 0u {
+        let back = centre - probe_texel_point(probe, texel - axis);
+        if dot(back, back) < best_gap {
+            best = back;
+        }
+    }
+    return best;
+}
+
+// Where the ray p + t l meets the surface a probe's distance map describes, from `hit` (the
+// ray's probe_hit): the ray met with the plane through the surface points of the texel the
+// point is in and of its nearer neighbours along both axes, again with the texel that point is
+// in until it stays (three times at most); `hit` where the map has no plane facing the ray.
+// probe_hit's fixed-point steps on the texels' distances land up to a texel off, which near a
+// live object's contact is the difference between its shadow and none.
+fn probe_surface_point(cell: vec3<u32>, p: vec3<f32>, l: vec3<f32>, hit: vec3<f32>) -> vec3<f32> {
+    let probe = probe_index(cell);
+    let origin = probe_position(cell);
+    var point = hit;
+    var texel = vec2<u32>(REFLECTION_TEXELS);
+    for (var round = 0; round < 3; round++) {
+        let to_point = point - origin;
+        let len = length(to_point);
+        if !(len > 0.0) {
+            break;
+        }
+        let at = min(vec2<u32>(octahedral_uv(to_point / len) * f32(REFLECTION_TEXELS)), vec2<u32>(REFLECTION_TEXELS - 1u));
+        if all(at == texel) {
+            break;
+        }
+        texel = at;
+        let centre = probe_texel_point(probe, texel);
+        let n = cross(nearer_neighbour(probe, texel, vec2<u32>(1u, 0u), centre), nearer_neighbour(probe, texel, vec2<u32>(0u, 1u), centre));
+        let facing = dot(l, n);
+        // A plane seen edge-on (or no plane: n zero) keeps the last point.
+        if !(abs(facing) > 1e-4 * length(n)) {
+            break;
+        }
+        let t = dot(origin + centre - p, n) / facing;
+        if !(t > 0.0) {
+            break;
+        }
+        point = p + t * l;
+    }
+    return point;
+}
+
+// Camera-space point of world point w (the camera transform is a similarity:
+// compositor/lighting.rs takes its uniform scale).
+fn camera_point_of(w: vec3<f32>) -> vec3<f32> {
+    let m = mat3x3<f32>(frame.world_from_camera[0].xyz, frame.world_from_camera[1].xyz, frame.world_from_camera[2].xyz);
+    return transpose(m) * (w - frame.world_from_camera_point[3].xyz) / dot(m[0], m[0]);
+}
+
+// The share of its radiance that the live objects take from the point where lobe direction l
+// from world point p meets the scene (near `hit`, its probe_hit with the probe of grid cell
+// `cell`), per channel: where the eye sees that point in the render, the shadow pass's own share
+// at its pixel, `1 - backdrop_shadowed / backdrop_colour` (the light layers' exact shadows of
+// every light, the occlusion of indirect light, the blocked caustics, for whatever material
+// the surface has: a metal or glass surface loses only its own highlight); zero where the eye
+// does not see it (a Lambertian model there, live_shadow_share, made the room's floating
+// sphere over the metal cylinder darker than the truth: docs/viewer-lighting.md).
+fn live_share_at_hit(cell: vec3<u32>, p: vec3<f32>, l: vec3<f32>, hit: vec3<f32>) -> vec3<f32> {
+    let seen = probe_depth(camera_point_of(probe_surface_point(cell, p, l, hit)));
+    // Within 3 % of the depth: a pixel's footprint along its ray at grazing views.
+    if seen.pixel.x < 0 || !(seen.surface < 3.0e38) || abs(seen.distance - seen.surface) > 0.03 * seen.surface {
+        return vec3<f32>(0.0);
+    }
+    let before = textureLoad(backdrop_colour, seen.pixel, 0).rgb;
+    let after = textureLoad(backdrop_shadowed, seen.pixel, 0).rgb;
+    let share = clamp(vec3<f32>(1.0) - after / max(before, vec3<f32>(1e-30)), vec3<f32>(0.0), vec3<f32>(1.0));
+    return select(vec3<f32>(0.0), share, before > vec3<f32>(1e-6));
 }
