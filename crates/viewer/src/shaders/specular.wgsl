@@ -265,28 +265,35 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     if met_count > 0u {
         let material = live_sphere_material(in.row);
         let stride = (met_count + GLOSSY_SHADED - 1u) / GLOSSY_SHADED;
+        // The directions to shade are chosen first and shaded in a loop without `continue`:
+        // on lavapipe, a loop that skipped directions with `continue` around the call to
+        // shade left about half the fragments after their first or second shaded direction
+        // (docs/viewer-specular.md, "Directions the shading loop lost").
+        var chosen: array<u32, GLOSSY_SHADED>;
+        var chosen_count = 0u;
         var k = 0u;
+        for (var i = 0u; i < GLOSSY_TRACED; i++) {
+            if (met_mask[i / 32u] & (1u << (i % 32u))) != 0u {
+                if k % stride == 0u && chosen_count < GLOSSY_SHADED {
+                    chosen[chosen_count] = i;
+                    chosen_count += 1u;
+                }
+                k += 1u;
+            }
+        }
         var shaded = vec3<f32>(0.0);
         var shaded_weight = 0.0;
-        for (var i = 0u; i < GLOSSY_TRACED; i++) {
-            if (met_mask[i / 32u] & (1u << (i % 32u))) == 0u {
-                continue;
-            }
-            k += 1u;
-            if (k - 1u) % stride != 0u {
-                continue;
-            }
-            let d = glossy_direction(i, exponent, n, t, b, v, turn);
+        for (var j = 0u; j < chosen_count; j++) {
+            let d = glossy_direction(chosen[j], exponent, n, t, b, v, turn);
             let first = first_sphere(p, d.xyz);
             shaded_weight += d.w;
-            if !scene_lets_light(p, n, d.xyz, first.y, 0.0) {
-                continue;
+            if scene_lets_light(p, n, d.xyz, first.y, 0.0) {
+                let q = p + first.y * d.xyz;
+                let m = normalize(q - sphere.xyz);
+                loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
+                let seen = shade(material, q, m, d.xyz) * frame.tone.x;
+                shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
             }
-            let q = p + first.y * d.xyz;
-            let m = normalize(q - sphere.xyz);
-            loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
-            let seen = shade(material, q, m, d.xyz) * frame.tone.x;
-            shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
         }
         change += met * shaded / max(shaded_weight, 1e-30);
     }
