@@ -54,6 +54,39 @@ fn lobe_directions_of(n: DVec3, v: DVec3, exponent: f64) -> Vec<(DVec3, f64)> {
     out
 }
 
+/// Each floor pixel's point and the lobe directions of the f64 reference there.
+type FloorLobes = Vec<Option<(DVec3, Vec<(DVec3, f64)>)>>;
+
+/// Light layers of `size` for the flat Cornell backdrop `s` whose floor is metal (Blinn lobe
+/// `KS`, `EXPONENT`, no diffuse albedo), with `sources`; one pixel off the floor has an albedo,
+/// so that the bounce light's data are bound. With each floor pixel's lobe.
+fn metal_floor(
+    s: &viewer::ViewerScene,
+    (w, h): (u32, u32),
+    sources: Vec<sidecar::LightSource>,
+) -> (sidecar::LightLayers, FloorLobes) {
+    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers = sidecar::LightLayers::new(w, h, fingerprint, sources);
+    let mut lobes = vec![None; (w * h) as usize];
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            layers.normal[k] = [0.0, 1.0, 0.0];
+            match floor_point(s, i, j) {
+                Some(p) => {
+                    layers.glossy[k] = [KS as f32; 3];
+                    layers.glossy_exponent[k] = [EXPONENT as f32; 3];
+                    lobes[k] = Some((p, lobe_directions(DVec3::Y, (eye - p).normalize())));
+                }
+                None if k == 0 => layers.albedo[k] = [0.8; 3],
+                None => {}
+            }
+        }
+    }
+    (layers, lobes)
+}
+
 /// A white matte sphere of radiance `l` (a uniform probe field) over a metal floor (Blinn lobe
 /// `KS`, `EXPONENT`, no diffuse albedo) of the flat Cornell backdrop whose light layers are
 /// black (so the sphere hides no light and casts no shadow the floor could reflect; one corner
@@ -67,25 +100,7 @@ fn a_metal_floor_shows_the_blurred_sphere_it_reflects() {
     let (w, h) = (512u32, 512u32);
     let l = 0.9f32;
     let mut s = flat_cornell(LEVEL, vec![]);
-    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
-    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
-    let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
-    let mut lobes = vec![None; (w * h) as usize];
-    for j in 0..h {
-        for i in 0..w {
-            let k = (j * w + i) as usize;
-            layers.normal[k] = [0.0, 1.0, 0.0];
-            match floor_point(&s, i, j) {
-                Some(p) => {
-                    layers.glossy[k] = [KS as f32; 3];
-                    layers.glossy_exponent[k] = [EXPONENT as f32; 3];
-                    lobes[k] = Some((p, lobe_directions(DVec3::Y, (eye - p).normalize())));
-                }
-                None if k == 0 => layers.albedo[k] = [0.8; 3],
-                None => {}
-            }
-        }
-    }
+    let (layers, lobes) = metal_floor(&s, (w, h), vec![]);
     s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
     s.set_probes(uniform_probe([l; 3]));
     let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
@@ -155,26 +170,7 @@ fn a_metal_floor_shows_a_sphere_lit_from_one_side_over_every_direction_it_shades
         radius: (area / PI).sqrt(),
     };
     let mut s = flat_cornell(LEVEL, vec![light]);
-    let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
-    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
-    let mut layers =
-        sidecar::LightLayers::new(w, h, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
-    let mut lobes = vec![None; (w * h) as usize];
-    for j in 0..h {
-        for i in 0..w {
-            let k = (j * w + i) as usize;
-            layers.normal[k] = [0.0, 1.0, 0.0];
-            match floor_point(&s, i, j) {
-                Some(p) => {
-                    layers.glossy[k] = [KS as f32; 3];
-                    layers.glossy_exponent[k] = [EXPONENT as f32; 3];
-                    lobes[k] = Some((p, lobe_directions(DVec3::Y, (eye - p).normalize())));
-                }
-                None if k == 0 => layers.albedo[k] = [0.8; 3],
-                None => {}
-            }
-        }
-    }
+    let (layers, lobes) = metal_floor(&s, (w, h), vec![sidecar::LightSource::new(0, "arealight")]);
     s.set_light_layers(SceneLayers {
         layers,
         layer_of_light: vec![Some(0)],
