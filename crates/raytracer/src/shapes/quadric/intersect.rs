@@ -164,12 +164,9 @@ impl Quadric {
                 if p.z < z_min.min(z_max) || p.z > z_min.max(z_max) {
                     return None;
                 }
-                let angle = angle_of(p.x, p.y);
-                if !self.in_sweep(angle) {
-                    return None;
-                }
+                let u = self.sweep_u(p)?;
                 let lat = (p.z / radius).clamp(-1.0, 1.0).asin();
-                uv = DVec2::new(self.u_of(angle), (lat - lat_min) / (lat_max - lat_min));
+                uv = DVec2::new(u, (lat - lat_min) / (lat_max - lat_min));
             }
             QuadricShape::Cylinder { radius, z_min, z_max } => {
                 let rho = (p.x * p.x + p.y * p.y).sqrt();
@@ -181,11 +178,7 @@ impl Quadric {
                 if p.z < z_min.min(z_max) || p.z > z_min.max(z_max) {
                     return None;
                 }
-                let angle = angle_of(p.x, p.y);
-                if !self.in_sweep(angle) {
-                    return None;
-                }
-                uv = DVec2::new(self.u_of(angle), (p.z - z_min) / (z_max - z_min));
+                uv = DVec2::new(self.sweep_u(p)?, (p.z - z_min) / (z_max - z_min));
             }
             QuadricShape::Disk { height, radius } => {
                 p.z = height;
@@ -193,31 +186,19 @@ impl Quadric {
                 if rho > radius {
                     return None;
                 }
-                let angle = angle_of(p.x, p.y);
-                if !self.in_sweep(angle) {
-                    return None;
-                }
-                uv = DVec2::new(self.u_of(angle), 1.0 - rho / radius);
+                uv = DVec2::new(self.sweep_u(p)?, 1.0 - rho / radius);
             }
             QuadricShape::Cone { height, .. } => {
                 if p.z < height.min(0.0) || p.z > height.max(0.0) {
                     return None;
                 }
-                let angle = angle_of(p.x, p.y);
-                if !self.in_sweep(angle) {
-                    return None;
-                }
-                uv = DVec2::new(self.u_of(angle), p.z / height);
+                uv = DVec2::new(self.sweep_u(p)?, p.z / height);
             }
             QuadricShape::Paraboloid { z_min, z_max, .. } => {
                 if p.z < z_min.min(z_max) || p.z > z_min.max(z_max) {
                     return None;
                 }
-                let angle = angle_of(p.x, p.y);
-                if !self.in_sweep(angle) {
-                    return None;
-                }
-                uv = DVec2::new(self.u_of(angle), (p.z - z_min) / (z_max - z_min));
+                uv = DVec2::new(self.sweep_u(p)?, (p.z - z_min) / (z_max - z_min));
             }
             QuadricShape::Hyperboloid { p1, p2, surface } => {
                 let dl = p2 - p1;
@@ -263,18 +244,21 @@ impl Quadric {
                     return None;
                 }
                 p = centre + off * (minor / ol);
-                let angle = angle_of(p.x, p.y);
-                if !self.in_sweep(angle) {
-                    return None;
-                }
+                let u = self.sweep_u(p)?;
                 let rho = (p.x * p.x + p.y * p.y).sqrt();
                 let phi = p.z.atan2(rho - major);
                 let v = phi_param(phi, phi_min, phi_max)?;
-                uv = DVec2::new(self.u_of(angle), v);
+                uv = DVec2::new(u, v);
             }
         }
         let n = self.normal_at(p);
         Some(QuadricHit { t, p, n, uv, dpdu: self.dpdu_at(p) })
+    }
+
+    /// The parametric u of a hit `p` (object space) whose angle about z lies in the sweep.
+    fn sweep_u(&self, p: DVec3) -> Option<f64> {
+        let angle = angle_of(p.x, p.y);
+        if self.in_sweep(angle) { Some(self.u_of(angle)) } else { None }
     }
 
     /// For a surface of revolution of a line point `l`: the parametric u of the hit at `angle`,
