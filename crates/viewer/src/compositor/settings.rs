@@ -101,7 +101,7 @@ pub struct CompositorSettings {
     /// behind them (the image where a march through each sphere meets the scene) instead of
     /// the surface's average indirect light (`shaders/bounce.wgsl`, `occlusion_correction`).
     /// Off by default: in `cargo xtask illusion` it helped some rows as much as it hurt others
-    /// (docs/viewer-lighting.md, "Live spheres light the scene").
+    /// (docs/viewer-bounce.md, "Live spheres light the scene").
     pub occlusion_from_behind: bool,
     /// With light layers that hold the diffuse albedo, the light the live objects' shadows
     /// take from the rest of the scene (the shadowed surfaces no longer light what they see) is
