@@ -18,7 +18,7 @@ use crate::live::LiveObjects;
 
 /// Texels along each side of a sphere's map (`shadow_loss.wgsl` LOSS_MAP_TEXELS).
 pub(super) const LOSS_MAP_TEXELS: u32 = 32;
-/// Six half floats per texel (irradiance and glossy loss), packed in 32-bit words.
+/// Three half floats per texel (the irradiance loss) and a drawn flag, in 32-bit words.
 pub(super) const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
 /// The loss maps' pass and what it was last drawn from.

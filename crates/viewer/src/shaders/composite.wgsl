@@ -392,7 +392,7 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
     let lit = direct_light(p, n, n, 1.0, false);
     var loss = vec3<f32>(0.0);
     if frame.counts.y == 1u && frame.counts.w == 1u {
-        loss = own_shadow_loss(p, n, n, 1.0).irradiance / max(frame.tone.x, 1e-30);
+        loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);
     }
     let diffuse = lit.diffuse + probe_irradiance(p, n, loss);
     return material.colour.rgb * (material.coefficients.x * lit.ambient + material.coefficients.y / PI * diffuse);
@@ -441,17 +441,15 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
     }
     var diffuse = lit.diffuse;
     var specular = lit.specular * select(1.0, map.a, from_map);
-    // The probes saw the scene before the live objects' shadows took light from it.
-    var loss = ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
-    if frame.counts.y == 1u && ((frame.counts.w == 1u && !from_map) || reflections) {
-        loss = own_shadow_loss(p, n, v, exponent);
-        let to_radiance = 1.0 / max(frame.tone.x, 1e-30);
-        loss = ShadowLoss(loss.irradiance * to_radiance, loss.glossy * to_radiance);
-    }
     // With the renderer's irradiance probes, the scene's indirect light at this fragment
-    // (compositor/irradiance.rs) joins the lights', less what the shadows took.
+    // (compositor/irradiance.rs) joins the lights', less what the shadows took (the probes saw
+    // the scene before the live objects' shadows took light from it).
     if !from_map {
-        diffuse += probe_irradiance(p, n, loss.irradiance);
+        var loss = vec3<f32>(0.0);
+        if frame.counts.y == 1u && frame.counts.w == 1u {
+            loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);
+        }
+        diffuse += probe_irradiance(p, n, loss);
     }
     // With the reflection probes, the scene's radiance averaged over the lobe's own directions
     // times the lobe's albedo, less what the shadows took.

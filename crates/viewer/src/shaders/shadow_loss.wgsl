@@ -112,18 +112,13 @@ fn shadow_loss_along(p: vec3<f32>, w: vec3<f32>, reach: f32) -> vec3<f32> {
     return max(before - after, vec3<f32>(0.0));
 }
 
-// What the live objects' shadows took from the light a fragment at p (normal n, camera space,
-// seen from v) receives, in the image's units: the irradiance its diffuse lobe loses and the
-// radiance its Blinn lobe (`exponent`) loses, both from the same directions.
-struct ShadowLoss {
-    irradiance: vec3<f32>,
-    glossy: vec3<f32>,
-}
-
-fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> ShadowLoss {
+// The irradiance the live objects' shadows took from what a fragment at p (normal n, camera
+// space) receives, in the image's units. (A glossy fragment's reflection of those shadows is
+// glossy_reflection's, per lobe direction: probes.wgsl, live_share_at_hit.)
+fn shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let reach = shadow_gather_reach();
     if reach <= 0.0 {
-        return ShadowLoss(vec3<f32>(0.0), vec3<f32>(0.0));
+        return vec3<f32>(0.0);
     }
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let tangent = normalize(cross(helper, n));
@@ -131,7 +126,6 @@ fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> Shado
     // Start off the surface, so the march never finds the fragment's own pixel's surface.
     let origin = p + n * (reach * 1e-3);
     var irradiance = vec3<f32>(0.0);
-    var glossy = vec3<f32>(0.0);
     for (var i = 0u; i < SHADOW_GATHER_DIRECTIONS; i = i + 1u) {
         // Cosine-distributed directions on a spiral (uniform in the disc, lifted).
         let u = (f32(i) + 0.5) / f32(SHADOW_GATHER_DIRECTIONS);
@@ -139,14 +133,10 @@ fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> Shado
         let phi = f32(i) * GOLDEN_ANGLE;
         let cos_w = sqrt(1.0 - u);
         let w = tangent * (radius * cos(phi)) + bitangent * (radius * sin(phi)) + n * cos_w;
-        let loss = shadow_loss_along(origin, w, reach);
-        irradiance += loss;
-        // The Blinn lobe's BRDF times cosine over the directions' density (cos / pi).
-        glossy += loss * (blinn_lobe_cos(n, v, w, exponent) / cos_w);
+        irradiance += shadow_loss_along(origin, w, reach);
     }
-    // Over cosine-distributed directions: E = pi / N * sum of L, L_o = pi / N * sum of f L.
-    let scale = PI / f32(SHADOW_GATHER_DIRECTIONS);
-    return ShadowLoss(irradiance * scale, glossy * scale);
+    // Over cosine-distributed directions: E = pi / N * sum of L.
+    return irradiance * (PI / f32(SHADOW_GATHER_DIRECTIONS));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -160,7 +150,7 @@ fn shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> Shado
 
 const LOSS_MAP_TEXELS: u32 = 32u;
 
-// Per texel: irradiance rgb and glossy rgb as six half floats (pack2x16float), and 1 where the
+// Per texel: the irradiance loss rgb as three half floats (pack2x16float), and 1 where the
 // texel holds a sphere's loss (0: the row was never drawn, or its sphere has no map).
 @group(0) @binding(14) var loss_maps: texture_2d<u32>;
 
@@ -236,15 +226,12 @@ fn hemi_octahedral_direction(uv: vec2<f32>) -> vec3<f32> {
     return normalize(vec3<f32>(p, 1.0 - abs(p.x) - abs(p.y)));
 }
 
-fn unpack_loss(texel: vec4<u32>) -> array<vec3<f32>, 2> {
-    let a = unpack2x16float(texel.x);
-    let b = unpack2x16float(texel.y);
-    let c = unpack2x16float(texel.z);
-    return array<vec3<f32>, 2>(vec3<f32>(a, b.x), vec3<f32>(b.y, c));
+fn unpack_loss(texel: vec4<u32>) -> vec3<f32> {
+    return vec3<f32>(unpack2x16float(texel.x), unpack2x16float(texel.y).x);
 }
 
 // The loss at unit normal `n` (camera space) of the sphere of row `row`, bilinear in the map.
-fn loss_map_lookup(row: u32, n: vec3<f32>) -> ShadowLoss {
+fn loss_map_lookup(row: u32, n: vec3<f32>) -> vec3<f32> {
     let basis = loss_map_basis(loss_map_sphere(row).xyz);
     let uv = hemi_octahedral(transpose(basis) * n);
     let size = f32(LOSS_MAP_TEXELS);
@@ -256,14 +243,12 @@ fn loss_map_lookup(row: u32, n: vec3<f32>) -> ShadowLoss {
     let l10 = unpack_loss(textureLoad(loss_maps, at + vec2<i32>(1, 0), 0));
     let l01 = unpack_loss(textureLoad(loss_maps, at + vec2<i32>(0, 1), 0));
     let l11 = unpack_loss(textureLoad(loss_maps, at + vec2<i32>(1, 1), 0));
-    let irradiance = mix(mix(l00[0], l10[0], f.x), mix(l01[0], l11[0], f.x), f.y);
-    let glossy = mix(mix(l00[1], l10[1], f.x), mix(l01[1], l11[1], f.x), f.y);
-    return ShadowLoss(irradiance, glossy);
+    return mix(mix(l00, l10, f.x), mix(l01, l11, f.x), f.y);
 }
 
 // What the live objects' shadows took from the light a live fragment receives (shadow_loss):
 // from its sphere's map where it has one, else gathered here.
-fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> ShadowLoss {
+fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     if loss_map_row >= 0 && u32(loss_map_row) < loss_map_rows() {
         let row = u32(loss_map_row);
         let drawn = textureLoad(loss_maps, vec2<i32>(0, i32(row * LOSS_MAP_TEXELS)), 0).w == 1u;
@@ -271,11 +256,10 @@ fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> S
             return loss_map_lookup(row, n);
         }
     }
-    return shadow_loss(p, n, v, exponent);
+    return shadow_loss(p, n);
 }
 
-// One texel of the atlas: the loss at the texel's normal of the sphere of its row, for the
-// material of that sphere (the cursor sphere's, or the mesh bound in group 1).
+// One texel of the atlas: the loss at the texel's normal of the sphere of its row.
 @fragment
 fn fs_loss_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<u32> {
     let texel = vec2<u32>(position.xy);
@@ -290,25 +274,6 @@ fn fs_loss_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<u32>
     let uv = (vec2<f32>(texel % vec2<u32>(LOSS_MAP_TEXELS)) + vec2<f32>(0.5)) / f32(LOSS_MAP_TEXELS) * 2.0
         - vec2<f32>(1.0);
     let n = loss_map_basis(s.xyz) * hemi_octahedral_direction(uv);
-    let p = s.xyz + s.w * n;
-    var v = vec3<f32>(0.0, 0.0, -1.0);
-    if frame.raster.w > 0.5 {
-        v = -normalize(p);
-    }
-    // The cursor sphere is the first row when it is drawn; the others are live meshes.
-    var roughness = mesh.material.coefficients.w;
-    if row == 0u && frame.counts.z == 1u {
-        roughness = frame.sphere_material.coefficients.w;
-    }
-    let exponent = clamp(1.0 / max(roughness, 1e-4), 1.0, 10000.0);
-    let loss = shadow_loss(p, n, v, exponent);
-    let top = vec3<f32>(65504.0);
-    let irradiance = min(loss.irradiance, top);
-    let glossy = min(loss.glossy, top);
-    return vec4<u32>(
-        pack2x16float(irradiance.rg),
-        pack2x16float(vec2<f32>(irradiance.b, glossy.r)),
-        pack2x16float(glossy.gb),
-        1u,
-    );
+    let irradiance = min(shadow_loss(s.xyz + s.w * n, n), vec3<f32>(65504.0));
+    return vec4<u32>(pack2x16float(irradiance.rg), pack2x16float(vec2<f32>(irradiance.b, 0.0)), 0u, 1u);
 }
