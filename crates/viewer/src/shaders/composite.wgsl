@@ -323,17 +323,18 @@ fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
     var diffuse = vec3<f32>(0.0);
     var specular = vec3<f32>(0.0);
     let count = min(frame.counts.x, MAX_LIGHTS);
+    // No `continue` in these loops: on lavapipe a `continue` after the scene's shadow rays lost
+    // fragments' remaining iterations (docs/viewer-specular.md, "the shading loop's lost
+    // directions").
     for (var k = 0u; k < count; k++) {
         let light = frame.lights[k];
         let kind = u32(light.position.w + 0.5);
-        if kind == LIGHT_AMBIENT {
-            ambient += light.colour.rgb;
-            continue;
-        }
         // An area light with samples from the light layers is integrated over them, as the
         // ray tracer integrates it (`A cos_e cos_l / d^2` per sample), not seen as one point.
         let slot = frame.shadow_slots[k];
-        if kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u {
+        if kind == LIGHT_AMBIENT {
+            ambient += light.colour.rgb;
+        } else if kind == LIGHT_AREA && frame.layer_info.x == 1u && slot.x != NO_LAYER && slot.z > 0u {
             let sample_count = min(slot.z, MAX_AREA_SAMPLES);
             // The radiance each sample carries (compositor/lighting.rs).
             let radiance = light.params.rgb;
@@ -345,27 +346,33 @@ fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
                 let s = area_sample_toward(slot.y + i, p);
                 let l = s.l;
                 let n_dot_l = dot(n, l);
-                if n_dot_l <= 0.0 || s.cos_e <= 0.0 || (shadowed && !scene_lets_light(p, n, l, sqrt(s.dist2), clear)) {
-                    continue;
+                var lit = n_dot_l > 0.0 && s.cos_e > 0.0;
+                if lit && shadowed {
+                    lit = scene_lets_light(p, n, l, sqrt(s.dist2), clear);
                 }
-                let e = radiance * (s.weight * s.cos_e / s.dist2);
+                if lit {
+                    let e = radiance * (s.weight * s.cos_e / s.dist2);
+                    diffuse += e * n_dot_l;
+                    if with_specular {
+                        specular += e * blinn_lobe_cos(n, v, l, exponent);
+                    }
+                }
+            }
+        } else {
+            let toward = light_toward(k, p);
+            let l = toward.l;
+            let e = toward.e;
+            let n_dot_l = dot(n, l);
+            var lit = n_dot_l > 0.0 && !all(e <= vec3<f32>(0.0));
+            if lit && shadowed {
+                lit = scene_lets_light(p, n, l, toward.distance, 0.0);
+            }
+            if lit {
                 diffuse += e * n_dot_l;
                 if with_specular {
                     specular += e * blinn_lobe_cos(n, v, l, exponent);
                 }
             }
-            continue;
-        }
-        let toward = light_toward(k, p);
-        let l = toward.l;
-        let e = toward.e;
-        let n_dot_l = dot(n, l);
-        if n_dot_l <= 0.0 || all(e <= vec3<f32>(0.0)) || (shadowed && !scene_lets_light(p, n, l, toward.distance, 0.0)) {
-            continue;
-        }
-        diffuse += e * n_dot_l;
-        if with_specular {
-            specular += e * blinn_lobe_cos(n, v, l, exponent);
         }
     }
     return DirectLight(ambient, diffuse, specular);
