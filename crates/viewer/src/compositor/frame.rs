@@ -165,7 +165,7 @@ impl Compositor {
                 frame_extent,
             );
             lap(&mut encoder, "copy of the backdrop after shadows");
-            self.record_loss_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
+            self.record_loss_maps(&mut encoder, &keyed, &mesh_bytes);
             lap(&mut encoder, "own-shadow loss maps");
             // What the shadows took, before the bounce light adds to the backdrop after them.
             self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);

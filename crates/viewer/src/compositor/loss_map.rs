@@ -91,21 +91,25 @@ pub(super) fn mesh_rows(uniform: &FrameUniform, live: &LiveObjects) -> Vec<i32> 
 
 impl Compositor {
     /// Draws the spheres' loss maps when the live objects' shading reads them and they are not
-    /// already drawn from the same `uniform` and mesh uniforms (`mesh_bytes`). `rows`: each mesh
-    /// slot's row ([`mesh_rows`]). Runs after the backdrop after shadows is kept.
+    /// already drawn from the same `uniform` and mesh uniforms (`mesh_bytes`: the live meshes'
+    /// shadows change the loss). Runs after the backdrop after shadows is kept.
     pub(super) fn record_loss_maps(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         uniform: &FrameUniform,
-        rows: &[i32],
         mesh_bytes: &[u8],
     ) {
         let maps = &self.loss_maps;
         let layered = uniform.layer_info[0] == 1;
         let row_count = if layered { uniform.layer_info[3] } else { uniform.counts[2] };
-        // The shading reads the loss only with shadows and probes (`shade` in composite.wgsl).
-        let probes = uniform.counts[3] == 1 || uniform.reflection_origin[3] > 0.5;
-        if !self.settings.own_shadow_maps || uniform.counts[1] != 1 || !probes || row_count == 0 {
+        // The shading reads the loss only with shadows and irradiance probes (`shade_with` and
+        // `diffuse_radiance` in composite.wgsl); the reflection probes take the shadows per lobe
+        // direction instead (probes.wgsl, `live_share_at_hit`).
+        if !self.settings.own_shadow_maps
+            || uniform.counts[1] != 1
+            || uniform.counts[3] != 1
+            || row_count == 0
+        {
             return;
         }
         if !maps.drawn_from.renew(uniform, mesh_bytes) {
@@ -120,12 +124,9 @@ impl Compositor {
             );
             pass.set_pipeline(&maps.pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            // The layout's mesh group: the loss (irradiance only) reads no material.
+            pass.set_bind_group(1, &self.mesh_bind_group, &[0]);
             for row in 0..row_count.min(MAX_SHADOW_SPHERES as u32) {
-                // The row's material: the cursor sphere's (row 0 when drawn, from the frame
-                // uniform) or its mesh's, bound at the mesh's slot.
-                let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
-                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
-                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
                 pass.set_scissor_rect(0, row * LOSS_MAP_TEXELS, LOSS_MAP_TEXELS, LOSS_MAP_TEXELS);
                 pass.draw(0..3, 0..1);
             }
