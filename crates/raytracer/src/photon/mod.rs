@@ -33,6 +33,7 @@
 pub mod caustic_export;
 pub mod clip;
 pub mod cull;
+mod emission;
 pub mod estimate;
 pub mod grid;
 pub mod irradiance_cache;
@@ -328,7 +329,7 @@ impl PhotonMapper {
         };
         let shoot_start = Instant::now();
         let aim = (want_caustic && settings.caustic_aim)
-            .then(|| shoot::Aim::from_boxes(&world.shape_bounds(|m| m.has_specular())));
+            .then(|| emission::Aim::from_boxes(&world.shape_bounds(|m| m.has_specular())));
         let shot = shoot::shoot(world, &emitters, &request, aim.as_ref());
         stats.caustic_aim_spheres = aim.as_ref().map(|a| a.spheres.len()).filter(|&n| n > 0);
         stats.time_shoot = shoot_start.elapsed();
