@@ -15,6 +15,7 @@ mod clipping;
 mod csg;
 mod deformation;
 mod displacement;
+mod flat;
 mod lighting;
 mod motion;
 mod placement;
@@ -256,6 +257,9 @@ pub struct World {
     /// copies compiled for it, with eight-lane node tests. The results do not change (the same
     /// IEEE operations in the same order; Rust never fuses a multiply and an add by itself).
     x86_64_v3: Option<X86_64V3>,
+    /// One BLAS of triangles alone in render space ([`World::is_flat`]): the ray queries then
+    /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
+    flat: bool,
 }
 
 impl World {
@@ -344,6 +348,9 @@ impl World {
 
     /// The closest hit along `ray` within `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.flat {
+            return self.intersect_flat(ray);
+        }
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
             ray

@@ -12,6 +12,9 @@ impl World {
     /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
     /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
     pub fn transmittance(&self, ray: &Ray) -> Vec3 {
+        if self.flat {
+            return self.transmittance_flat(ray);
+        }
         let mut tr = Vec3::ONE;
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
