@@ -11,7 +11,7 @@
 
 use super::{Hit, HitDetail, Ray, World};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
-use crate::shapes::{RayShear, hits_front, intersect_triangle};
+use crate::shapes::{RayShear, intersect_triangle};
 use glam::Vec3;
 
 impl World {
@@ -68,7 +68,7 @@ impl World {
                     return None;
                 }
                 let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
+                if one_sided && (tri.hits_front(direction) == reverse) {
                     return None;
                 }
                 best = Some((slot, h.t, h.b));
@@ -119,7 +119,7 @@ impl World {
                     return false;
                 }
                 let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
+                if one_sided && (tri.hits_front(direction) == reverse) {
                     return false;
                 }
                 let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);

@@ -65,6 +65,16 @@ struct TrianglePrim {
     index: u32,
 }
 
+impl TrianglePrim {
+    /// [`hits_front`] of this triangle, out of line, reading its vertices again. Inlined, it
+    /// made the traversal loops keep the nine vertex coordinates of every triangle they test
+    /// (spilled to the stack) for this test, which only hits on one-sided surfaces need.
+    #[inline(never)]
+    fn hits_front(&self, direction: Vec3) -> bool {
+        hits_front(self.p[0], self.p[1], self.p[2], direction)
+    }
+}
+
 #[derive(Clone, Debug)]
 struct QuadricPrim {
     quadric: Quadric,
@@ -506,7 +516,7 @@ impl World {
                             return None;
                         }
                         let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                        if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
+                        if one_sided && (tri.hits_front(direction) == reverse) {
                             return None;
                         }
                         *best = Some(Hit {
