@@ -7,7 +7,7 @@
 //! they leave out is the per-ray work of the general queries that a flat world does not need:
 //! the cached shear shared between instances, the checks for solids, deformation and quadrics,
 //! the record of the closest hit written through pointers (a hit is 120 bytes), and one call
-//! level. On the Cornell box that work was about a quarter of a ray's instructions.
+//! level. On the Cornell box that work was about a tenth of a ray's instructions.
 
 use super::{Hit, HitDetail, Ray, World};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
@@ -144,7 +144,7 @@ mod tests {
     use crate::diagnostics::Diagnostics;
     use crate::sampling::{Rng, sample_uniform_sphere};
     use crate::world::{PixelFootprint, Ray, World};
-    use glam::{DVec3, Vec3};
+    use glam::Vec3;
 
     /// A flat world's queries give the general queries' results bit for bit, with and without
     /// x86-64-v3: closest hits (their triangle, `t` and barycentrics) on two-sided, one-sided
