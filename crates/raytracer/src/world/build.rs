@@ -682,7 +682,7 @@ impl World {
         stats.bvh_build_time = all_bvh.iter().map(|s| s.build_time).sum();
         stats.build_time = start.elapsed();
 
-        Ok(World {
+        let mut world = World {
             render_from_world,
             blases,
             instances,
@@ -703,6 +703,9 @@ impl World {
             background: background(scene),
             footprint,
             x86_64_v3: crate::accel::X86_64V3::detect(),
-        })
+            flat: false,
+        };
+        world.flat = world.is_flat();
+        Ok(world)
     }
 }

@@ -15,6 +15,7 @@ mod clipping;
 mod csg;
 mod deformation;
 mod displacement;
+mod flat;
 mod lighting;
 mod motion;
 mod placement;
@@ -62,6 +63,16 @@ struct TrianglePrim {
     p: [Vec3; 3],
     shape: u32,
     index: u32,
+}
+
+impl TrianglePrim {
+    /// [`hits_front`] of this triangle, out of line, reading its vertices again. Inlined, it
+    /// made the traversal loops keep the nine vertex coordinates of every triangle they test
+    /// (spilled to the stack) for this test, which only hits on one-sided surfaces need.
+    #[inline(never)]
+    fn hits_front(&self, direction: Vec3) -> bool {
+        hits_front(self.p[0], self.p[1], self.p[2], direction)
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -256,6 +267,9 @@ pub struct World {
     /// copies compiled for it, with eight-lane node tests. The results do not change (the same
     /// IEEE operations in the same order; Rust never fuses a multiply and an add by itself).
     x86_64_v3: Option<X86_64V3>,
+    /// One BLAS of triangles alone in render space ([`World::is_flat`]): the ray queries then
+    /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
+    flat: bool,
 }
 
 impl World {
@@ -344,6 +358,9 @@ impl World {
 
     /// The closest hit along `ray` within `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.flat {
+            return self.intersect_flat(ray);
+        }
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
             ray
@@ -499,7 +516,7 @@ impl World {
                             return None;
                         }
                         let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                        if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
+                        if one_sided && (tri.hits_front(direction) == reverse) {
                             return None;
                         }
                         *best = Some(Hit {

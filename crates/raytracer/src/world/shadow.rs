@@ -3,7 +3,7 @@
 
 use super::{Blas, HitDetail, Instance, Prim, QuadricPrim, Ray, RayQuery, World, clipping, csg};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
-use crate::shapes::{hits_front, intersect_triangle};
+use crate::shapes::intersect_triangle;
 use glam::Vec3;
 use rib_parser::scene::AttributesId;
 
@@ -12,6 +12,9 @@ impl World {
     /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
     /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
     pub fn transmittance(&self, ray: &Ray) -> Vec3 {
+        if self.flat {
+            return self.transmittance_flat(ray);
+        }
         let mut tr = Vec3::ONE;
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
@@ -116,7 +119,7 @@ impl World {
                         return false;
                     }
                     let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                    if one_sided && (hits_front(tri.p[0], tri.p[1], tri.p[2], direction) == reverse) {
+                    if one_sided && (tri.hits_front(direction) == reverse) {
                         return false;
                     }
                     let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);
