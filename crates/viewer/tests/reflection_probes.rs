@@ -537,3 +537,123 @@ fn a_glossy_sphere_reflects_its_own_shadow_under_an_area_light() {
         "relative error {error} (the probes as they are: {unshadowed})"
     );
 }
+
+/// The plate of `plate_scene`: a black horizontal square at `y = PLATE_Y` over
+/// `x, z` in `[PLATE_MIN, PLATE_MAX]`, between the left probe and the floor.
+const PLATE_Y: f64 = -0.45;
+const PLATE_MIN: [f64; 2] = [-0.9, -0.4];
+const PLATE_MAX: [f64; 2] = [-0.1, 0.4];
+
+/// Where unit direction `d` from `origin` first meets the box `[-1, 1]^3` or the plate: the
+/// distance and whether it is the floor (the floor's radiance is 1, everything else black).
+fn plate_box_hit(origin: DVec3, d: DVec3) -> (f64, bool) {
+    let (s, floor) = box_exit(origin, d);
+    if d.y != 0.0 {
+        let t = (PLATE_Y - origin.y) / d.y;
+        let q = origin + t * d;
+        let on_plate =
+            (PLATE_MIN[0]..=PLATE_MAX[0]).contains(&q.x) && (PLATE_MIN[1]..=PLATE_MAX[1]).contains(&q.z);
+        if t > 0.0 && t < s && on_plate {
+            return (t, false);
+        }
+    }
+    (s, floor)
+}
+
+/// Two reflection probes, at x = -0.5 and 0.5 (y -0.2, z 0), that saw the box of
+/// `plate_box_hit`: the left one looks down onto the plate and sees almost none of the floor,
+/// the right one sees all of it.
+fn plate_probes() -> sidecar::ReflectionProbes {
+    let n = sidecar::REFLECTION_TEXELS;
+    let (mut levels, mut distance) = (vec![Vec::new(); sidecar::REFLECTION_LEVELS], Vec::new());
+    for x in [-0.5, 0.5] {
+        let origin = DVec3::new(x, -0.2, 0.0);
+        let mut base = Vec::new();
+        for t in 0..n * n {
+            let d = DVec3::from(sidecar::octahedral_texel_center(n, t).map(f64::from)).normalize();
+            let (s, floor) = plate_box_hit(origin, d);
+            base.push([if floor { 1.0 } else { 0.0 }; 3]);
+            distance.push(s as f32);
+        }
+        for (all, level) in levels.iter_mut().zip(sidecar::reflection_levels(&base)) {
+            all.extend(level);
+        }
+    }
+    sidecar::ReflectionProbes {
+        depth_fingerprint: 0,
+        origin: [-0.5, -0.2, 0.0],
+        spacing: [1.0; 3],
+        counts: [2, 1, 1],
+        radiance: levels,
+        distance,
+    }
+}
+
+/// The box's walls and the plate as the scene's triangles.
+fn plate_occluders() -> viewer::occluders::SceneOccluders {
+    let quad = |c: [DVec3; 4]| [[c[0], c[1], c[2]], [c[0], c[2], c[3]]];
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let (a, b) = (PLATE_MIN, PLATE_MAX);
+    let faces = [
+        [v(-1.0, -1.0, -1.0), v(1.0, -1.0, -1.0), v(1.0, -1.0, 1.0), v(-1.0, -1.0, 1.0)],
+        [v(-1.0, 1.0, -1.0), v(1.0, 1.0, -1.0), v(1.0, 1.0, 1.0), v(-1.0, 1.0, 1.0)],
+        [v(-1.0, -1.0, -1.0), v(1.0, -1.0, -1.0), v(1.0, 1.0, -1.0), v(-1.0, 1.0, -1.0)],
+        [v(-1.0, -1.0, -1.0), v(-1.0, 1.0, -1.0), v(-1.0, 1.0, 1.0), v(-1.0, -1.0, 1.0)],
+        [v(1.0, -1.0, -1.0), v(1.0, 1.0, -1.0), v(1.0, 1.0, 1.0), v(1.0, -1.0, 1.0)],
+        [v(a[0], PLATE_Y, a[1]), v(b[0], PLATE_Y, a[1]), v(b[0], PLATE_Y, b[1]), v(a[0], PLATE_Y, b[1])],
+    ];
+    viewer::occluders::SceneOccluders { triangles: faces.into_iter().flat_map(quad).collect() }
+}
+
+/// A glossy sphere beside a black plate reflects the lit floor under and in front of it, which
+/// the reflection probe nearest to it cannot see (the plate lies between them) and the other
+/// probe can. Read from the probes around the sphere toward where each lobe direction meets the
+/// scene, the nearest one's view of the plate took the floor's place (the room's floating
+/// sphere over the metal cylinder, docs/viewer-specular.md); each direction's point, traced
+/// through the scene's triangles, is read from the probes that see it. Against the ray tracer's
+/// lobe integrated in f64 over the floor the sphere sees, on the pixels facing down: summed
+/// absolute difference over summed radiance 26 % (bound 35 %; main's shaders 82 %; what is
+/// left is not diagnosed).
+#[test]
+fn a_glossy_sphere_reflects_the_floor_its_nearest_probe_does_not_see() {
+    let centre = DVec3::new(-0.3, -0.55, 0.65);
+    let radius = 0.2;
+    let mut scene = cornell_scene(vec![]);
+    scene.set_reflections(plate_probes()).unwrap();
+    scene.set_occluders(plate_occluders());
+    let roughness = 0.1;
+    let gpu = gpu();
+    let live = LiveObjects {
+        sphere: Some(Sphere { centre, radius, material: glossy(roughness) }),
+        meshes: Vec::new(),
+    };
+    let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+    let mut c = Compositor::new(&gpu, &scene, settings).unwrap();
+    c.render(&live).unwrap();
+    let rgba = c.read_back_linear().unwrap().rgba;
+    let mask = c.read_back().unwrap().mask;
+    let exponent = f64::from(sidecar::blinn_exponent(roughness));
+    let camera = scene.camera();
+    let world_from_camera = camera.camera_from_world().inverse();
+    let (w, _) = scene.size();
+    let (mut error, mut total, mut pixels) = (0.0, 0.0, 0);
+    for k in (0..mask.len()).filter(|&k| mask[k] == 255) {
+        let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
+        let origin = world_from_camera.transform_point3(ray.origin);
+        let direction = world_from_camera.transform_vector3(ray.direction).normalize();
+        let Some(t) = ray_sphere(origin, direction, centre, radius) else { continue };
+        let p = origin + t * direction;
+        let (n, v) = ((p - centre).normalize(), -direction);
+        if n.y > -0.2 || n.dot(v) < 0.15 {
+            continue;
+        }
+        let want = lobe_integral(n, v, exponent, |l| [if plate_box_hit(p, l).1 { 1.0 } else { 0.0 }; 3])[0];
+        error += (f64::from(rgba[4 * k]) - want).abs();
+        total += want;
+        pixels += 1;
+    }
+    assert!(pixels > 300, "{pixels} pixels facing down");
+    let relative = error / total;
+    eprintln!("{pixels} pixels facing down: relative error {relative}");
+    assert!(relative <= 0.35, "relative error {relative} over {pixels} pixels");
+}

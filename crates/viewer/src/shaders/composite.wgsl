@@ -405,8 +405,17 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
     return material.colour.rgb * (material.coefficients.x * lit.ambient + material.coefficients.y / PI * diffuse);
 }
 
+// Seen in a mirror, glass or metal (the passes' several shaded directions a pixel), a glossy
+// surface's lobe directions meet the scene on the reflection probes' distance maps; live
+// surfaces the eye sees directly (shade_seen, shade_cursor_sphere) trace them through the
+// scene's triangles (glossy_reflection's `traced_hits`).
 fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
-    return shade_with(material, p, n_in, view_dir, false);
+    return shade_with(material, p, n_in, view_dir, false, false);
+}
+
+// shade for a live surface the eye sees directly (a live mesh or sphere).
+fn shade_seen(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    return shade_with(material, p, n_in, view_dir, false, true);
 }
 
 // The cursor sphere's radiance at p (unit outward normal n) seen along view_dir: in a moving
@@ -414,7 +423,7 @@ fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>)
 // from its map (shade_with's `from_map`), else exactly.
 fn shade_cursor_sphere(p: vec3<f32>, n: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
     let from_map = frame.tone.y > 0.5 && dot(n, view_dir) < 0.0;
-    return shade_with(frame.sphere_material, p, n, view_dir, from_map);
+    return shade_with(frame.sphere_material, p, n, view_dir, from_map, true);
 }
 
 // shade. With `from_map` (a moving frame: the cursor sphere, row 0 of the radiosity maps, seen
@@ -423,7 +432,7 @@ fn shade_cursor_sphere(p: vec3<f32>, n: vec3<f32>, view_dir: vec3<f32>) -> vec3<
 // texels), and its lights' highlights integrated without the scene's shadow rays, scaled by
 // the share of the lights' light the scene lets reach p (the map's alpha); the reflection
 // probes' part is as shade's.
-fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, from_map: bool) -> vec3<f32> {
+fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, from_map: bool, traced: bool) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
@@ -465,7 +474,7 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
         let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
         let v_world = normalize((frame.world_from_camera * vec4<f32>(v, 0.0)).xyz);
         let reflected = blinn_albedo(material, dot(n, v))
-            * glossy_reflection(p_world, n_world, v_world, exponent);
+            * glossy_reflection(p_world, n_world, v_world, exponent, traced);
         specular += reflected;
     }
     let glossy = material.specular_colour.rgb * ks * specular;
@@ -608,7 +617,7 @@ fn mesh_colour(in: MeshVertexOut) -> vec4<f32> {
     let ray = ray_through_raster(in.position.xy);
     let n = normalize(in.n_camera);
     loss_map_row = mesh.loss_map.x;
-    return to_image_units(shade(mesh.material, in.p_camera, n, ray.direction));
+    return to_image_units(shade_seen(mesh.material, in.p_camera, n, ray.direction));
 }
 
 @fragment

@@ -184,6 +184,6 @@ fn fs_mesh_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOu
     let p = covered.hit.xyz;
     let n = (p - sphere.xyz) / sphere.w;
     loss_map_row = mesh.loss_map.x;
-    let colour = to_image_units(shade(mesh.material, p, n, ray_through_raster(covered.raster).direction));
+    let colour = to_image_units(shade_seen(mesh.material, p, n, ray_through_raster(covered.raster).direction));
     return CoverageOut(coverage_colour(colour), covered.hit.w, covered.samples);
 }

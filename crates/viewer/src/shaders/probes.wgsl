@@ -206,7 +206,7 @@ const GLOSSY_SAMPLES: u32 = 16u;
 // direction assumes the lobe centred there, as it is only at normal incidence; a wide lobe seen at a
 // grazing angle leans toward the normal and loses its part below the horizon, so it reflects
 // what lies under a sphere's lower half, not the horizon the mirror direction meets.
-fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> vec3<f32> {
+fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, traced_hits: bool) -> vec3<f32> {
     let cos_o = max(dot(n, v), 1e-3);
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let t = normalize(cross(helper, n));
@@ -265,10 +265,26 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) ->
             nearest = corner;
         }
     }
+    // Where each direction meets the scene: the first triangle of the tessellated scene where
+    // the viewer has them (scene_occluders), else the distance map of that probe. A lobe
+    // direction from a surface close to others meets points the probes around p do not see (the
+    // floor behind a neighbour, a crevice): read from p's probes toward such a point, they show
+    // the neighbour in front of it.
     var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
+    var traced: array<bool, GLOSSY_SAMPLES>;
+    let p_camera = camera_point_of(p);
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        traced[i] = false;
         if weights[i] > 0.0 {
             hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
+            var first = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+            if traced_hits {
+                first = scene_hit_world(p_camera, p, directions[i].xyz);
+            }
+            if first.w >= 0.0 {
+                hits[i] = first.xyz;
+                traced[i] = true;
+            }
         }
     }
     // The probes saw the scene without the live objects: with their shadows on, what those
@@ -278,34 +294,87 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) ->
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         kept[i] = vec3<f32>(1.0);
         if frame.counts.y == 1u && weights[i] > 0.0 {
-            kept[i] = vec3<f32>(1.0) - live_share_at_hit(cells[nearest], p, directions[i].xyz, hits[i]);
+            if traced[i] {
+                kept[i] = vec3<f32>(1.0) - live_share_at_point(hits[i]);
+            } else {
+                kept[i] = vec3<f32>(1.0) - live_share_at_hit(cells[nearest], p, directions[i].xyz, hits[i]);
+            }
         }
     }
+    // Each direction's radiance, read toward its point from p's probes, those that do not see a
+    // traced point by 1e-3 of their weight; where none of them sees it, from the probes of the
+    // point's own cell, trilinear at the point and 1e-3 of that for a probe that does not see it.
     var sum = vec3<f32>(0.0);
     var probes_total = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
-        let w = probe_weights[corner];
-        if w <= 0.0 {
-            continue;
-        }
-        let probe = probe_index(cells[corner]);
-        let origin = probe_position(cells[corner]);
-        var lobe = vec3<f32>(0.0);
-        for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
-            if weights[i] > 0.0 {
-                let to_hit = hits[i] - origin;
-                let len = length(to_hit);
-                let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
-                lobe += weights[i] * kept[i] * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe, directions[i].w).rgb;
+        probes_total += probe_weights[corner];
+    }
+    if !(probes_total > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        if weights[i] > 0.0 {
+            var hit_grid = grid;
+            var from_hit_cell = false;
+            if traced[i] {
+                var seen = false;
+                for (var corner = 0u; corner < 8u; corner++) {
+                    seen = seen || (probe_weights[corner] > 0.0 && probe_sees_hit(cells[corner], hits[i]));
+                }
+                from_hit_cell = !seen;
+                hit_grid = grid_cell(hits[i], frame.reflection_origin.xyz, frame.reflection_spacing.xyz, frame.reflection_counts.xyz);
+            }
+            var radiance = vec3<f32>(0.0);
+            var radiance_weight = 0.0;
+            for (var corner = 0u; corner < 8u; corner++) {
+                var w = probe_weights[corner];
+                var cell = cells[corner];
+                if from_hit_cell {
+                    let c = cell_corner(hit_grid, corner);
+                    cell = c.probe;
+                    w = select(1e-3 * c.trilinear, c.trilinear, probe_sees_hit(cell, hits[i]));
+                } else if traced[i] {
+                    w = select(1e-3 * w, w, probe_sees_hit(cell, hits[i]));
+                }
+                if w > 0.0 {
+                    let to_hit = hits[i] - probe_position(cell);
+                    let len = length(to_hit);
+                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
+                    radiance += w * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe_index(cell), directions[i].w).rgb;
+                    radiance_weight += w;
+                }
+            }
+            if radiance_weight > 0.0 {
+                sum += weights[i] * kept[i] * radiance / radiance_weight;
             }
         }
-        sum += w * lobe;
-        probes_total += w;
     }
-    if probes_total > 0.0 {
-        return sum / (probes_total * total);
+    return sum / total;
+}
+
+// Whether the probe of grid cell `cell` sees the scene's surface point `x`: nothing nearer than
+// 80 % of x's distance in x's direction on its distance map. probe_sees's 5 % slack takes a
+// floor point seen at a grazing angle for hidden (the texel's centre meets it nearer).
+fn probe_sees_hit(cell: vec3<u32>, x: vec3<f32>) -> bool {
+    let to_x = x - probe_position(cell);
+    let d = length(to_x);
+    if !(d > 0.0) {
+        return true;
     }
-    return vec3<f32>(0.0);
+    return 0.8 * d <= probe_distance_toward(probe_index(cell), to_x / d);
+}
+
+// The first triangle of the tessellated scene along unit world direction l from world point p
+// (camera-space p_camera): xyz the world point, w its distance in camera units, -1 where the
+// ray leaves the scene or the viewer has no triangles.
+fn scene_hit_world(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> vec4<f32> {
+    let dir = normalize(camera_point_of(p + l) - p_camera);
+    let first = scene_first_hit(p_camera, dir, 3.0e38);
+    if first.w < 0.0 {
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    }
+    let at = (frame.world_from_camera_point * vec4<f32>(p_camera + first.w * dir, 1.0)).xyz;
+    return vec4<f32>(at, first.w);
 }
 
 // Where the ray p + t r meets the surface a probe's distance map describes (world space; the
@@ -418,7 +487,12 @@ fn camera_point_of(w: vec3<f32>) -> vec3<f32> {
 // does not see it (a Lambertian model there, live_shadow_share, made the room's floating
 // sphere over the metal cylinder darker than the truth: docs/viewer-lighting.md).
 fn live_share_at_hit(cell: vec3<u32>, p: vec3<f32>, l: vec3<f32>, hit: vec3<f32>) -> vec3<f32> {
-    let seen = probe_depth(camera_point_of(probe_surface_point(cell, p, l, hit)));
+    return live_share_at_point(probe_surface_point(cell, p, l, hit));
+}
+
+// live_share_at_hit at world point `point` on the scene's surface.
+fn live_share_at_point(point: vec3<f32>) -> vec3<f32> {
+    let seen = probe_depth(camera_point_of(point));
     // Within 3 % of the depth: a pixel's footprint along its ray at grazing views.
     if seen.pixel.x < 0 || !(seen.surface < 3.0e38) || abs(seen.distance - seen.surface) > 0.03 * seen.surface {
         return vec3<f32>(0.0);
