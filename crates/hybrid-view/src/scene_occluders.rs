@@ -160,7 +160,10 @@ mod tests {
     use raytracer::materials::Material;
     use rib_parser::scene::{FileLoc, Param, ParamDecl, ParamType, ParamValues, ShaderCall, StorageClass};
 
-    fn call(name: &str, floats: &[(&str, &[f32])]) -> ShaderCall {
+    /// A parameter's name and values.
+    type Float<'a> = (&'a str, &'a [f32]);
+
+    fn call(name: &str, floats: &[Float<'_>]) -> ShaderCall {
         let params = floats
             .iter()
             .map(|(n, v)| Param {
@@ -180,7 +183,7 @@ mod tests {
     /// The lobes' reflectances and `Ka * Cs` equal the ray tracer's for each shader.
     #[test]
     fn the_materials_are_the_ray_tracers() {
-        let cases: [(&str, &[(&str, &[f32])]); 7] = [
+        let cases: [(&str, &[Float<'_>]); 7] = [
             ("matte", &[("Kd", &[0.9])]),
             ("plastic", &[("Kd", &[0.7]), ("Ks", &[0.3]), ("roughness", &[0.1])]),
             ("plastic", &[("Kd", &[1.0]), ("Ks", &[1.0]), ("specularcolor", &[1.0, 0.5, 0.25])]),
