@@ -47,6 +47,7 @@ impl Prepared {
     ) -> tessellate::SceneMeshes {
         let meshes = crate::scene_occluders::tessellate_once(&self.rib, tolerance, stats);
         self.scene.set_occluders(crate::scene_occluders::scene_occluders(&meshes));
+        self.scene.set_occluder_materials(crate::scene_occluders::scene_materials(&self.rib, &meshes));
         meshes
     }
 }

@@ -105,17 +105,69 @@ impl SceneOccluders {
     /// The triangles kept within `budget`: all of them, or the `budget` largest by area (small
     /// triangles hide the least light), and how many were left out.
     pub fn within_budget(&self, budget: usize) -> (Vec<[DVec3; 3]>, usize) {
-        let finite: Vec<[DVec3; 3]> =
-            self.triangles.iter().filter(|t| t.iter().all(|p| p.is_finite())).copied().collect();
+        let (kept, left_out) = self.kept_within_budget(budget);
+        (kept.iter().map(|&k| self.triangles[k]).collect(), left_out)
+    }
+
+    /// The indices of the triangles [`SceneOccluders::within_budget`] keeps, in its order, and
+    /// how many were left out.
+    pub fn kept_within_budget(&self, budget: usize) -> (Vec<usize>, usize) {
+        let finite: Vec<usize> =
+            (0..self.triangles.len()).filter(|&k| self.triangles[k].iter().all(|p| p.is_finite())).collect();
         if finite.len() <= budget {
             let dropped = self.triangles.len() - finite.len();
             return (finite, dropped);
         }
         let area = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length();
         let mut by_area = finite;
-        by_area.sort_by(|a, b| area(b).total_cmp(&area(a)));
+        by_area.sort_by(|&a, &b| area(&self.triangles[b]).total_cmp(&area(&self.triangles[a])));
         by_area.truncate(budget);
         (by_area, self.triangles.len() - budget)
+    }
+}
+
+/// A scene surface's light as the near field on live objects reads it
+/// (`near_field.wgsl`, docs/viewer-lighting.md "Near a large scene surface"): its reflectances
+/// as the ray tracer's BSDF has them (`raytracer::materials`), so that a live surface beside it
+/// gets the light it sends instead of the irradiance probes' light from that direction.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneMaterial {
+    /// The Lambertian lobe's reflectance (`Kd * Cs`, with plastic's energy bound).
+    pub diffuse: Vec3,
+    /// The Blinn lobe's reflectance (plastic's `Ks * specularcolor`, metal's `Ks * Cs`).
+    pub glossy: Vec3,
+    /// The Blinn lobe's exponent (`1 / roughness`, within 1 and 10^4).
+    pub exponent: f32,
+    /// `Ka * Cs`, times the ambient lights' sum.
+    pub ambient: Vec3,
+    /// A shader's own emission (`constant`, `defaultsurface`):
+    /// `emission * (emission_flat + emission_cos2 * cos^2)` toward a direction at `cos` to the
+    /// normal. Area lights' emission is not here: the lights' direct light counts it.
+    pub emission: Vec3,
+    pub emission_flat: f32,
+    pub emission_cos2: f32,
+    /// Mirror and glass: what they send depends on what lies behind or before them, so the
+    /// near field keeps the probes' light from that direction.
+    pub specular: bool,
+}
+
+/// The scene's surface materials and which one each of [`SceneOccluders::triangles`] has.
+#[derive(Clone, Debug, Default)]
+pub struct SceneMaterials {
+    pub materials: Vec<SceneMaterial>,
+    /// Per scene triangle (in the order of [`SceneOccluders::triangles`]) an index into
+    /// `materials`; a triangle past the end, or with an index past `materials`, has none.
+    pub of_triangle: Vec<u32>,
+}
+
+impl SceneMaterials {
+    /// The tag [`FlatBvh::build_tagged`] stores for scene triangle `k`: its material's index
+    /// plus one, 0 for none.
+    pub fn tag_of(&self, k: usize) -> u32 {
+        match self.of_triangle.get(k) {
+            Some(&m) if (m as usize) < self.materials.len() => m + 1,
+            _ => 0,
+        }
     }
 }
 
@@ -132,7 +184,8 @@ pub struct FlatBvh {
     /// triangle (leaf) as bits in w, bounds maximum with the triangle count (0: interior) in w.
     /// The second child of an interior node follows the first.
     pub nodes: Vec<[f32; 8]>,
-    /// Per triangle three vec4s: a corner and the two edges from it (w unused).
+    /// Per triangle three vec4s: a corner and the two edges from it; the first w holds the
+    /// triangle's tag as bits (`build_tagged`; 0 from `build`), the others are unused.
     pub triangles: Vec<[f32; 12]>,
 }
 
@@ -145,11 +198,18 @@ impl FlatBvh {
     /// always fits the shaders' traversal stack of 40. Triangles with a non-finite corner, or a
     /// corner beyond [`MAX_OCCLUDER_COORD`], are dropped.
     pub fn build(triangles: &[[Vec3; 3]]) -> FlatBvh {
-        let tris: Vec<[Vec3; 3]> = triangles
+        FlatBvh::build_tagged(triangles, &[])
+    }
+
+    /// [`FlatBvh::build`], each triangle carrying `tags[k]` (0 past the end) as bits in the w of
+    /// its first vec4: the scene's triangles their material (`SceneMaterials::tag_of`).
+    pub fn build_tagged(triangles: &[[Vec3; 3]], tags: &[u32]) -> FlatBvh {
+        let (tris, tags): (Vec<[Vec3; 3]>, Vec<u32>) = triangles
             .iter()
-            .filter(|t| t.iter().all(|p| p.is_finite() && p.abs().max_element() <= MAX_OCCLUDER_COORD))
-            .copied()
-            .collect();
+            .enumerate()
+            .filter(|(_, t)| t.iter().all(|p| p.is_finite() && p.abs().max_element() <= MAX_OCCLUDER_COORD))
+            .map(|(k, t)| (*t, tags.get(k).copied().unwrap_or(0)))
+            .unzip();
         let mut flat = FlatBvh::default();
         if tris.is_empty() {
             return flat;
@@ -185,7 +245,8 @@ impl FlatBvh {
                     let (lo, hi) = (Vec3::from(n.aabb.min), Vec3::from(n.aabb.max));
                     if n.is_leaf() {
                         let (first, count) = (n.first_index as usize, n.prim_count as usize);
-                        flat.nodes[at] = flat.leaf(lo, hi, &tris, &t.primitive_indices[first..first + count]);
+                        flat.nodes[at] =
+                            flat.leaf(lo, hi, &tris, &tags, &t.primitive_indices[first..first + count]);
                         continue;
                     }
                     let first = n.first_index as usize;
@@ -195,7 +256,7 @@ impl FlatBvh {
                 Part::Triangles(mut ids) => {
                     let (lo, hi, extent) = bounds(&tris, &ids);
                     if ids.len() <= LEAF_TRIANGLES || extent.max_element() <= 0.0 {
-                        flat.nodes[at] = flat.leaf(lo, hi, &tris, &ids);
+                        flat.nodes[at] = flat.leaf(lo, hi, &tris, &tags, &ids);
                         continue;
                     }
                     let axis = extent.max_position();
@@ -218,12 +279,13 @@ impl FlatBvh {
     }
 
     /// A leaf node over triangles `ids` of `tris`, appended to the triangle list.
-    fn leaf(&mut self, lo: Vec3, hi: Vec3, tris: &[[Vec3; 3]], ids: &[u32]) -> [f32; 8] {
+    fn leaf(&mut self, lo: Vec3, hi: Vec3, tris: &[[Vec3; 3]], tags: &[u32], ids: &[u32]) -> [f32; 8] {
         let at = self.triangles.len() as u32;
         for &k in ids {
             let [a, b, c] = tris[k as usize];
             let (e1, e2) = (b - a, c - a);
-            self.triangles.push([a.x, a.y, a.z, 0.0, e1.x, e1.y, e1.z, 0.0, e2.x, e2.y, e2.z, 0.0]);
+            let tag = f32::from_bits(tags[k as usize]);
+            self.triangles.push([a.x, a.y, a.z, tag, e1.x, e1.y, e1.z, 0.0, e2.x, e2.y, e2.z, 0.0]);
         }
         node_of(lo, hi, at, ids.len() as u32)
     }

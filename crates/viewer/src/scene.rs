@@ -22,6 +22,7 @@ pub struct ViewerScene {
     caustics: Option<std::sync::Arc<sidecar::CausticPhotons>>,
     pixel_filter: PixelFilter,
     occluders: Option<std::sync::Arc<crate::occluders::SceneOccluders>>,
+    occluder_materials: Option<std::sync::Arc<crate::occluders::SceneMaterials>>,
 }
 
 /// Most reflection probes the viewer binds: the texture-array layers every wgpu adapter has
@@ -90,6 +91,7 @@ impl ViewerScene {
             caustics: None,
             pixel_filter: PixelFilter::BOX,
             occluders: None,
+            occluder_materials: None,
         })
     }
 
@@ -122,6 +124,19 @@ impl ViewerScene {
     /// The scene's triangles shadowing live objects, if bound.
     pub fn occluders(&self) -> Option<&crate::occluders::SceneOccluders> {
         self.occluders.as_deref()
+    }
+
+    /// Binds the materials of the scene's triangles (`set_occluders`): live surfaces within a
+    /// probe spacing of a scene surface then get the light that surface sends instead of the
+    /// irradiance probes' light from its direction (the near field, docs/viewer-lighting.md).
+    /// Without them the probes light live surfaces alone.
+    pub fn set_occluder_materials(&mut self, materials: crate::occluders::SceneMaterials) {
+        self.occluder_materials = Some(std::sync::Arc::new(materials));
+    }
+
+    /// The materials of the scene's triangles, if bound.
+    pub fn occluder_materials(&self) -> Option<&crate::occluders::SceneMaterials> {
+        self.occluder_materials.as_deref()
     }
 
     /// Binds the renderer's irradiance probes: live objects' diffuse light then comes from the

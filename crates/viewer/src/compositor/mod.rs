@@ -14,6 +14,7 @@ mod layers;
 mod lighting;
 mod live_objects;
 mod loss_map;
+mod near_field;
 mod overlay;
 mod pass_timing;
 mod readback;
@@ -145,6 +146,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/shadows.wgsl"),
     include_str!("../shaders/shadow_footprint.wgsl"),
     include_str!("../shaders/scene_visibility.wgsl"),
+    include_str!("../shaders/near_field.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
     include_str!("../shaders/specular.wgsl"),
     include_str!("../shaders/transmission.wgsl"),
@@ -316,8 +318,10 @@ impl Compositor {
             device,
             &gpu.queue,
             scene.occluders(),
+            scene.occluder_materials(),
             projection.camera().camera_from_world(),
         );
+        let scene_materials = near_field::upload(device, scene.occluder_materials());
         let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let loss_map_textures = sphere_atlas::sphere_map_atlas(
             device,
@@ -397,6 +401,7 @@ impl Compositor {
                     binding: 30,
                     resource: wgpu::BindingResource::TextureView(&caustic_shadow.view()),
                 },
+                wgpu::BindGroupEntry { binding: 31, resource: scene_materials.as_entire_binding() },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -5,7 +5,8 @@
 use super::lighting::MAX_SHADOW_SPHERES;
 use crate::live::LiveObjects;
 use crate::occluders::{
-    FlatBvh, MAX_LIVE_OCCLUDER_TRIANGLES, MAX_SCENE_OCCLUDER_TRIANGLES, SceneOccluders, transformed_triangles,
+    FlatBvh, MAX_LIVE_OCCLUDER_TRIANGLES, MAX_SCENE_OCCLUDER_TRIANGLES, SceneMaterials, SceneOccluders,
+    transformed_triangles,
 };
 use glam::{DMat4, DVec3, Vec3};
 
@@ -48,13 +49,22 @@ pub(super) fn upload(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     occluders: Option<&SceneOccluders>,
+    materials: Option<&SceneMaterials>,
     camera_from_world: DMat4,
 ) -> GpuOccluders {
     let budget = scene_budget(&device.limits());
-    let (kept, left_out) = occluders.map(|o| o.within_budget(budget)).unwrap_or_default();
-    let camera: Vec<[Vec3; 3]> =
-        kept.iter().map(|t| t.map(|p| camera_from_world.transform_point3(p).as_vec3())).collect();
-    let bvh = FlatBvh::build(&camera);
+    let (kept, left_out) = occluders.map(|o| o.kept_within_budget(budget)).unwrap_or_default();
+    let (camera, tags): (Vec<[Vec3; 3]>, Vec<u32>) = match occluders {
+        Some(o) => kept
+            .iter()
+            .map(|&k| {
+                let t = o.triangles[k].map(|p| camera_from_world.transform_point3(p).as_vec3());
+                (t, materials.map_or(0, |m| m.tag_of(k)))
+            })
+            .unzip(),
+        None => Default::default(),
+    };
+    let bvh = FlatBvh::build_tagged(&camera, &tags);
     let note = match occluders {
         None => Some(
             "no scene geometry: live objects get every light's direct light, unshadowed by the scene"

@@ -379,7 +379,8 @@ fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
 }
 
 // The probes' indirect irradiance at camera-space p with unit normal n (zero without probes),
-// less what the live objects' shadows took from it (`loss`, radiance units).
+// less what the live objects' shadows took from it (`loss`, radiance units). Live surfaces
+// take live_probe_irradiance (near_field.wgsl), which adds the scene surfaces near them.
 fn probe_irradiance(p: vec3<f32>, n: vec3<f32>, loss: vec3<f32>) -> vec3<f32> {
     if frame.counts.w != 1u {
         return vec3<f32>(0.0);
@@ -401,7 +402,7 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
     if frame.counts.y == 1u && frame.counts.w == 1u {
         loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);
     }
-    let diffuse = lit.diffuse + probe_irradiance(p, n, loss);
+    let diffuse = lit.diffuse + live_probe_irradiance(p, n, loss);
     return material.colour.rgb * (material.coefficients.x * lit.ambient + material.coefficients.y / PI * diffuse);
 }
 
@@ -465,7 +466,7 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
         if frame.counts.y == 1u && frame.counts.w == 1u {
             loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);
         }
-        diffuse += probe_irradiance(p, n, loss);
+        diffuse += live_probe_irradiance(p, n, loss);
     }
     // With the reflection probes, the scene's radiance averaged over the lobe's own directions
     // times the lobe's albedo, less what the shadows took.

@@ -137,38 +137,90 @@ fn probe_sh_irradiance(probe: u32, n: vec3<f32>) -> vec3<f32> {
     return sh_irradiance(sh, n);
 }
 
+// The weight of probe corner `c` for the point q (p moved off its surface by the normal bias)
+// with world unit normal n: trilinear times the backface term times Chebyshev visibility,
+// small weights crushed (sidecar::ProbeGrid::irradiance_of).
+fn field_corner_weight(c: CellCorner, q: vec3<f32>, n: vec3<f32>) -> f32 {
+    let to_probe = frame.irradiance_origin.xyz + vec3<f32>(c.probe) * frame.irradiance_spacing.xyz - q;
+    let distance = length(to_probe);
+    var dir = n;
+    if distance > 0.0 {
+        dir = to_probe / distance;
+    }
+    let h = (dot(dir, n) + 1.0) * 0.5;
+    let backface = h * h + 0.2;
+    return crushed(c.trilinear * backface * max(field_visibility(field_probe_index(c.probe), dir, distance), 1e-6));
+}
+
+// p moved off its surface along n by DDGI's normal bias, `0.1 * min(spacing)`.
+fn field_biased(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let spacing = frame.irradiance_spacing.xyz;
+    return p + n * (0.1 * min(spacing.x, min(spacing.y, spacing.z)));
+}
+
+fn field_cell(q: vec3<f32>) -> GridCell {
+    return grid_cell(q, frame.irradiance_origin.xyz, frame.irradiance_spacing.xyz, frame.irradiance_counts.xyz);
+}
+
 // The scene's indirect irradiance at world point p with world unit normal n.
 fn field_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let spacing = frame.irradiance_spacing.xyz;
-    let bias = 0.1 * min(spacing.x, min(spacing.y, spacing.z));
-    let q = p + n * bias;
-    let grid = grid_cell(q, frame.irradiance_origin.xyz, spacing, frame.irradiance_counts.xyz);
+    let q = field_biased(p, n);
+    let grid = field_cell(q);
     var sum = vec3<f32>(0.0);
     var total = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
         let c = cell_corner(grid, corner);
-        let trilinear = c.trilinear;
-        if trilinear <= 0.0 {
+        if c.trilinear <= 0.0 {
             continue;
         }
-        let cell = c.probe;
-        let probe = field_probe_index(cell);
-        let to_probe = frame.irradiance_origin.xyz + vec3<f32>(cell) * spacing - q;
-        let distance = length(to_probe);
-        var dir = n;
-        if distance > 0.0 {
-            dir = to_probe / distance;
-        }
-        let h = (dot(dir, n) + 1.0) * 0.5;
-        let backface = h * h + 0.2;
-        let w = crushed(trilinear * backface * max(field_visibility(probe, dir, distance), 1e-6));
-        sum += w * probe_sh_irradiance(probe, n);
+        let w = field_corner_weight(c, q, n);
+        sum += w * probe_sh_irradiance(field_probe_index(c.probe), n);
         total += w;
     }
     if total > 0.0 {
         return max(sum / total, vec3<f32>(0.0));
     }
     return vec3<f32>(0.0);
+}
+
+// The radiance SH field_irradiance blends at p (normal n): the probes' SH with its weights.
+fn field_radiance_sh(p: vec3<f32>, n: vec3<f32>) -> array<vec4<f32>, 9> {
+    let q = field_biased(p, n);
+    let grid = field_cell(q);
+    var sh: array<vec4<f32>, 9>;
+    for (var i = 0u; i < 9u; i++) {
+        sh[i] = vec4<f32>(0.0);
+    }
+    var total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let c = cell_corner(grid, corner);
+        if c.trilinear <= 0.0 {
+            continue;
+        }
+        let w = field_corner_weight(c, q, n);
+        let probe = field_probe_index(c.probe);
+        for (var i = 0u; i < 9u; i++) {
+            sh[i] += w * irradiance_sh[9u * probe + i];
+        }
+        total += w;
+    }
+    if total > 0.0 {
+        for (var i = 0u; i < 9u; i++) {
+            sh[i] /= total;
+        }
+    }
+    return sh;
+}
+
+// Radiance arriving from world unit direction d according to radiance SH `sh` (sidecar::sh's
+// basis), never below zero (a band-limited field rings).
+fn sh_radiance(sh: array<vec4<f32>, 9>, d: vec3<f32>) -> vec3<f32> {
+    var l = 0.2820948 * sh[0].rgb;
+    l += 0.4886025 * (d.y * sh[1].rgb + d.z * sh[2].rgb + d.x * sh[3].rgb);
+    l += 1.0925484 * d.x * d.y * sh[4].rgb + 1.0925484 * d.y * d.z * sh[5].rgb
+        + 0.3153916 * (3.0 * d.z * d.z - 1.0) * sh[6].rgb + 1.0925484 * d.x * d.z * sh[7].rgb
+        + 0.5462742 * (d.x * d.x - d.y * d.y) * sh[8].rgb;
+    return max(l, vec3<f32>(0.0));
 }
 
 // The Blinn lobe's directional albedo for the material (linear in its 16-entry table).
