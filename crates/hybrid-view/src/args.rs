@@ -86,6 +86,12 @@ pub struct Args {
     /// frame.
     #[arg(long)]
     pub settle_in_one_frame: bool,
+    /// Live surfaces within a probe spacing of the scene take the light of the scene surfaces
+    /// near them from those surfaces' own materials (16 rays per live fragment through the
+    /// scene's triangles) instead of the probes' light alone: more exact beside a large object,
+    /// and several times the frame's cost on a software rasteriser (docs/viewer-lighting.md).
+    #[arg(long)]
+    pub near_field: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -230,6 +236,8 @@ pub struct Settings {
     /// The frames at rest after a move made exact over several frames (`--settle-in-one-frame`
     /// clears it).
     pub settle_at_rest: bool,
+    /// The near field from the scene surfaces' own materials (`--near-field` sets it).
+    pub near_field: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
     pub stats: bool,
@@ -298,6 +306,7 @@ impl Args {
             amortise_while_moving: !self.exact_while_moving,
             reduce_while_moving: !self.full_resolution_while_moving,
             settle_at_rest: !self.settle_in_one_frame,
+            near_field: self.near_field,
             depth_settings,
             backends,
             stats: self.stats,
@@ -407,5 +416,7 @@ mod tests {
         assert!(!parse(&["--full-resolution-while-moving"]).unwrap().reduce_while_moving);
         assert!(s.settle_at_rest, "the frames at rest after a move settle over several frames");
         assert!(!parse(&["--settle-in-one-frame"]).unwrap().settle_at_rest);
+        assert!(!s.near_field, "the near field costs several frames' time: asked for only");
+        assert!(parse(&["--near-field"]).unwrap().near_field);
     }
 }

@@ -35,6 +35,8 @@ pub struct Prepared {
     pub skipped: Skipped,
     /// The RIB scene itself (the haptics tessellate its surfaces).
     pub rib: rib_parser::scene::Scene,
+    /// Whether the scene's triangles carry their materials to the near field (`--near-field`).
+    pub near_field: bool,
 }
 
 impl Prepared {
@@ -47,7 +49,10 @@ impl Prepared {
     ) -> tessellate::SceneMeshes {
         let meshes = crate::scene_occluders::tessellate_once(&self.rib, tolerance, stats);
         self.scene.set_occluders(crate::scene_occluders::scene_occluders(&meshes));
-        self.scene.set_occluder_materials(crate::scene_occluders::scene_materials(&self.rib, &meshes));
+        // Without materials the near field is off and costs nothing (near_field.wgsl).
+        if self.near_field {
+            self.scene.set_occluder_materials(crate::scene_occluders::scene_materials(&self.rib, &meshes));
+        }
         meshes
     }
 }
@@ -120,7 +125,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         reduce_while_moving: settings.reduce_while_moving,
         settle_at_rest: settings.settle_at_rest,
     };
-    Ok(Prepared { scene, compositor, live, bounds, skipped, rib })
+    Ok(Prepared { scene, compositor, live, bounds, skipped, rib, near_field: settings.near_field })
 }
 
 /// Finds the light layers `lrt-depth` wrote for this render (docs/sidecar.md: next to the depth

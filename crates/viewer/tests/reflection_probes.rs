@@ -620,7 +620,15 @@ fn a_glossy_sphere_reflects_the_floor_its_nearest_probe_does_not_see() {
     let radius = 0.2;
     let mut scene = cornell_scene(vec![]);
     scene.set_reflections(plate_probes()).unwrap();
-    scene.set_occluders(plate_occluders());
+    let occluders = plate_occluders();
+    // The lobe directions are traced only with the scene's materials bound (`hybrid-view
+    // --near-field`); which material each triangle has does not matter to the reflection.
+    let of_triangle = vec![0; occluders.triangles.len()];
+    scene.set_occluders(occluders);
+    scene.set_occluder_materials(viewer::occluders::SceneMaterials {
+        materials: vec![viewer::occluders::SceneMaterial { diffuse: Vec3::splat(0.5), ..Default::default() }],
+        of_triangle,
+    });
     let roughness = 0.1;
     let gpu = gpu();
     let live = LiveObjects {
