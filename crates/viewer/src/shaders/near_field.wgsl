@@ -15,52 +15,6 @@
 // Cosine-distributed directions a fragment traces toward the scene near it.
 const NEAR_FIELD_RAYS: u32 = 16u;
 
-// The first scene triangle a ray meets: its distance along the ray (t_max: none) and index.
-struct NearHit {
-    t: f32,
-    triangle: u32,
-}
-
-// Where the ray from `origin` along unit `dir` first meets a triangle of hierarchy `bvh`
-// between t_min and t_max (the layout of bvh_blocks).
-fn bvh_nearest(bvh: vec4<u32>, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> NearHit {
-    var hit = NearHit(t_max, 0u);
-    if bvh.z == 0u {
-        return hit;
-    }
-    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
-    var stack: array<u32, OCCLUDER_STACK>;
-    stack[0] = 0u;
-    var top = 1u;
-    while top > 0u {
-        top -= 1u;
-        let k = bvh.x + stack[top];
-        let lo = occluder_nodes[2u * k];
-        let hi = occluder_nodes[2u * k + 1u];
-        let range = slab(origin, inv, lo.xyz, hi.xyz, 0.0, t_min, hit.t);
-        if range.x > range.y {
-            continue;
-        }
-        let a = bitcast<u32>(lo.w);
-        let count = bitcast<u32>(hi.w);
-        if count == 0u {
-            if top + 2u <= OCCLUDER_STACK {
-                stack[top] = a;
-                stack[top + 1u] = a + 1u;
-                top += 2u;
-            }
-            continue;
-        }
-        for (var i = bvh.y + a; i < bvh.y + a + count; i++) {
-            let t = occluder_triangle_t(i, origin, dir);
-            if t > t_min && t < hit.t {
-                hit = NearHit(t, i);
-            }
-        }
-    }
-    return hit;
-}
-
 // The lights' direct light at scene point y (unit normal m, toward the live fragment along w):
 // as direct_light_with, but each area light as one point at its centroid (light_toward) with
 // one shadow ray, not over its emitter samples: the near surfaces are lit from afar, and a

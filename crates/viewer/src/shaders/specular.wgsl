@@ -325,50 +325,14 @@ fn hidden_radiance(p: vec3<f32>, dir: vec3<f32>, beyond: f32, fallback: vec3<f32
 
 // The first triangle of the tessellated scene along unit `dir` from camera-space `origin`
 // (t up to t_max): xyz its unit normal turned toward the origin, w the distance (-1: none, or
-// no hierarchy). bvh_blocks' traversal, keeping the nearest hit and cutting the segment there.
+// no hierarchy): bvh_nearest's hit, as the near field takes it too.
 fn scene_first_hit(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> vec4<f32> {
-    let bvh = frame.scene_occluders;
-    var best = vec4<f32>(0.0, 0.0, 0.0, -1.0);
-    if bvh.z == 0u {
-        return best;
+    let hit = bvh_nearest(frame.scene_occluders, origin, dir, 0.0, t_max);
+    if !(hit.t < t_max) {
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
     }
-    var t_far = t_max;
-    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
-    var stack: array<u32, OCCLUDER_STACK>;
-    stack[0] = 0u;
-    var top = 1u;
-    while top > 0u {
-        top -= 1u;
-        let k = bvh.x + stack[top];
-        let lo = occluder_nodes[2u * k];
-        let hi = occluder_nodes[2u * k + 1u];
-        let t0 = (lo.xyz - origin) * inv;
-        let t1 = (hi.xyz - origin) * inv;
-        let tn = min(t0, t1);
-        let tf = max(t0, t1);
-        if max(max(tn.x, tn.y), max(tn.z, 0.0)) > min(min(tf.x, tf.y), min(tf.z, t_far)) {
-            continue;
-        }
-        let a = bitcast<u32>(lo.w);
-        let count = bitcast<u32>(hi.w);
-        if count == 0u {
-            if top + 2u <= OCCLUDER_STACK {
-                stack[top] = a;
-                stack[top + 1u] = a + 1u;
-                top += 2u;
-            }
-            continue;
-        }
-        for (var i = bvh.y + a; i < bvh.y + a + count; i++) {
-            let t = occluder_triangle_t(i, origin, dir);
-            if t > 0.0 && t < t_far {
-                t_far = t;
-                let g = normalize(cross(occluder_triangles[3u * i + 1u].xyz, occluder_triangles[3u * i + 2u].xyz));
-                best = vec4<f32>(select(g, -g, dot(g, dir) > 0.0), t);
-            }
-        }
-    }
-    return best;
+    let g = normalize(cross(occluder_triangles[3u * hit.triangle + 1u].xyz, occluder_triangles[3u * hit.triangle + 2u].xyz));
+    return vec4<f32>(select(g, -g, dot(g, dir) > 0.0), hit.t);
 }
 
 // At most this many of an area light's samples weigh its light at a surface point the eye does
