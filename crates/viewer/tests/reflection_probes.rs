@@ -60,15 +60,20 @@ fn render(scene: &ViewerScene, material: Material) -> (Vec<f32>, Vec<u8>) {
 /// The world-space hit point, unit normal and unit direction toward the eye of pixel `k`'s ray
 /// on the sphere (`None` for a miss).
 fn hit(scene: &ViewerScene, k: usize) -> Option<(DVec3, DVec3, DVec3)> {
+    sphere_hit(scene, k, CENTRE, RADIUS)
+}
+
+/// As [`hit`], on the sphere of `centre` and `radius`.
+fn sphere_hit(scene: &ViewerScene, k: usize, centre: DVec3, radius: f64) -> Option<(DVec3, DVec3, DVec3)> {
     let camera = scene.camera();
     let (w, _) = scene.size();
     let world_from_camera = camera.camera_from_world().inverse();
     let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
     let origin = world_from_camera.transform_point3(ray.origin);
     let direction = world_from_camera.transform_vector3(ray.direction).normalize();
-    let t = ray_sphere(origin, direction, CENTRE, RADIUS)?;
+    let t = ray_sphere(origin, direction, centre, radius)?;
     let p = origin + t * direction;
-    Some((p, (p - CENTRE).normalize(), -direction))
+    Some((p, (p - centre).normalize(), -direction))
 }
 
 /// Pixels inside the sphere whose normal faces the eye by more than `min_cos` (away from the
@@ -414,17 +419,9 @@ fn contact_error(
     let rgba = c.read_back_linear().unwrap().rgba;
     let mask = c.read_back().unwrap().mask;
     let exponent = f64::from(sidecar::blinn_exponent(roughness));
-    let camera = scene.camera();
-    let world_from_camera = camera.camera_from_world().inverse();
-    let (w, _) = scene.size();
     let (mut error, mut unshadowed_error, mut total, mut pixels) = (0.0, 0.0, 0.0, 0);
     for k in (0..mask.len()).filter(|&k| mask[k] == 255) {
-        let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
-        let origin = world_from_camera.transform_point3(ray.origin);
-        let direction = world_from_camera.transform_vector3(ray.direction).normalize();
-        let Some(t) = ray_sphere(origin, direction, RESTING_CENTRE, RESTING_RADIUS) else { continue };
-        let p = origin + t * direction;
-        let (n, v) = ((p - RESTING_CENTRE).normalize(), -direction);
+        let Some((p, n, v)) = sphere_hit(&scene, k, RESTING_CENTRE, RESTING_RADIUS) else { continue };
         if n.y > -0.3 || n.dot(v) < 0.15 {
             continue;
         }
@@ -641,17 +638,9 @@ fn a_glossy_sphere_reflects_the_floor_its_nearest_probe_does_not_see() {
     let rgba = c.read_back_linear().unwrap().rgba;
     let mask = c.read_back().unwrap().mask;
     let exponent = f64::from(sidecar::blinn_exponent(roughness));
-    let camera = scene.camera();
-    let world_from_camera = camera.camera_from_world().inverse();
-    let (w, _) = scene.size();
     let (mut error, mut total, mut pixels) = (0.0, 0.0, 0);
     for k in (0..mask.len()).filter(|&k| mask[k] == 255) {
-        let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
-        let origin = world_from_camera.transform_point3(ray.origin);
-        let direction = world_from_camera.transform_vector3(ray.direction).normalize();
-        let Some(t) = ray_sphere(origin, direction, centre, radius) else { continue };
-        let p = origin + t * direction;
-        let (n, v) = ((p - centre).normalize(), -direction);
+        let Some((p, n, v)) = sphere_hit(&scene, k, centre, radius) else { continue };
         if n.y > -0.2 || n.dot(v) < 0.15 {
             continue;
         }
