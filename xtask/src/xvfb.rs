@@ -29,7 +29,7 @@ impl VirtualDisplay {
     pub fn start() -> Result<VirtualDisplay, String> {
         let mut last_error = String::from("no free display number in :90..:189");
         for number in 90..190 {
-            if Path::new(&format!("/tmp/.X{number}-lock")).exists() {
+            if display_is_taken(number) {
                 continue;
             }
             let log = std::env::temp_dir().join(format!("xtask-xvfb-{number}.log"));
@@ -104,6 +104,25 @@ impl Drop for VirtualDisplay {
     }
 }
 
+/// Whether display `number` belongs to a running X server (see [`lock_names_live_process`]).
+fn display_is_taken(number: u32) -> bool {
+    lock_names_live_process(Path::new(&format!("/tmp/.X{number}-lock")))
+}
+
+/// Whether the X lock file at `lock` names a running process. A lock left by a server that was
+/// killed (a run interrupted with SIGKILL) does not count: Xvfb itself removes such a stale lock
+/// when it starts on that number, so the display is free.
+fn lock_names_live_process(lock: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(lock) else {
+        return false;
+    };
+    match text.trim().parse::<u32>() {
+        Ok(pid) => Path::new(&format!("/proc/{pid}")).exists(),
+        // A lock not yet written in full may be a server starting: leave that number alone.
+        Err(_) => true,
+    }
+}
+
 /// Connects to display `number` the way Xlib does (the abstract socket first, then the file
 /// socket) and performs the X11 connection setup without authorisation.
 fn handshake(number: u32) -> Result<(), String> {
@@ -141,4 +160,23 @@ fn connect_abstract(path: &str) -> std::io::Result<UnixStream> {
 #[cfg(not(target_os = "linux"))]
 fn connect_abstract(_path: &str) -> std::io::Result<UnixStream> {
     Err(std::io::Error::new(std::io::ErrorKind::Unsupported, "no abstract sockets"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::lock_names_live_process;
+
+    #[test]
+    fn a_lock_counts_only_while_its_process_runs() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = dir.path().join(".X90-lock");
+        assert!(!lock_names_live_process(&lock), "no lock file: the display is free");
+        // X writes the pid right-aligned in ten characters and a newline.
+        std::fs::write(&lock, format!("{:>10}\n", std::process::id())).unwrap();
+        assert!(lock_names_live_process(&lock), "our own pid is alive");
+        std::fs::write(&lock, format!("{:>10}\n", u32::MAX)).unwrap();
+        assert!(!lock_names_live_process(&lock), "no process has this pid: a stale lock");
+        std::fs::write(&lock, "").unwrap();
+        assert!(lock_names_live_process(&lock), "a lock still being written is left alone");
+    }
 }
