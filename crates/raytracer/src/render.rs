@@ -55,8 +55,9 @@ pub struct RenderOptions {
     pub wavefront: Option<bool>,
 }
 
-/// Whether qualifying path-traced renders run as a wavefront unless asked otherwise.
-pub const WAVEFRONT_BY_DEFAULT: bool = false;
+/// Whether qualifying path-traced renders run as a wavefront unless asked otherwise: yes, as
+/// it took less CPU time on the Cornell box (docs/performance.md, round 7).
+pub const WAVEFRONT_BY_DEFAULT: bool = true;
 
 impl std::fmt::Debug for RenderOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
