@@ -47,6 +47,11 @@ pub struct Cli {
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
 
+    /// How the path integrator runs: `wavefront` (batches of paths, where the scene qualifies;
+    /// the same image) or `scalar` (one path at a time). Default: the renderer's choice.
+    #[arg(long, value_name = "scalar|wavefront")]
+    pub paths: Option<String>,
+
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
@@ -257,6 +262,8 @@ pub struct Settings {
     pub max_size: Option<NonZeroU32>,
     pub time_budget: Option<std::time::Duration>,
     pub target_error: Option<f32>,
+    /// `--paths`: `Some(true)` for the wavefront, `Some(false)` for the scalar integrator.
+    pub wavefront: Option<bool>,
     /// Frames and tile of this run (`--frames`, `--tiles`, the Slurm array index).
     pub share: WorkShare,
 }
@@ -322,8 +329,15 @@ impl Settings {
             Some(e) if e.is_finite() && e > 0.0 && e < 1e3 => Some(e as f32),
             Some(e) => return Err(format!("--target-error {e}: must be a positive relative error")),
         };
+        let wavefront = match cli.paths.as_deref() {
+            None => None,
+            Some("wavefront") => Some(true),
+            Some("scalar") => Some(false),
+            Some(other) => return Err(format!("--paths {other}: must be scalar or wavefront")),
+        };
         Ok(Settings {
             crop,
+            wavefront,
             max_size,
             scene: cli.scene,
             mode: if cli.check { Mode::Check } else { Mode::Render },

@@ -306,6 +306,7 @@ fn run_one(settings: &Settings) -> ExitCode {
         progress: bar.as_ref().map(|(_, f)| f.clone()),
         time_budget: settings.time_budget,
         target_error: settings.target_error,
+        wavefront: settings.wavefront,
     };
     let out = match render(scene, &options) {
         Ok(out) => out,

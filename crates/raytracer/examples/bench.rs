@@ -5,8 +5,10 @@
 //! limit, and path-traced samples per CPU-second for the Cornell box, room, caustics and
 //! Killeroo (`docs/performance.md`). Prints Markdown tables.
 //!
-//! Usage: `bench [--spp N] [--repeat N] [--path-spp N]`; `LRT_SHARED=DIR` finds the shared
-//! scenes when the checkout is not beside them.
+//! Usage: `bench [--spp N] [--repeat N] [--path-spp N] [--paths scalar|wavefront]`;
+//! `LRT_SHARED=DIR` finds the shared scenes when the checkout is not beside them. `--paths`
+//! runs the path tracing rows with the scalar integrator or as a wavefront where the scene
+//! qualifies (default: the renderer's choice).
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -30,12 +32,14 @@ fn main() {
     let mut spp = 16u32;
     let mut repeat = 3usize;
     let mut path_spp = 4u32;
+    let mut wavefront = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--spp" => spp = args.next().and_then(|v| v.parse().ok()).unwrap_or(spp),
             "--repeat" => repeat = args.next().and_then(|v| v.parse().ok()).unwrap_or(repeat),
             "--path-spp" => path_spp = args.next().and_then(|v| v.parse().ok()).unwrap_or(path_spp),
+            "--paths" => wavefront = args.next().map(|v| v == "wavefront"),
             _ => {}
         }
     }
@@ -168,7 +172,7 @@ fn main() {
     }
 
     ray_kinds(&worlds, repeat);
-    samples_per_cpu_second(&shared, path_spp);
+    samples_per_cpu_second(&shared, path_spp, wavefront);
 }
 
 /// Primary, shadow and incoherent rays of each world, one thread: ours against obvhs' own
@@ -332,7 +336,7 @@ fn load_average() -> String {
 
 /// Path-traced samples per CPU-second, one thread, each scene at `spp` (the path integrator
 /// forced, unbounded depth, Russian roulette from depth 5, as the Mitsuba comparison).
-fn samples_per_cpu_second(shared: &std::path::Path, spp: u32) {
+fn samples_per_cpu_second(shared: &std::path::Path, spp: u32, wavefront: Option<bool>) {
     let root = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."));
     let scenes = [
         ("cornell", shared.join("reference/cornell/cornell.rib")),
@@ -359,6 +363,7 @@ fn samples_per_cpu_second(shared: &std::path::Path, spp: u32) {
             spp: Some(spp),
             threads: Some(1),
             integrator: Some(IntegratorKind::Path { max_depth: UNBOUNDED_DEPTH, rr_depth: DEFAULT_RR_DEPTH }),
+            wavefront,
             ..Default::default()
         };
         let (cpu0, wall0) = (cpu_seconds(), Instant::now());
@@ -366,6 +371,7 @@ fn samples_per_cpu_second(shared: &std::path::Path, spp: u32) {
         let (cpu, wall) = (cpu_seconds() - cpu0, wall0.elapsed().as_secs_f64());
         let s = &out.stats;
         let samples = u64::from(s.width) * u64::from(s.height) * u64::from(spp);
+        let name = if s.wavefront { format!("{name} (wavefront)") } else { name.to_string() };
         println!(
             "| {name} | {}x{} | {samples} | {:.2} | {cpu:.2} | {wall:.2} | {:.3} M | {load} |",
             s.width,

@@ -179,7 +179,7 @@ fn find_surface_or_escape_inlined(
     Err(Vec3::ZERO)
 }
 
-fn light_context(si: &SurfaceInteraction) -> LightSampleContext {
+pub(crate) fn light_context(si: &SurfaceInteraction) -> LightSampleContext {
     LightSampleContext { p: si.p, p_error: si.p_error, n: si.ng, p64: si.p64 }
 }
 
@@ -540,7 +540,7 @@ pub fn sanitize(c: Vec3) -> Vec3 {
 /// What the path tracer's ray leaving the scene sees of the environment lights, with path
 /// weight `beta`: all of it for camera rays and after specular bounces, else weighted by the
 /// power heuristic against the light sample taken at the previous vertex `prev`.
-fn escaped_with_mis(
+pub(crate) fn escaped_with_mis(
     world: &World,
     dir: Vec3,
     beta: Vec3,

@@ -75,4 +75,5 @@ pub mod transmission_layers;
 pub mod texture {
     pub use tessellate::texture::*;
 }
+pub mod wavefront;
 pub mod world;

@@ -49,7 +49,15 @@ pub struct RenderOptions {
     /// Stop sampling a pixel once its estimated relative error is below this
     /// ([`crate::passes`]).
     pub target_error: Option<f32>,
+    /// Run the path integrator as a wavefront ([`crate::wavefront`]) where the render
+    /// qualifies: `Some(true)` asks for it, `Some(false)` keeps the scalar integrator, `None`
+    /// takes [`WAVEFRONT_BY_DEFAULT`]. Images are the same either way.
+    pub wavefront: Option<bool>,
 }
+
+/// Whether qualifying path-traced renders run as a wavefront unless asked otherwise: yes, as
+/// it took less CPU time on the Cornell box (docs/performance.md, round 7).
+pub const WAVEFRONT_BY_DEFAULT: bool = true;
 
 impl std::fmt::Debug for RenderOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -62,6 +70,7 @@ impl std::fmt::Debug for RenderOptions {
             .field("layers", &self.layers)
             .field("time_budget", &self.time_budget)
             .field("target_error", &self.target_error)
+            .field("wavefront", &self.wavefront)
             .finish()
     }
 }
@@ -94,6 +103,8 @@ pub struct RenderStats {
     pub photon: Option<crate::photon::PhotonStats>,
     /// What a render in passes did (progressive photon mapping, `--time`, `--target-error`).
     pub passes: Option<crate::passes::PassStats>,
+    /// True when the path integrator ran as a wavefront ([`crate::wavefront`]).
+    pub wavefront: bool,
 }
 
 impl RenderStats {
@@ -362,6 +373,16 @@ fn render_in_pool(
 
     let (x0, x1, y0, y1) = rays.camera.crop_pixel_bounds();
     let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+    // Whether the path integrator runs as a wavefront, decided once for the render. The light
+    // and transmission layers and the probe bakes come with `layers`; their hooks are on the
+    // scalar path.
+    let wavefront = if !options.wavefront.unwrap_or(WAVEFRONT_BY_DEFAULT) {
+        Err("not asked for")
+    } else if options.layers {
+        Err("sidecar layers")
+    } else {
+        crate::wavefront::supports(&world, &kind)
+    };
 
     // Image.
     let render_start = Instant::now();
@@ -382,6 +403,7 @@ fn render_in_pool(
         seed: options.seed,
         bounds: (x0, y0, x1, y1),
         progress: options.progress.clone(),
+        wavefront: wavefront.ok(),
     };
     let total = u64::from(w) * u64::from(h);
     let full_frame = (x0, y0, w, h) == (0, 0, full_w, full_h);
@@ -464,6 +486,12 @@ fn render_in_pool(
         diagnostics.warn_once(None, w);
     }
     let mut integrator_stats = integrator.stats();
+    if matches!(kind, IntegratorKind::Path { .. }) {
+        integrator_stats.push(match wavefront {
+            Ok(_) => format!("paths: wavefront, batches of up to {}", crate::wavefront::BATCH),
+            Err(why) => format!("paths: scalar ({why})"),
+        });
+    }
     if let Some(p) = &pass_stats {
         integrator_stats.extend(p.lines());
     }
@@ -486,6 +514,7 @@ fn render_in_pool(
         time_reflections,
         skipped: diagnostics.skipped.clone(),
         photon: integrator.photon_stats(),
+        wavefront: wavefront.is_ok(),
     };
     let image = Image {
         width: w,
@@ -524,6 +553,8 @@ pub(crate) struct Frame<'a> {
     /// `(x0, y0, x1, y1)`: the pixels rendered (the crop window), full-frame coordinates.
     pub bounds: (u32, u32, u32, u32),
     pub progress: Option<ProgressFn>,
+    /// The path integrator's settings when it runs as a wavefront.
+    pub wavefront: Option<crate::wavefront::PathSettings>,
 }
 
 impl Frame<'_> {
@@ -655,6 +686,8 @@ fn render_tile(
     let spp = spp as usize;
     let mut samples = Vec::with_capacity(sw * (sy1 - sy0) as usize * spp);
     let mut counters = RayCounters::default();
+    // The wavefront's camera rays with their samplers and the index of their sample.
+    let mut batch: Vec<(usize, Ray, crate::sampler::Sampler)> = Vec::new();
     for py in sy0..sy1 {
         for px in sx0..sx1 {
             if !needed(px, py) {
@@ -678,12 +711,31 @@ fn render_tile(
                 // A time sample only where something moves, so still images stay as they were.
                 let time = if world.motion_blur { sampler.uniform() } else { 0.0 };
                 let r = match rays.lens_ray_at(DVec2::new(x, y), lens_u, time) {
+                    Some((ray, _)) if frame.wavefront.is_some() => {
+                        batch.push((samples.len(), ray, sampler));
+                        Default::default()
+                    }
                     Some((ray, _)) => {
                         world.over_background(integrator.li(world, ray, &mut sampler, &mut counters))
                     }
                     None => Default::default(),
                 };
                 samples.push(Sample { x: x as f32, y: y as f32, rgb: r.rgb, alpha: r.alpha });
+            }
+        }
+    }
+    if let Some(settings) = frame.wavefront {
+        let mut pending = batch.into_iter();
+        loop {
+            let (slots, cameras): (Vec<usize>, Vec<_>) =
+                pending.by_ref().take(crate::wavefront::BATCH).map(|(k, ray, s)| (k, (ray, s))).unzip();
+            if slots.is_empty() {
+                break;
+            }
+            let radiance = crate::wavefront::render_batch(world, settings, cameras, &mut counters);
+            for (k, r) in slots.into_iter().zip(radiance) {
+                let r = world.over_background(r);
+                (samples[k].rgb, samples[k].alpha) = (r.rgb, r.alpha);
             }
         }
     }

@@ -290,6 +290,12 @@ impl World {
         ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE))
     }
 
+    /// True when the ray queries take the flat world's paths (`flat.rs`: one BLAS of triangles
+    /// in render space), decided when the world was built.
+    pub fn flat_queries(&self) -> bool {
+        self.flat
+    }
+
     /// The light set of an attribute state.
     pub fn light_set(&self, attributes: AttributesId) -> &LightSet {
         &self.light_sets[self.attributes_light_set[attributes.0 as usize] as usize]

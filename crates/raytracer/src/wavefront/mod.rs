@@ -1,0 +1,403 @@
+//! The path tracer over a batch of paths at once ("paths in lanes", docs/performance.md).
+//!
+//! A tile's camera samples are one batch (in chunks of [`BATCH`]); each bounce runs as
+//! stages over the list of live paths, every stage over all of them before the next: closest
+//! hits, emission and the BSDF, the light sample with its shadow ray, the BSDF sample with
+//! Russian roulette. The state lives in arrays indexed by path. Each path keeps its own
+//! [`Sampler`] and does the scalar integrator's operations in the same order, so every pixel
+//! is bit for bit what [`crate::integrators::PathTracer`] renders (`tests/wavefront.rs`).
+//!
+//! Only some renders qualify ([`supports`]): the path integrator over a flat world whose
+//! materials are all opaque `matte` and whose lights are points, spots, distant lights or
+//! area triangles; no motion, no light or transmission layers, no probe bakes. Everything else
+//! takes the scalar integrator.
+
+mod lanes;
+
+use crate::accel::X86_64V3;
+use crate::bsdf::{Bsdf, BsdfSample, LobeFlags, TransportMode};
+use crate::integrators::{
+    IntegratorKind, Radiance, RayCounters, escaped_with_mis, light_context, surface_terms,
+};
+use crate::lights::{EmitterShape, Light, LightLiSample};
+use crate::materials::Surface;
+use crate::sampler::Sampler;
+use crate::sampling::power_heuristic;
+use crate::world::{Ray, SurfaceInteraction, World};
+use glam::{DVec3, Vec3};
+use rib_parser::scene::AttributesId;
+
+/// Paths traced together: a tile's samples are split into batches this large, which keeps a
+/// batch's state (about 600 bytes a path) in the second-level cache.
+pub const BATCH: usize = 1024;
+
+/// The path integrator's settings, for a render the wavefront can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PathSettings {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+}
+
+/// The path integrator's settings when the wavefront can render `world` with `kind`, else why
+/// not (the scalar integrator renders it). Sidecar layers and probe bakes are the caller's to
+/// rule out: their hooks are per primary vertex on the scalar path.
+pub fn supports(world: &World, kind: &IntegratorKind) -> Result<PathSettings, &'static str> {
+    let IntegratorKind::Path { max_depth, rr_depth } = *kind else {
+        return Err("not the path integrator");
+    };
+    if !world.flat_queries() {
+        return Err("not a flat world");
+    }
+    if world.motion_blur || world.camera_motion.is_some() {
+        return Err("motion");
+    }
+    if !world.environment_lights.is_empty() {
+        return Err("an environment light");
+    }
+    let matte = |m: &crate::materials::Material| {
+        matches!(m.surface, Surface::Matte { .. }) && m.opacity == Vec3::ONE && !m.holdout
+    };
+    if !world.materials.iter().all(matte) {
+        return Err("a material other than opaque matte");
+    }
+    let simple_light = |l: &Light| match l {
+        Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::Ambient { .. } => true,
+        Light::Area { shape, .. } => matches!(shape, EmitterShape::Triangles { .. }),
+        Light::Environment(_) => false,
+    };
+    if !world.lights.iter().all(simple_light) {
+        return Err("a light other than points, spots, distant lights and area triangles");
+    }
+    Ok(PathSettings { max_depth, rr_depth })
+}
+
+/// A path's previous vertex, for the MIS weight of an emitter its BSDF sample hits.
+type PreviousVertex = Option<(DVec3, f32, AttributesId)>;
+
+/// The state of a batch's paths, one entry per path.
+struct Paths {
+    ray: Vec<Ray>,
+    sampler: Vec<Sampler>,
+    beta: Vec<Vec3>,
+    l: Vec<Vec3>,
+    alpha: Vec<f32>,
+    specular_bounce: Vec<bool>,
+    eta_scale: Vec<f32>,
+    prev: Vec<PreviousVertex>,
+    depth: Vec<u32>,
+    /// The surface the path's ray found and its BSDF, during a bounce.
+    si: Vec<Option<SurfaceInteraction>>,
+    bsdf: Vec<Option<Bsdf>>,
+}
+
+/// Renders a batch of camera rays, each with its sampler (the state after the camera's
+/// dimensions): the radiance and coverage of each, as [`crate::integrators::PathTracer`]
+/// returns them.
+pub fn render_batch(
+    world: &World,
+    settings: PathSettings,
+    cameras: Vec<(Ray, Sampler)>,
+    counters: &mut RayCounters,
+) -> Vec<Radiance> {
+    let n = cameras.len();
+    let (ray, sampler): (Vec<Ray>, Vec<Sampler>) = cameras.into_iter().unzip();
+    let mut paths = Paths {
+        ray,
+        sampler,
+        beta: vec![Vec3::ONE; n],
+        l: vec![Vec3::ZERO; n],
+        alpha: vec![0.0; n],
+        specular_bounce: vec![true; n],
+        eta_scale: vec![1.0; n],
+        prev: vec![None; n],
+        depth: vec![0; n],
+        si: vec![None; n],
+        bsdf: vec![None; n],
+    };
+    let mut live: Vec<u32> = (0..n as u32).collect();
+    let v3 = X86_64V3::detect();
+    while !live.is_empty() {
+        closest_hits(world, &mut paths, &mut live, counters);
+        emission_and_bsdf(world, settings, &mut paths, &mut live);
+        light_samples(v3, world, &mut paths, &live, counters);
+        bsdf_samples(v3, settings, &mut paths, &mut live);
+    }
+    (0..n)
+        .map(|i| Radiance { rgb: crate::integrators::sanitize(paths.l[i]), alpha: paths.alpha[i] })
+        .collect()
+}
+
+/// Stage 1: each live path's closest hit and its surface interaction; paths that leave the
+/// scene take what the environment gives them and end.
+fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters: &mut RayCounters) {
+    live.retain(|&i| {
+        let i = i as usize;
+        let depth = paths.depth[i];
+        if depth == 0 {
+            counters.camera += 1;
+        } else {
+            counters.bounce += 1;
+        }
+        let ray = paths.ray[i];
+        match world.intersect(&ray) {
+            Some(hit) => {
+                paths.si[i] = Some(world.interaction(&ray, &hit));
+                // An opaque surface stops the ray with weight one (the scalar path's product).
+                paths.beta[i] *= Vec3::ONE;
+                true
+            }
+            None => {
+                let through = paths.beta[i] * Vec3::ONE;
+                paths.l[i] += escaped_with_mis(
+                    world,
+                    ray.direction,
+                    through,
+                    depth,
+                    paths.specular_bounce[i],
+                    paths.prev[i],
+                );
+                false
+            }
+        }
+    });
+}
+
+/// Stage 2: coverage, the emission of a light hit (weighted for MIS against the previous
+/// vertex's light sample), the surface's own terms, and its BSDF; paths whose BSDF is black or
+/// whose depth is at the limit end.
+fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, live: &mut Vec<u32>) {
+    live.retain(|&i| {
+        let i = i as usize;
+        let Some(si) = paths.si[i].as_ref() else { return false };
+        let depth = paths.depth[i];
+        let beta = paths.beta[i];
+        let material = world.material(si.attributes);
+        if depth == 0 {
+            paths.alpha[i] = 1.0;
+        }
+        let l = &mut paths.l[i];
+        if let Some(e) = si.emitter {
+            let light = &world.lights[e as usize];
+            let le = light.emitted(si.ng, si.wo);
+            if le != Vec3::ZERO {
+                match paths.prev[i] {
+                    None => *l += beta * le,
+                    Some(_) if paths.specular_bounce[i] => *l += beta * le,
+                    Some((p_prev, pdf_bsdf, attrs)) => {
+                        let pick = world.light_set(attrs).pmf(e);
+                        if pick > 0.0 {
+                            let light_pdf = pick * light.pdf_li(p_prev, -si.wo, si.p64, si.ng);
+                            *l += beta * le * power_heuristic(pdf_bsdf, light_pdf);
+                        }
+                    }
+                }
+            }
+        }
+        *l += beta * surface_terms(world, si, material);
+        let bsdf = material.bsdf_inlined(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
+        let ends = bsdf.is_black() || depth >= settings.max_depth;
+        paths.bsdf[i] = Some(bsdf);
+        !ends
+    });
+}
+
+/// Stage 3: next-event estimation, one light chosen by power with its shadow ray, weighted
+/// for MIS against the BSDF sample that follows ([`crate::integrators::sample_one_light`]
+/// split in three: the light samples; the BSDF's value and density toward them, eight lanes at
+/// a time for one-lobe Lambert BSDFs where the CPU has AVX2; the shadow rays).
+fn light_samples(
+    v3: Option<X86_64V3>,
+    world: &World,
+    paths: &mut Paths,
+    live: &[u32],
+    counters: &mut RayCounters,
+) {
+    // A light sample with the probability of its light's choice, and whether MIS weights it.
+    struct Picked {
+        pick: f32,
+        mis: bool,
+        ls: LightLiSample,
+    }
+    // Whether each path estimates direct light here (its BSDF has a non-specular lobe), and
+    // the light and the point on it, path by path in the scalar integrator's order.
+    let (estimates, picked): (Vec<bool>, Vec<Option<Picked>>) = live
+        .iter()
+        .map(|&i| {
+            let i = i as usize;
+            let (Some(si), Some(bsdf)) = (paths.si[i].as_ref(), paths.bsdf[i].as_ref()) else {
+                return (false, None);
+            };
+            if !bsdf.has_non_specular() {
+                return (false, None);
+            }
+            let sampler = &mut paths.sampler[i];
+            let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
+                return (true, None);
+            };
+            let light = &world.lights[light as usize];
+            let picked = light.sample_li(&light_context(si), sampler.uniform2()).map(|ls| Picked {
+                pick,
+                mis: !light.is_delta(),
+                ls,
+            });
+            (true, picked)
+        })
+        .unzip();
+    // `f |cos|` and the BSDF's density toward each light sample.
+    let mut values = vec![(Vec3::ZERO, 0.0f32); live.len()];
+    let mut group = lanes::LambertEvalGroup::default();
+    let mut members = [0usize; lanes::LANES];
+    let mut filled = 0;
+    for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
+        let i = i as usize;
+        let (Some(picked), Some(si), Some(bsdf)) = (picked, paths.si[i].as_ref(), paths.bsdf[i].as_ref())
+        else {
+            continue;
+        };
+        let ls = &picked.ls;
+        match (v3, lanes::single_lambert(bsdf)) {
+            (Some(v3), Some(r)) => {
+                group.set(filled, si.wo, ls.wi, bsdf, r);
+                members[filled] = k;
+                filled += 1;
+                if filled == lanes::LANES {
+                    let out = lanes::lambert_f_pdf(v3, &group);
+                    for (lane, &m) in members.iter().enumerate() {
+                        values[m] = out.get(lane);
+                    }
+                    filled = 0;
+                }
+            }
+            _ => {
+                let (f, pdf) = if picked.mis && !ls.is_delta {
+                    bsdf.f_and_pdf(si.wo, ls.wi, LobeFlags::ALL)
+                } else {
+                    (bsdf.f(si.wo, ls.wi, LobeFlags::ALL), 0.0)
+                };
+                values[k] = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
+            }
+        }
+    }
+    if let (Some(v3), true) = (v3, filled > 0) {
+        let out = lanes::lambert_f_pdf(v3, &group);
+        for (lane, &m) in members[..filled].iter().enumerate() {
+            values[m] = out.get(lane);
+        }
+    }
+    // The shadow rays and the estimates (`direct_from_light`'s arithmetic).
+    for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
+        let i = i as usize;
+        if !estimates[k] {
+            continue;
+        }
+        let mut total = Vec3::ZERO;
+        if let (Some(picked), Some(si)) = (picked, paths.si[i].as_ref())
+            && values[k].0 != Vec3::ZERO
+            && picked.ls.li != Vec3::ZERO
+        {
+            let (ls, (f, bsdf_pdf)) = (&picked.ls, values[k]);
+            let shadow = match ls.p_light {
+                Some((p, err, n)) => si.spawn_ray_to(p, err, n),
+                None => si.spawn_ray(ls.wi),
+            };
+            counters.shadow += 1;
+            let tr = world.transmittance(&shadow);
+            if tr != Vec3::ZERO {
+                if ls.is_delta {
+                    total += f * ls.li * tr / picked.pick;
+                } else {
+                    let light_pdf = picked.pick * ls.pdf;
+                    let w = if picked.mis { power_heuristic(light_pdf, bsdf_pdf) } else { 1.0 };
+                    total += f * ls.li * tr * (w / light_pdf);
+                }
+            }
+        }
+        // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
+        paths.l[i] += paths.beta[i] * total;
+    }
+}
+
+/// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
+/// Russian roulette. The numbers are drawn path by path in the scalar integrator's order; the
+/// directions of one-lobe Lambert BSDFs are sampled eight at a time where the CPU has AVX2.
+fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths, live: &mut Vec<u32>) {
+    let numbers: Vec<(f32, glam::Vec2)> = live
+        .iter()
+        .map(|&i| {
+            let sampler = &mut paths.sampler[i as usize];
+            let u_lobe = sampler.uniform();
+            (u_lobe, sampler.uniform2())
+        })
+        .collect();
+    let mut samples: Vec<Option<BsdfSample>> = vec![None; live.len()];
+    let mut group = lanes::LambertGroup::default();
+    let mut members = [0usize; lanes::LANES];
+    let mut filled = 0;
+    for (k, &i) in live.iter().enumerate() {
+        let i = i as usize;
+        let (Some(si), Some(bsdf)) = (paths.si[i].as_ref(), paths.bsdf[i].as_ref()) else { continue };
+        let (u_lobe, u) = numbers[k];
+        match (v3, lanes::single_lambert(bsdf)) {
+            (Some(v3), Some(r)) => {
+                group.set(filled, si.wo, bsdf, r, u);
+                members[filled] = k;
+                filled += 1;
+                if filled == lanes::LANES {
+                    let out = lanes::lambert_samples(v3, &group);
+                    for (lane, &m) in members.iter().enumerate() {
+                        samples[m] = out.get(lane);
+                    }
+                    filled = 0;
+                }
+            }
+            _ => samples[k] = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL),
+        }
+    }
+    if let (Some(v3), true) = (v3, filled > 0) {
+        let out = lanes::lambert_samples(v3, &group);
+        for (lane, &m) in members[..filled].iter().enumerate() {
+            samples[m] = out.get(lane);
+        }
+    }
+    let mut next = 0;
+    for k in 0..live.len() {
+        let i = live[k] as usize;
+        if continue_path(settings, paths, i, samples[k]) {
+            live[next] = live[k];
+            next += 1;
+        }
+    }
+    live.truncate(next);
+}
+
+/// A path's throughput, next ray and Russian roulette after its BSDF sample `bs`: false when
+/// the path ends.
+fn continue_path(settings: PathSettings, paths: &mut Paths, i: usize, bs: Option<BsdfSample>) -> bool {
+    let (Some(si), Some(bsdf), Some(bs)) = (paths.si[i].as_ref(), paths.bsdf[i].as_ref(), bs) else {
+        return false;
+    };
+    let cos = bs.wi.dot(bsdf.frame.z).abs();
+    let beta = &mut paths.beta[i];
+    *beta *= bs.f * (cos / bs.pdf);
+    if !beta.is_finite() || *beta == Vec3::ZERO {
+        return false;
+    }
+    paths.specular_bounce[i] = bs.is_specular();
+    if bs.flags.intersects(LobeFlags::TRANSMISSION) {
+        paths.eta_scale[i] *= bs.eta * bs.eta;
+    }
+    paths.prev[i] = Some((si.p64, bs.pdf, si.attributes));
+    paths.ray[i] = si.spawn_ray(bs.wi);
+    paths.depth[i] += 1;
+    if paths.depth[i] > settings.rr_depth {
+        let rr_beta = (*beta * paths.eta_scale[i]).max_element();
+        if rr_beta < 1.0 {
+            let q = (1.0 - rr_beta).max(0.0);
+            if paths.sampler[i].uniform() < q {
+                return false;
+            }
+            *beta /= 1.0 - q;
+        }
+    }
+    true
+}
