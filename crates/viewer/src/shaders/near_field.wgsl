@@ -15,10 +15,35 @@
 // Cosine-distributed directions a fragment traces toward the scene near it.
 const NEAR_FIELD_RAYS: u32 = 16u;
 
+// Whether the live objects' shadows (when on) block scene point y's light along unit l up to
+// `distance`: the shadow-casting spheres and live meshes with the light layers (as the layered
+// shadows take the light from the backdrop, live_blocks), the cursor sphere without them. A
+// live sphere resting on a surface darkens that surface under it, which its own underside sees.
+fn near_live_blocks(y: vec3<f32>, l: vec3<f32>, distance: f32) -> bool {
+    if frame.counts.y != 1u {
+        return false;
+    }
+    if frame.layer_info.x == 1u {
+        return live_blocks(y, l, distance);
+    }
+    return frame.counts.z == 1u && one_sphere_blocks(frame.sphere, y, l, distance);
+}
+
+// The share of the probes' light at scene point y (unit normal m) the live spheres leave it:
+// with shadows on and the light layers, one less their occlusion of indirect light near
+// contact (indirect_occlusion, as the backdrop loses it); the light the spheres send in its
+// place is left out.
+fn near_field_unoccluded(y: vec3<f32>, m: vec3<f32>) -> f32 {
+    if frame.counts.y != 1u || frame.layer_info.x != 1u {
+        return 1.0;
+    }
+    return 1.0 - indirect_occlusion(y, m);
+}
+
 // The lights' direct light at scene point y (unit normal m, toward the live fragment along w):
 // as direct_light_with, but each area light as one point at its centroid (light_toward) with
 // one shadow ray, not over its emitter samples: the near surfaces are lit from afar, and a
-// fragment traces up to NEAR_FIELD_RAYS of them.
+// fragment traces up to NEAR_FIELD_RAYS of them. The live objects' shadows block it too.
 fn near_direct_light(y: vec3<f32>, m: vec3<f32>, w: vec3<f32>, exponent: f32) -> DirectLight {
     var ambient = vec3<f32>(0.0);
     var diffuse = vec3<f32>(0.0);
@@ -34,6 +59,9 @@ fn near_direct_light(y: vec3<f32>, m: vec3<f32>, w: vec3<f32>, exponent: f32) ->
             let n_dot_l = dot(m, toward.l);
             var lit = n_dot_l > 0.0 && !all(toward.e <= vec3<f32>(0.0));
             if lit {
+                lit = !near_live_blocks(y, toward.l, toward.distance);
+            }
+            if lit {
                 lit = scene_lets_light(y, m, toward.l, toward.distance, 0.0);
             }
             if lit {
@@ -47,11 +75,11 @@ fn near_direct_light(y: vec3<f32>, m: vec3<f32>, w: vec3<f32>, exponent: f32) ->
 
 // The radiance a scene surface of material `material` (an index into the table) at
 // camera-space y, unit normal m facing the live fragment, sends toward it along unit w (from y
-// to the fragment): its diffuse lobe over the lights' direct light (near_direct_light)
-// and the probes' irradiance at y, its ambient term, its glossy lobe's highlights of the
-// lights toward w, and a shader's own emission. Area lights' emission is the lights' direct
-// light on the fragment already, and the probes' light in the surface's glossy lobe is left
-// out.
+// to the fragment): its diffuse lobe over the lights' direct light (near_direct_light) and
+// the probes' irradiance at y less the live spheres' occlusion of it, its ambient term, its
+// glossy lobe's highlights of the lights toward w, and a shader's own emission. Area lights'
+// emission is the lights' direct light on the fragment already, and the probes' light in the
+// surface's glossy lobe is left out.
 fn near_surface_radiance(material: u32, y: vec3<f32>, m: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
     let base = 1u + 4u * material;
     let diffuse = scene_materials[base];
@@ -61,7 +89,7 @@ fn near_surface_radiance(material: u32, y: vec3<f32>, m: vec3<f32>, w: vec3<f32>
     let lit = near_direct_light(y, m, w, max(diffuse.w, 1.0));
     let y_world = (frame.world_from_camera_point * vec4<f32>(y, 1.0)).xyz;
     let m_world = normalize((frame.world_from_camera * vec4<f32>(m, 0.0)).xyz);
-    let e = lit.diffuse + field_irradiance(y_world, m_world);
+    let e = lit.diffuse + field_irradiance(y_world, m_world) * near_field_unoccluded(y, m);
     let cos_o = clamp(dot(m, w), 0.0, 1.0);
     return diffuse.rgb / PI * e + ambient.rgb * lit.ambient + glossy.rgb * lit.specular
         + emission.rgb * (emission.w + ambient.w * cos_o * cos_o);
