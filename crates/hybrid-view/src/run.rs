@@ -118,6 +118,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
         antialias: settings.antialias,
         own_shadow_maps: true,
+        near_field_maps: true,
         bounce_light: settings.bounce_light,
         occlusion_from_behind: settings.occlusion_from_behind,
         shadow_bounce: settings.shadow_bounce,

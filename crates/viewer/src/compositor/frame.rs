@@ -122,6 +122,11 @@ impl Compositor {
         let lap = |encoder: &mut wgpu::CommandEncoder, pass: &'static str| {
             timing.lap(&self.gpu.device, &self.gpu.queue, encoder, pass)
         };
+        // Live objects drawn with the backdrop read their near-field maps drawn before it (the
+        // maps read the backdrop after shadows only with shadows on, which keeps that copy).
+        if live_drawn && !keep_shadowed {
+            self.record_near_field_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
+        }
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass);
@@ -167,6 +172,9 @@ impl Compositor {
             lap(&mut encoder, "copy of the backdrop after shadows");
             self.record_loss_maps(&mut encoder, &keyed, &mesh_bytes);
             lap(&mut encoder, "own-shadow loss maps");
+            // Before the radiosity maps, which read them on the half facing the eye.
+            self.record_near_field_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
+            lap(&mut encoder, "near-field maps");
             // What the shadows took, before the bounce light adds to the backdrop after them.
             self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);
             lap(&mut encoder, "second bounce: clusters");
