@@ -35,7 +35,8 @@ pub struct Prepared {
     pub skipped: Skipped,
     /// The RIB scene itself (the haptics tessellate its surfaces).
     pub rib: rib_parser::scene::Scene,
-    /// Whether the scene's triangles carry their materials to the near field (`--near-field`).
+    /// Whether the scene's triangles carry their materials to the near field (on unless
+    /// `--no-near-field`).
     pub near_field: bool,
 }
 
