@@ -364,3 +364,33 @@ fn the_sphere_s_near_field_map_agrees_with_tracing_per_fragment() {
         assert!(changed > 1000 && relative <= 0.1, "channel {ch}: {relative} over {changed} pixels");
     }
 }
+
+/// A moving frame (`amortise_while_moving`) leaves the near field out, so that the spheres' maps
+/// are not drawn again every frame: the sphere moving beside the wall is the same, bit for bit,
+/// with and without the wall's material; the frame at rest after it has the near field.
+#[test]
+fn a_moving_frame_leaves_the_near_field_to_the_frame_at_rest() {
+    let frames = |scene: &ViewerScene| {
+        let settings = CompositorSettings {
+            mode: CompositeMode::Fullscreen,
+            shadows: None,
+            amortise_while_moving: true,
+            ..Default::default()
+        };
+        let mut c = Compositor::new(&gpu(), scene, settings).unwrap();
+        let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+        let at = |x: f64| LiveObjects {
+            sphere: Some(Sphere { centre: CENTRE + DVec3::new(x, 0.0, 0.0), radius: RADIUS, material }),
+            meshes: Vec::new(),
+        };
+        c.render(&at(0.01)).unwrap();
+        c.render(&at(0.0)).unwrap();
+        let moving = c.read_back_linear().unwrap().rgba;
+        c.render(&at(0.0)).unwrap();
+        (moving, c.read_back_linear().unwrap().rgba)
+    };
+    let (moving_with, rest_with) = frames(&scene(2.0, Some(wall_materials(matte_wall()))));
+    let (moving_without, rest_without) = frames(&scene(2.0, None));
+    assert!(moving_with == moving_without, "a moving frame drew the near field");
+    assert!(rest_with != rest_without, "the frame at rest has no near field");
+}

@@ -111,6 +111,11 @@ impl Compositor {
         if shadows_reduced.is_some() {
             written.tone[2] = 1.0;
         }
+        // A moving frame leaves out the near field and traces no glossy lobes (their maps would
+        // be drawn again every frame); the frame at rest draws them (near_field_map.rs).
+        if moving {
+            written.tone[3] = 1.0;
+        }
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&written));
         // The maps and reflections kept while their inputs stay (loss, radiosity, specular) are
         // keyed with these flags too: what a moving frame drew of them from its approximate

@@ -102,7 +102,9 @@ impl Compositor {
         let layered = uniform.layer_info[0] == 1;
         let row_count = if layered { uniform.layer_info[3] } else { uniform.counts[2] };
         let probes = uniform.counts[3] == 1 || uniform.reflection_origin[3] > 0.5;
-        if !self.settings.near_field_maps || !maps.scene_materials || !probes || row_count == 0 {
+        // A moving frame (tone.w) leaves the near field out and reads no maps.
+        let moving = uniform.tone[3] > 0.5;
+        if !self.settings.near_field_maps || !maps.scene_materials || !probes || row_count == 0 || moving {
             return;
         }
         if !maps.drawn_from.renew(uniform, mesh_bytes) {

@@ -219,8 +219,12 @@ fn near_field_map_lookup(row: u32, part: u32, n: vec3<f32>) -> vec3<f32> {
 }
 
 // The near field's change of the probes' irradiance at camera-space p (unit normal n): from the
-// map of the sphere being shaded where it has one, else traced here.
+// map of the sphere being shaded where it has one, else traced here; none in a moving frame
+// (frame.tone.w, compositor/frame.rs), which the frame at rest makes exact.
 fn near_field_change(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    if frame.tone.w > 0.5 {
+        return vec3<f32>(0.0);
+    }
     let row = near_field_map_row(NEAR_FIELD_PART);
     if row >= 0 {
         return near_field_map_lookup(u32(row), NEAR_FIELD_PART, n);
@@ -231,8 +235,10 @@ fn near_field_change(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 // The radiance a live surface's glossy lobe (`exponent`) reflects at camera-space p (unit normal
 // n, toward the eye v; world-space p_world, n_world, v_world): with `traced` the lobe's
 // directions meet the scene's triangles, from the map of the sphere being shaded where it has
-// one; else they meet the reflection probes' distance maps (glossy_reflection).
-fn glossy_lobe(p_world: vec3<f32>, n: vec3<f32>, n_world: vec3<f32>, v_world: vec3<f32>, exponent: f32, traced: bool) -> vec3<f32> {
+// one; else, and in a moving frame, they meet the reflection probes' distance maps
+// (glossy_reflection).
+fn glossy_lobe(p_world: vec3<f32>, n: vec3<f32>, n_world: vec3<f32>, v_world: vec3<f32>, exponent: f32, traced_asked: bool) -> vec3<f32> {
+    let traced = traced_asked && frame.tone.w < 0.5;
     if traced {
         let row = near_field_map_row(GLOSSY_PART);
         if row >= 0 {
