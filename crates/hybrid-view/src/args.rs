@@ -86,12 +86,16 @@ pub struct Args {
     /// frame.
     #[arg(long)]
     pub settle_in_one_frame: bool,
-    /// Live surfaces within a probe spacing of the scene take the light of the scene surfaces
-    /// near them from those surfaces' own materials (16 rays per live fragment through the
-    /// scene's triangles) instead of the probes' light alone: more exact beside a large object,
-    /// and several times the frame's cost on a software rasteriser (docs/viewer-lighting.md).
-    #[arg(long)]
+    /// Accepted for compatibility: the near field and the glossy lobes traced through the scene
+    /// are on by default (`--no-near-field` turns them off).
+    #[arg(long, conflicts_with = "no_near_field")]
     pub near_field: bool,
+    /// Live surfaces take the probes' light alone, not the light of the scene surfaces within a
+    /// probe spacing from those surfaces' own materials, and glossy live surfaces read their
+    /// lobes from the reflection probes' distance maps, not traced through the scene's
+    /// triangles (docs/viewer-lighting.md, "Near a large scene surface").
+    #[arg(long)]
+    pub no_near_field: bool,
     /// Fraction of a pixel's value removed in the sphere's full shadow.
     #[arg(long, value_name = "S", default_value_t = 0.6)]
     pub shadow_strength: f32,
@@ -236,7 +240,7 @@ pub struct Settings {
     /// The frames at rest after a move made exact over several frames (`--settle-in-one-frame`
     /// clears it).
     pub settle_at_rest: bool,
-    /// The near field from the scene surfaces' own materials (`--near-field` sets it).
+    /// The near field from the scene surfaces' own materials (`--no-near-field` clears it).
     pub near_field: bool,
     pub depth_settings: DepthSettings,
     pub backends: viewer::Backends,
@@ -306,7 +310,7 @@ impl Args {
             amortise_while_moving: !self.exact_while_moving,
             reduce_while_moving: !self.full_resolution_while_moving,
             settle_at_rest: !self.settle_in_one_frame,
-            near_field: self.near_field,
+            near_field: !self.no_near_field,
             depth_settings,
             backends,
             stats: self.stats,
@@ -416,7 +420,10 @@ mod tests {
         assert!(!parse(&["--full-resolution-while-moving"]).unwrap().reduce_while_moving);
         assert!(s.settle_at_rest, "the frames at rest after a move settle over several frames");
         assert!(!parse(&["--settle-in-one-frame"]).unwrap().settle_at_rest);
-        assert!(!s.near_field, "the near field costs several frames' time: asked for only");
-        assert!(parse(&["--near-field"]).unwrap().near_field);
+        assert!(s.near_field, "the near field is on by default");
+        assert!(parse(&["--near-field"]).unwrap().near_field, "--near-field is still accepted");
+        assert!(!parse(&["--no-near-field"]).unwrap().near_field);
+        let both = ["hybrid-view", "a.png", "a.depth", "a.rib", "--near-field", "--no-near-field"];
+        assert!(Args::try_parse_from(both).is_err(), "--near-field and --no-near-field conflict");
     }
 }

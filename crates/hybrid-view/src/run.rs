@@ -35,7 +35,8 @@ pub struct Prepared {
     pub skipped: Skipped,
     /// The RIB scene itself (the haptics tessellate its surfaces).
     pub rib: rib_parser::scene::Scene,
-    /// Whether the scene's triangles carry their materials to the near field (`--near-field`).
+    /// Whether the scene's triangles carry their materials to the near field (on unless
+    /// `--no-near-field`).
     pub near_field: bool,
 }
 
@@ -118,6 +119,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         shadows: settings.shadows.map(|strength| ShadowSettings { strength, light: None }),
         antialias: settings.antialias,
         own_shadow_maps: true,
+        near_field_maps: true,
         bounce_light: settings.bounce_light,
         occlusion_from_behind: settings.occlusion_from_behind,
         shadow_bounce: settings.shadow_bounce,

@@ -8,7 +8,10 @@
 //! every frame as the haptic cursor does: the frame a user gets (issue 10's target: at most
 //! twice the plain `fullscreen/512`). The group `frame-cpu` measures the plain and the lit
 //! frames in CPU time of the process's threads (lavapipe's rasteriser threads do the GPU's
-//! work), steadier than wall time on a shared machine.
+//! work), steadier than wall time on a shared machine; and the lit frames at rest and moving
+//! with the room's walls bound as the scene's triangles and a reflection probe, without and with
+//! the walls' materials (`-no-near-field`, `-near-field`: what `hybrid-view` binds with
+//! `--no-near-field` and by default).
 //!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md).
 
@@ -75,6 +78,43 @@ fn lit_room(size: u32) -> ViewerScene {
 }
 
 /// [`room`] and each pixel's wall normal (world space, into the room; `None` where no wall).
+/// The room's five walls (x = +-1, y = +-1, z = -1, open toward the eye) as the scene's
+/// triangles (the scene's shadows on the sphere, which `hybrid-view` always binds) and a
+/// reflection probe at the centre seeing radiance 0.2 a unit away (the sphere's default
+/// material has a glossy lobe); with `materials` the walls are matte of albedo 0.7 as the layers
+/// have them, which turns on the near field and the glossy lobes traced through the scene.
+fn bind_room_scene(scene: &mut ViewerScene, materials: bool) {
+    let texels = sidecar::REFLECTION_TEXELS;
+    let radiance = sidecar::reflection_levels(&vec![[0.2f32; 3]; texels * texels]);
+    scene
+        .set_reflections(sidecar::ReflectionProbes {
+            depth_fingerprint: sidecar::depth_fingerprint(scene.depth().values()),
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+            counts: [1, 1, 1],
+            radiance,
+            distance: vec![1.0; texels * texels],
+        })
+        .expect("reflection probe");
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let quads = [
+        [v(-1.0, -1.0, -1.0), v(1.0, -1.0, -1.0), v(1.0, -1.0, 1.0), v(-1.0, -1.0, 1.0)],
+        [v(-1.0, 1.0, -1.0), v(1.0, 1.0, -1.0), v(1.0, 1.0, 1.0), v(-1.0, 1.0, 1.0)],
+        [v(-1.0, -1.0, -1.0), v(1.0, -1.0, -1.0), v(1.0, 1.0, -1.0), v(-1.0, 1.0, -1.0)],
+        [v(-1.0, -1.0, -1.0), v(-1.0, 1.0, -1.0), v(-1.0, 1.0, 1.0), v(-1.0, -1.0, 1.0)],
+        [v(1.0, -1.0, -1.0), v(1.0, 1.0, -1.0), v(1.0, 1.0, 1.0), v(1.0, -1.0, 1.0)],
+    ];
+    let triangles: Vec<[DVec3; 3]> =
+        quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+    let of_triangle = vec![0; triangles.len()];
+    scene.set_occluders(viewer::occluders::SceneOccluders { triangles });
+    if materials {
+        let wall = viewer::occluders::SceneMaterial { diffuse: Vec3::splat(0.7), ..Default::default() };
+        scene
+            .set_occluder_materials(viewer::occluders::SceneMaterials { materials: vec![wall], of_triangle });
+    }
+}
+
 fn room_and_normals(size: u32) -> (ViewerScene, Vec<Option<DVec3>>) {
     let camera_from_world =
         DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9));
@@ -290,10 +330,22 @@ fn cpu_frame_time(c: &mut Criterion) {
         compositor.wait_idle().expect("wait");
     });
     let scene = lit_room(512);
-    for (what, moving, amortise, reduce) in LIT_FRAMES.into_iter().filter(|f| f.0 != "lit-moving-exact") {
-        let mut compositor = lit_compositor(&gpu, &scene, amortise, reduce);
+    // The lit frames at rest and moving again with the scene's triangles and a reflection probe
+    // bound, without and with the triangles' materials (the near field and the traced glossy
+    // lobes off and on, as `hybrid-view --no-near-field` and its default).
+    let (mut triangles, mut near) = (lit_room(512), lit_room(512));
+    bind_room_scene(&mut triangles, false);
+    bind_room_scene(&mut near, true);
+    let frames = LIT_FRAMES.into_iter().filter(|f| f.0 != "lit-moving-exact");
+    let pair = || LIT_FRAMES.into_iter().filter(|f| f.0 == "lit-rest" || f.0 == "lit-moving");
+    let runs = frames
+        .map(|f| (f, &scene, ""))
+        .chain(pair().map(|f| (f, &triangles, "-no-near-field")))
+        .chain(pair().map(|f| (f, &near, "-near-field")));
+    for ((what, moving, amortise, reduce), scene, suffix) in runs {
+        let mut compositor = lit_compositor(&gpu, scene, amortise, reduce);
         let mut frame = 0;
-        bench_cpu(&mut group, &format!("fullscreen-{what}/512"), || {
+        bench_cpu(&mut group, &format!("fullscreen-{what}{suffix}/512"), || {
             if moving {
                 frame += 1;
             }

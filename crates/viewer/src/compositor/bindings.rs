@@ -2,7 +2,8 @@
 //! backdrop's colour and depths, the light layers and their area samples, the reflection
 //! probes with their sampler, the irradiance probes, the backdrop after shadows, the
 //! shadow-ray hierarchies' nodes and triangles, the own-shadow loss maps, the radiosity maps, the clusters of what the shadows took, what each pixel loses to them, and a moving frame's
-//! samples of the bounce light or that loss, and the scene's surface materials (the near field).
+//! samples of the bounce light or that loss, the scene's surface materials (the near field) and
+//! the live spheres' near-field maps.
 
 /// A texture the CPU fills (`COPY_DST`) and the shaders read, of one mip level: the light
 /// layers, the transmission layers, the caustic loss.
@@ -127,6 +128,8 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             texture_entry(30, wgpu::ShaderStages::FRAGMENT),
             // The scene's surface materials for the near field on live objects (near_field.rs).
             storage_entry(31),
+            // The live spheres' near-field maps (compositor/near_field_map.rs).
+            texture_entry(32, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }

@@ -111,6 +111,11 @@ impl Compositor {
         if shadows_reduced.is_some() {
             written.tone[2] = 1.0;
         }
+        // A moving frame leaves out the near field and traces no glossy lobes (their maps would
+        // be drawn again every frame); the frame at rest draws them (near_field_map.rs).
+        if moving {
+            written.tone[3] = 1.0;
+        }
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&written));
         // The maps and reflections kept while their inputs stay (loss, radiosity, specular) are
         // keyed with these flags too: what a moving frame drew of them from its approximate
@@ -122,6 +127,11 @@ impl Compositor {
         let lap = |encoder: &mut wgpu::CommandEncoder, pass: &'static str| {
             timing.lap(&self.gpu.device, &self.gpu.queue, encoder, pass)
         };
+        // Live objects drawn with the backdrop read their near-field maps drawn before it (the
+        // maps read the backdrop after shadows only with shadows on, which keeps that copy).
+        if live_drawn && !keep_shadowed {
+            self.record_near_field_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
+        }
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass);
@@ -167,6 +177,9 @@ impl Compositor {
             lap(&mut encoder, "copy of the backdrop after shadows");
             self.record_loss_maps(&mut encoder, &keyed, &mesh_bytes);
             lap(&mut encoder, "own-shadow loss maps");
+            // Before the radiosity maps, which read them on the half facing the eye.
+            self.record_near_field_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
+            lap(&mut encoder, "near-field maps");
             // What the shadows took, before the bounce light adds to the backdrop after them.
             self.record_shadow_bounce_clusters(&mut encoder, &uniform, &mesh_bytes);
             lap(&mut encoder, "second bounce: clusters");

@@ -60,7 +60,9 @@ pub(super) struct FrameUniform {
     pub(super) screen_window: [f32; 4],
     pub(super) raster: [f32; 4],
     /// x: radiance to image units; y: 1 when a moving frame shades the cursor sphere from its
-    /// radiosity map (`frame.rs`, set only in the buffer the shaders read).
+    /// radiosity map; z: 1 when a moving frame's layered shadows are gathered at reduced
+    /// resolution; w: 1 in a moving frame, which leaves out the near field and the traced glossy
+    /// lobes (`frame.rs`, all set only in the buffer the shaders read).
     pub(super) tone: [f32; 4],
     pub(super) counts: [u32; 4],
     pub(super) shadow_light: [f32; 4],

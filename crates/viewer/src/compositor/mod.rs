@@ -15,6 +15,7 @@ mod lighting;
 mod live_objects;
 mod loss_map;
 mod near_field;
+mod near_field_map;
 mod overlay;
 mod pass_timing;
 mod readback;
@@ -54,6 +55,7 @@ use drawn_from::DrawnFrom;
 use lighting::{FrameUniform, MeshUniform};
 use live_objects::{GpuMesh, MeshVertex};
 use shadows::camera_space_bounds;
+use sphere_atlas::colour_pass;
 
 /// The compositor: GPU resources for one scene.
 #[derive(Debug)]
@@ -117,6 +119,8 @@ pub struct Compositor {
     shadowed_from: DrawnFrom,
     /// The live spheres' own-shadow loss maps (binding 14).
     loss_maps: loss_map::LossMaps,
+    /// The live spheres' near field and traced glossy lobes (binding 32).
+    near_field_maps: near_field_map::NearFieldMaps,
     /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
     /// the pass that adds it.
     bounce: bounce::Bounce,
@@ -330,6 +334,7 @@ impl Compositor {
             loss_map::LOSS_MAP_TEXELS,
         );
         let radiosity_map_textures = bounce::radiosity_atlas(device);
+        let near_field_map_textures = near_field_map::near_field_atlas(device);
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
@@ -402,6 +407,10 @@ impl Compositor {
                     resource: wgpu::BindingResource::TextureView(&caustic_shadow.view()),
                 },
                 wgpu::BindGroupEntry { binding: 31, resource: scene_materials.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 32,
+                    resource: wgpu::BindingResource::TextureView(&near_field_map_textures.read_view),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -440,6 +449,8 @@ impl Compositor {
             immediate_size: 0,
         });
         let loss_maps = loss_map::LossMaps::new(device, loss_map_textures, &module, &with_mesh);
+        let near_field_maps =
+            near_field_map::NearFieldMaps::new(device, near_field_map_textures, &module, &with_mesh, scene);
         let bounce = bounce::Bounce::new(
             device,
             radiosity_map_textures,
@@ -708,6 +719,7 @@ impl Compositor {
             shadowed_texture,
             shadowed_from: DrawnFrom::default(),
             loss_maps,
+            near_field_maps,
             bounce,
             specular,
             transmission,
@@ -770,27 +782,4 @@ impl Compositor {
     pub fn backdrop_window_depths(&self) -> &[f32] {
         &self.window_depths
     }
-}
-
-/// A render pass into one colour target, without depth, that starts from what the target holds
-/// (`load`) and stores what it draws: the shape of the full-screen and per-sphere map passes.
-fn colour_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    view: &wgpu::TextureView,
-    load: wgpu::LoadOp<wgpu::Color>,
-) -> wgpu::RenderPass<'e> {
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
 }

@@ -94,6 +94,11 @@ pub struct CompositorSettings {
     /// (`compositor/loss_map.rs`); `false` gathers it per fragment (the reference the maps are
     /// tested against).
     pub own_shadow_maps: bool,
+    /// Live spheres read the near field and their glossy lobes traced through the scene's
+    /// triangles from a map per sphere (`compositor/near_field_map.rs`), drawn when their
+    /// inputs change; `false` traces them per fragment every frame (the reference the maps are
+    /// tested against). Both need the scene's materials bound.
+    pub near_field_maps: bool,
     /// With light layers that hold the diffuse albedo, live spheres add the light they reflect
     /// onto the pre-rendered scene (`compositor/bounce.rs`); `false` leaves it out.
     pub bounce_light: bool,
@@ -135,6 +140,7 @@ impl Default for CompositorSettings {
             shadows: Some(ShadowSettings::default()),
             antialias: true,
             own_shadow_maps: true,
+            near_field_maps: true,
             bounce_light: true,
             occlusion_from_behind: false,
             shadow_bounce: true,

@@ -1,7 +1,8 @@
 //! A texture a pass draws into and the copy the shading passes read, so that no pass reads the
 //! texture it draws into; and the atlas of square maps over live spheres kept that way, a row
-//! per shadow-casting sphere. The own-shadow loss maps (`loss_map.rs`), the radiosity maps
-//! (`bounce.rs`) and the shadows' second bounce (`shadow_bounce.rs`) use them.
+//! per shadow-casting sphere, with the colour pass they are drawn in. The own-shadow loss maps
+//! (`loss_map.rs`), the radiosity maps (`bounce.rs`), the near-field maps (`near_field_map.rs`)
+//! and the shadows' second bounce (`shadow_bounce.rs`) use them.
 
 use super::lighting::MAX_SHADOW_SPHERES;
 
@@ -63,4 +64,27 @@ pub(super) fn sphere_map_atlas(
     texels: u32,
 ) -> SphereMapAtlas {
     DrawnAndRead::new(device, label, format, (texels, texels * MAX_SHADOW_SPHERES as u32))
+}
+
+/// A render pass into one colour target, without depth, that starts from what the target holds
+/// (`load`) and stores what it draws: the shape of the full-screen and per-sphere map passes.
+pub(super) fn colour_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }

@@ -410,8 +410,8 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
 // surface's lobe directions meet the scene on the reflection probes' distance maps; live
 // surfaces the eye sees directly (shade_seen, shade_cursor_sphere) trace them through the
 // scene's triangles (glossy_reflection's `traced_hits`) when the scene's materials are bound
-// (`hybrid-view --near-field`): on a software rasteriser that tracing costs several times the
-// frame, so without them the lobe directions meet the distance maps everywhere.
+// (`hybrid-view` binds them unless `--no-near-field`): spheres read them from their near-field
+// maps (glossy_lobe), drawn when their inputs change, live meshes trace them per fragment.
 fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
     return shade_with(material, p, n_in, view_dir, false, false);
 }
@@ -477,7 +477,7 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
         let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
         let v_world = normalize((frame.world_from_camera * vec4<f32>(v, 0.0)).xyz);
         let reflected = blinn_albedo(material, dot(n, v))
-            * glossy_reflection(p_world, n_world, v_world, exponent, traced && scene_materials[0].x > 0.5);
+            * glossy_lobe(p_world, n, n_world, v_world, exponent, traced && scene_materials[0].x > 0.5);
         specular += reflected;
     }
     let glossy = material.specular_colour.rgb * ks * specular;
