@@ -10,7 +10,7 @@
 //! [`RayCounters`] counts rays for `--stats`.
 
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
-use crate::lights::{Light, LightSampleContext};
+use crate::lights::{Light, LightLiSample, LightSampleContext};
 use crate::materials::Material;
 use crate::math::average;
 use crate::photon::{PhotonMapSettings, PhotonMapper, PhotonStats};
@@ -195,6 +195,38 @@ pub enum DirectStrategy {
     Both,
 }
 
+/// The light sample `ls` of a light picked with probability `pick_probability` reaching `si`
+/// past the scene (one shadow ray), as an estimate: `f` is the BSDF's value times the cosine
+/// toward the sample and `bsdf_pdf` its density there, weighted by the power heuristic when
+/// `mis`. Zero when the shadow ray is blocked. The scalar and the wavefront path integrators
+/// both estimate with it, so their images stay bit-identical.
+#[inline]
+pub(crate) fn visible_light_estimate(
+    world: &World,
+    si: &SurfaceInteraction,
+    ls: &LightLiSample,
+    (f, bsdf_pdf): (Vec3, f32),
+    pick_probability: f32,
+    mis: bool,
+    counters: &mut RayCounters,
+) -> Vec3 {
+    let shadow = match ls.p_light {
+        Some((p, err, n)) => si.spawn_ray_to(p, err, n),
+        None => si.spawn_ray(ls.wi),
+    };
+    counters.shadow += 1;
+    let tr = world.transmittance(&shadow);
+    if tr == Vec3::ZERO {
+        Vec3::ZERO
+    } else if ls.is_delta {
+        f * ls.li * tr / pick_probability
+    } else {
+        let light_pdf = pick_probability * ls.pdf;
+        let w = if mis { power_heuristic(light_pdf, bsdf_pdf) } else { 1.0 };
+        f * ls.li * tr * (w / light_pdf)
+    }
+}
+
 /// Light from one light toward `si` (see [`DirectStrategy`]). `pick_probability` is the
 /// probability with which the caller chose this light.
 #[allow(clippy::too_many_arguments)]
@@ -222,21 +254,7 @@ pub fn direct_from_light(
         };
         let f = f * ls.wi.dot(bsdf.frame.z).abs();
         if f != Vec3::ZERO && ls.li != Vec3::ZERO {
-            let shadow = match ls.p_light {
-                Some((p, err, n)) => si.spawn_ray_to(p, err, n),
-                None => si.spawn_ray(ls.wi),
-            };
-            counters.shadow += 1;
-            let tr = world.transmittance(&shadow);
-            if tr != Vec3::ZERO {
-                if ls.is_delta {
-                    total += f * ls.li * tr / pick_probability;
-                } else {
-                    let light_pdf = pick_probability * ls.pdf;
-                    let w = if mis { power_heuristic(light_pdf, bsdf_pdf) } else { 1.0 };
-                    total += f * ls.li * tr * (w / light_pdf);
-                }
-            }
+            total += visible_light_estimate(world, si, &ls, (f, bsdf_pdf), pick_probability, mis, counters);
         }
     }
     if strategy == DirectStrategy::Both && !light.is_delta() {

@@ -18,6 +18,7 @@ use crate::accel::X86_64V3;
 use crate::bsdf::{Bsdf, BsdfSample, LobeFlags, TransportMode};
 use crate::integrators::{
     IntegratorKind, Radiance, RayCounters, escaped_with_mis, light_context, surface_terms,
+    visible_light_estimate,
 };
 use crate::lights::{EmitterShape, Light, LightLiSample};
 use crate::materials::Surface;
@@ -295,22 +296,8 @@ fn light_samples(
             && values[k].0 != Vec3::ZERO
             && picked.ls.li != Vec3::ZERO
         {
-            let (ls, (f, bsdf_pdf)) = (&picked.ls, values[k]);
-            let shadow = match ls.p_light {
-                Some((p, err, n)) => si.spawn_ray_to(p, err, n),
-                None => si.spawn_ray(ls.wi),
-            };
-            counters.shadow += 1;
-            let tr = world.transmittance(&shadow);
-            if tr != Vec3::ZERO {
-                if ls.is_delta {
-                    total += f * ls.li * tr / picked.pick;
-                } else {
-                    let light_pdf = picked.pick * ls.pdf;
-                    let w = if picked.mis { power_heuristic(light_pdf, bsdf_pdf) } else { 1.0 };
-                    total += f * ls.li * tr * (w / light_pdf);
-                }
-            }
+            total +=
+                visible_light_estimate(world, si, &picked.ls, values[k], picked.pick, picked.mis, counters);
         }
         // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
         paths.l[i] += paths.beta[i] * total;
