@@ -3,6 +3,7 @@
 //! pixels. A pixel whose linear value is still the backdrop's, bit for bit, shows the
 //! backdrop's own display bytes, so a frame with nothing live in view equals the input image.
 
+use super::overlay::offscreen_pipeline;
 use super::settings::FRAME_FORMAT;
 use crate::display::DisplayEncoding;
 use crate::gpu::Gpu;
@@ -98,31 +99,8 @@ impl EncodePass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("encode"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_encode"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: FRAME_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline =
+            offscreen_pipeline(device, &module, &pipeline_layout, ("encode", "fs_encode"), FRAME_FORMAT);
         EncodePass { pipeline, bind_group }
     }
 

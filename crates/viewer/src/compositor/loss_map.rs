@@ -13,6 +13,7 @@
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use super::overlay::offscreen_pipeline;
 use super::sphere_atlas::SphereMapAtlas;
 use crate::live::LiveObjects;
 
@@ -38,31 +39,8 @@ impl LossMaps {
         module: &wgpu::ShaderModule,
         layout: &wgpu::PipelineLayout,
     ) -> LossMaps {
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("own-shadow loss maps"),
-            layout: Some(layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some("fs_loss_map"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: ATLAS_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline =
+            offscreen_pipeline(device, module, layout, ("own-shadow loss maps", "fs_loss_map"), ATLAS_FORMAT);
         LossMaps { atlas, pipeline, drawn_from: super::DrawnFrom::default() }
     }
 }

@@ -14,6 +14,7 @@
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
+use super::overlay::offscreen_pipeline;
 use super::sphere_atlas::DrawnAndRead;
 use crate::scene::ViewerScene;
 
@@ -56,31 +57,13 @@ impl NearFieldMaps {
     ) -> NearFieldMaps {
         let scene_materials = scene.occluders().is_some()
             && scene.occluder_materials().is_some_and(|m| !m.materials.is_empty());
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("near-field maps"),
-            layout: Some(layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some("fs_near_field_map"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: ATLAS_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = offscreen_pipeline(
+            device,
+            module,
+            layout,
+            ("near-field maps", "fs_near_field_map"),
+            ATLAS_FORMAT,
+        );
         NearFieldMaps { atlas, pipeline, drawn_from: super::DrawnFrom::default(), scene_materials }
     }
 }
