@@ -336,7 +336,10 @@ mod tests {
     /// and numbers, the disc's centre and axes included.
     #[test]
     fn lambert_lanes_match_the_scalar_sample() {
-        let Some(v3) = X86_64V3::detect() else { return };
+        let Some(v3) = X86_64V3::detect() else {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        };
         let mut rng = Rng::new(11, 3);
         let special = [Vec2::new(0.5, 0.5), Vec2::new(0.5, 0.9), Vec2::new(0.1, 0.5), Vec2::new(0.0, 0.0)];
         let mut compared = 0;
@@ -376,7 +379,10 @@ mod tests {
     /// normals, reflectances and directions, on both sides and in the surface.
     #[test]
     fn lambert_evaluation_lanes_match_the_scalar_one() {
-        let Some(v3) = X86_64V3::detect() else { return };
+        let Some(v3) = X86_64V3::detect() else {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        };
         let mut rng = Rng::new(12, 4);
         for _ in 0..4000 {
             let mut group = LambertEvalGroup::default();
