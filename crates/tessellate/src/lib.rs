@@ -241,23 +241,13 @@ pub(crate) struct ShapeOptions {
     pub trim_keeps_outside: bool,
 }
 
-/// The RIB request name of a shape, for messages.
+/// The RIB request name of a shape, for messages: the parser's name
+/// (`rib_parser::summary::shape_kind`), but "polygon mesh" for all four polygon requests, which
+/// the tessellator's messages name alike.
 pub fn shape_kind(shape: &Shape) -> &'static str {
     match shape {
-        Shape::Sphere { .. } => "Sphere",
-        Shape::Cylinder { .. } => "Cylinder",
-        Shape::Cone { .. } => "Cone",
-        Shape::Disk { .. } => "Disk",
-        Shape::Paraboloid { .. } => "Paraboloid",
-        Shape::Hyperboloid { .. } => "Hyperboloid",
-        Shape::Torus { .. } => "Torus",
         Shape::Polygons(_) => "polygon mesh",
-        Shape::Patches(_) => "PatchMesh",
-        Shape::NuPatch(_) => "NuPatch",
-        Shape::SubdivisionMesh(_) => "SubdivisionMesh",
-        Shape::Points(_) => "Points",
-        Shape::Curves(_) => "Curves",
-        Shape::Blobby(_) => "Blobby",
+        other => rib_parser::summary::shape_kind(other),
     }
 }
 
