@@ -704,8 +704,15 @@ impl World {
             footprint,
             x86_64_v3: crate::accel::X86_64V3::detect(),
             flat: false,
+            flat_rows: Vec::new(),
         };
         world.flat = world.is_flat();
+        if world.flat {
+            let triangles = &world.blases[world.instances[0].blas as usize].triangles;
+            world.flat_rows = triangles.iter().map(|t| crate::shapes::TriangleRows::new(t.p)).collect();
+            world.stats.bvh_bytes +=
+                world.flat_rows.len() * std::mem::size_of::<crate::shapes::TriangleRows>();
+        }
         Ok(world)
     }
 }

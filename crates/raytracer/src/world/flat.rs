@@ -11,7 +11,9 @@
 
 use super::{Hit, HitDetail, Ray, World};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
-use crate::shapes::{RayShear, intersect_triangle};
+use crate::shapes::{RayShear, TriangleHit, intersect_triangle};
+#[cfg(target_arch = "x86_64")]
+use crate::shapes::{RowShear, triangle_rows::intersect_rows_avx2};
 use glam::Vec3;
 
 impl World {
@@ -37,22 +39,51 @@ impl World {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.intersect_flat_v3(v3, ray) };
         }
-        self.intersect_flat_inlined(Baseline, ray)
+        self.intersect_flat_inlined(Baseline, ray, |shear| *shear, self.vertex_test())
     }
 
-    /// [`World::intersect_flat`] compiled for x86-64-v3.
+    /// [`World::intersect_flat`] compiled for x86-64-v3, with the triangle test on the rows
+    /// stored for it ([`TriangleRows`]; the closure is defined here so that it has these target
+    /// features).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn intersect_flat_v3(&self, v3: X86_64V3, ray: &Ray) -> Option<Hit> {
-        self.intersect_flat_inlined(v3, ray)
+        let rows = &self.flat_rows[..];
+        self.intersect_flat_inlined(
+            v3,
+            ray,
+            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2.
+            |shear, slot, t_max| unsafe { intersect_rows_avx2(shear, &rows[slot as usize], t_max) },
+        )
     }
 
+    /// The baseline's triangle test, on the triangles' vertices.
     #[inline(always)]
-    fn intersect_flat_inlined(&self, lanes: impl NodeLanes, ray: &Ray) -> Option<Hit> {
+    fn vertex_test(&self) -> impl Fn(&RayShear, u32, f32) -> Option<TriangleHit> {
+        let triangles = &self.blases[self.instances[0].blas as usize].triangles[..];
+        #[inline(always)]
+        move |shear, slot, t_max| {
+            let tri = &triangles[slot as usize];
+            intersect_triangle(shear, tri.p[0], tri.p[1], tri.p[2], t_max)
+        }
+    }
+
+    /// The closest-hit query of a flat world; `test(prepare(shear), slot, t_max)` is the
+    /// triangle test of a slot, on the ray's shear as `prepare` makes it.
+    #[inline(always)]
+    fn intersect_flat_inlined<S>(
+        &self,
+        lanes: impl NodeLanes,
+        ray: &Ray,
+        prepare: impl Fn(&RayShear) -> S,
+        test: impl Fn(&S, u32, f32) -> Option<TriangleHit>,
+    ) -> Option<Hit> {
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
         let mut tray = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
-        let shear = RayShear::for_traversal(&tray);
+        let shear = prepare(&RayShear::for_traversal(&tray));
         let (direction, t_min) = (ray.direction, ray.t_min);
         // The closest hit so far: its slot, which in a BLAS of triangles alone is its triangle
         // (`BlasBuilder::finish`), `t` and barycentrics; the hit record is made once, at the end.
@@ -62,11 +93,11 @@ impl World {
             &mut tray,
             #[inline(always)]
             |r, slot| {
-                let tri = &blas.triangles[slot as usize];
-                let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], r.t_max)?;
+                let h = test(&shear, slot, r.t_max)?;
                 if h.t <= t_min {
                     return None;
                 }
+                let tri = &blas.triangles[slot as usize];
                 let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
                 if one_sided && (tri.hits_front(direction) == reverse) {
                     return None;
@@ -86,38 +117,55 @@ impl World {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.transmittance_flat_v3(v3, ray) };
         }
-        self.transmittance_flat_inlined(Baseline, ray)
+        self.transmittance_flat_inlined(Baseline, ray, |shear| *shear, self.vertex_test())
     }
 
-    /// [`World::transmittance_flat`] compiled for x86-64-v3.
+    /// [`World::transmittance_flat`] compiled for x86-64-v3, with the row test as
+    /// [`World::intersect_flat_v3`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn transmittance_flat_v3(&self, v3: X86_64V3, ray: &Ray) -> Vec3 {
-        self.transmittance_flat_inlined(v3, ray)
+        let rows = &self.flat_rows[..];
+        self.transmittance_flat_inlined(
+            v3,
+            ray,
+            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2.
+            |shear, slot, t_max| unsafe { intersect_rows_avx2(shear, &rows[slot as usize], t_max) },
+        )
     }
 
+    /// The shadow query of a flat world, the triangle test as in
+    /// [`World::intersect_flat_inlined`].
     #[inline(always)]
-    fn transmittance_flat_inlined(&self, lanes: impl NodeLanes, ray: &Ray) -> Vec3 {
+    fn transmittance_flat_inlined<S>(
+        &self,
+        lanes: impl NodeLanes,
+        ray: &Ray,
+        prepare: impl Fn(&RayShear) -> S,
+        test: impl Fn(&S, u32, f32) -> Option<TriangleHit>,
+    ) -> Vec3 {
         let mut tr = Vec3::ONE;
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
         let Some(tray) = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max) else {
             return tr;
         };
-        let shear = RayShear::for_traversal(&tray);
+        let shear = prepare(&RayShear::for_traversal(&tray));
         let (direction, t_min, t_max) = (ray.direction, ray.t_min, ray.t_max);
         blas.bvh.any_with(
             lanes,
             &tray,
             #[inline(always)]
             |_, slot| {
-                let tri = &blas.triangles[slot as usize];
-                let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
+                let Some(h) = test(&shear, slot, t_max) else {
                     return false;
                 };
                 if h.t <= t_min {
                     return false;
                 }
+                let tri = &blas.triangles[slot as usize];
                 let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
                 if one_sided && (tri.hits_front(direction) == reverse) {
                     return false;

@@ -270,6 +270,9 @@ pub struct World {
     /// One BLAS of triangles alone in render space ([`World::is_flat`]): the ray queries then
     /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
     flat: bool,
+    /// The flat BLAS's triangles stored for the x86-64-v3 triangle test, in slot order (empty
+    /// when the world is not flat).
+    flat_rows: Vec<crate::shapes::TriangleRows>,
 }
 
 impl World {
