@@ -29,11 +29,12 @@ impl TriangleRows {
 }
 
 /// What the row test needs of a ray, made once per ray from its [`RayShear`]: which row becomes
-/// each sheared axis, the origin's coordinates negated in that order (`p + -o` is `p - o` in
+/// each sheared axis (as its byte offset in [`TriangleRows`], so that a load needs no scaling of
+/// the index per triangle), the origin's coordinates negated in that order (`p + -o` is `p - o` in
 /// IEEE arithmetic, and lets the load be an operand of the addition), and the shear.
 #[derive(Clone, Copy, Debug)]
 pub struct RowShear {
-    rows: [usize; 3],
+    row_offsets: [usize; 3],
     minus_origin: [f32; 3],
     sx: f32,
     sy: f32,
@@ -47,7 +48,7 @@ impl RowShear {
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
         RowShear {
-            rows: [kx, ky, kz],
+            row_offsets: [kx, ky, kz].map(|k| k * std::mem::size_of::<[f32; 4]>()),
             minus_origin: shear.origin_permuted.map(|o| -o),
             sx: shear.sx,
             sy: shear.sy,
@@ -68,14 +69,14 @@ pub unsafe fn intersect_rows_avx2(shear: &RowShear, tri: &TriangleRows, t_max: f
     use std::arch::x86_64::*;
     // No closures here: a closure does not inherit its caller's target features.
     // SAFETY: the caller guarantees AVX2; the loads read rows of `tri` (aligned to 16 bytes),
-    // chosen by indices below 3.
+    // at the offsets of rows 0 to 2 (`RowShear::new`).
     unsafe {
         // Translated, permuted and sheared vertices: lane i is vertex i (lane 3 repeats 2).
         macro_rules! translated {
             ($axis:expr) => {
                 _mm_add_ps(
                     _mm_set1_ps(shear.minus_origin[$axis]),
-                    _mm_load_ps(tri.rows.get_unchecked(shear.rows[$axis]).as_ptr()),
+                    _mm_load_ps(tri.rows.as_ptr().byte_add(shear.row_offsets[$axis]).cast()),
                 )
             };
         }
@@ -103,9 +104,11 @@ pub unsafe fn intersect_rows_avx2(shear: &RowShear, tri: &TriangleRows, t_max: f
         let (e01, e23) = (_mm256_castpd256_pd128(e), _mm256_extractf128_pd::<1>(e));
         let (e0, e1, e2) = (_mm_cvtsd_f64(e01), _mm_cvtsd_f64(_mm_unpackhi_pd(e01, e01)), _mm_cvtsd_f64(e23));
         let det = e0 + e1 + e2;
-        // `det == 0 || !det.is_finite()` as two comparisons.
-        let det_abs = det.abs();
-        if !(det_abs > 0.0 && det_abs < f64::INFINITY) {
+        // `det == 0 || !det.is_finite()` as one comparison of the magnitude's bits (LLVM turns
+        // the float comparisons into a longer classification): zero wraps to the largest value,
+        // and infinity and NaN are at or above infinity's bits.
+        const INFINITY_BITS: u64 = 0x7ff0_0000_0000_0000;
+        if (det.to_bits() & !(1 << 63)).wrapping_sub(1) >= INFINITY_BITS - 1 {
             return None;
         }
 

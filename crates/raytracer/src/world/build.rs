@@ -705,11 +705,21 @@ impl World {
             x86_64_v3: crate::accel::X86_64V3::detect(),
             flat: false,
             flat_rows: Vec::new(),
+            flat_sides: Vec::new(),
         };
         world.flat = world.is_flat();
         if world.flat {
             let triangles = &world.blases[world.instances[0].blas as usize].triangles;
             world.flat_rows = triangles.iter().map(|t| crate::shapes::TriangleRows::new(t.p)).collect();
+            let (inst, blas) = (&world.instances[0], &world.blases[world.instances[0].blas as usize]);
+            world.flat_sides = triangles
+                .iter()
+                .map(|t| {
+                    let (one_sided, reversed) = world.sidedness(inst, blas, t.shape);
+                    (if one_sided { super::ONE_SIDED } else { 0 })
+                        | (if reversed { super::REVERSED } else { 0 })
+                })
+                .collect();
             world.stats.bvh_bytes +=
                 world.flat_rows.len() * std::mem::size_of::<crate::shapes::TriangleRows>();
         }

@@ -9,7 +9,7 @@
 //! the record of the closest hit written through pointers (a hit is 120 bytes), and one call
 //! level. On the Cornell box that work was about a tenth of a ray's instructions.
 
-use super::{Hit, HitDetail, Ray, World};
+use super::{Hit, HitDetail, ONE_SIDED, REVERSED, Ray, World};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
 use crate::shapes::{RayShear, TriangleHit, intersect_triangle};
 #[cfg(target_arch = "x86_64")]
@@ -97,9 +97,10 @@ impl World {
                 if h.t <= t_min {
                     return None;
                 }
-                let tri = &blas.triangles[slot as usize];
-                let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (tri.hits_front(direction) == reverse) {
+                let sides = self.flat_sides[slot as usize];
+                if sides & ONE_SIDED != 0
+                    && (blas.triangles[slot as usize].hits_front(direction) == (sides & REVERSED != 0))
+                {
                     return None;
                 }
                 best = Some((slot, h.t, h.b));
@@ -166,8 +167,8 @@ impl World {
                     return false;
                 }
                 let tri = &blas.triangles[slot as usize];
-                let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (tri.hits_front(direction) == reverse) {
+                let sides = self.flat_sides[slot as usize];
+                if sides & ONE_SIDED != 0 && (tri.hits_front(direction) == (sides & REVERSED != 0)) {
                     return false;
                 }
                 let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);

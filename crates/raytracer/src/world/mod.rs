@@ -273,7 +273,15 @@ pub struct World {
     /// The flat BLAS's triangles stored for the x86-64-v3 triangle test, in slot order (empty
     /// when the world is not flat).
     flat_rows: Vec<crate::shapes::TriangleRows>,
+    /// The flat BLAS's triangles' sidedness in slot order, [`World::sidedness`] of each as
+    /// [`ONE_SIDED`] and [`REVERSED`] bits, read on every hit (empty when the world is not flat).
+    flat_sides: Vec<u8>,
 }
+
+/// [`World::flat_sides`]: the triangle's surface is one-sided.
+const ONE_SIDED: u8 = 1;
+/// [`World::flat_sides`]: the triangle's orientation is reversed.
+const REVERSED: u8 = 2;
 
 impl World {
     /// A camera sample over the background colour (alpha, the coverage, is kept).
