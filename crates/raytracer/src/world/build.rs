@@ -704,13 +704,19 @@ impl World {
             footprint,
             x86_64_v3: crate::accel::X86_64V3::detect(),
             flat: false,
-            flat_rows: Vec::new(),
             flat_sides: Vec::new(),
         };
         world.flat = world.is_flat();
+        // The x86-64-v3 queries test triangles stored as rows (`shapes/triangle_rows.rs`). A
+        // deforming shape's vertices move, and its queries test them where they are.
+        if world.x86_64_v3.is_some() {
+            for blas in world.blases.iter_mut().filter(|b| b.deforming.is_none()) {
+                blas.rows = blas.triangles.iter().map(|t| crate::shapes::TriangleRows::new(t.p)).collect();
+                world.stats.bvh_bytes += blas.rows.len() * std::mem::size_of::<crate::shapes::TriangleRows>();
+            }
+        }
         if world.flat {
             let triangles = &world.blases[world.instances[0].blas as usize].triangles;
-            world.flat_rows = triangles.iter().map(|t| crate::shapes::TriangleRows::new(t.p)).collect();
             let (inst, blas) = (&world.instances[0], &world.blases[world.instances[0].blas as usize]);
             world.flat_sides = triangles
                 .iter()
@@ -720,8 +726,6 @@ impl World {
                         | (if reversed { super::REVERSED } else { 0 })
                 })
                 .collect();
-            world.stats.bvh_bytes +=
-                world.flat_rows.len() * std::mem::size_of::<crate::shapes::TriangleRows>();
         }
         Ok(world)
     }

@@ -9,9 +9,9 @@
 //! the record of the closest hit written through pointers (a hit is 120 bytes), and one call
 //! level. On the Cornell box that work was about a tenth of a ray's instructions.
 
-use super::{Hit, HitDetail, ONE_SIDED, REVERSED, Ray, World};
+use super::{Blas, Hit, HitDetail, ONE_SIDED, REVERSED, Ray, World, vertex_shear, vertex_test};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
-use crate::shapes::{RayShear, TriangleHit, intersect_triangle};
+use crate::shapes::{RayShear, TriangleHit};
 #[cfg(target_arch = "x86_64")]
 use crate::shapes::{RowShear, triangle_rows::intersect_rows_avx2};
 use glam::Vec3;
@@ -39,46 +39,36 @@ impl World {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.intersect_flat_v3(v3, ray) };
         }
-        self.intersect_flat_inlined(Baseline, ray, |shear| *shear, self.vertex_test())
+        self.intersect_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
     }
 
     /// [`World::intersect_flat`] compiled for x86-64-v3, with the triangle test on the rows
-    /// stored for it ([`TriangleRows`]; the closure is defined here so that it has these target
-    /// features).
+    /// stored for it ([`TriangleRows`](crate::shapes::TriangleRows); the closure is defined here
+    /// so that it has these target features).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn intersect_flat_v3(&self, v3: X86_64V3, ray: &Ray) -> Option<Hit> {
-        let rows = &self.flat_rows[..];
-        self.intersect_flat_inlined(
-            v3,
-            ray,
+        // The one BLAS's rows, held here rather than read through `blas` per triangle.
+        let rows = &self.blases[self.instances[0].blas as usize].rows[..];
+        let triangle = (
             RowShear::new,
             #[inline(always)]
             // SAFETY: the token `v3` exists only on a CPU with AVX2.
-            |shear, slot, t_max| unsafe { intersect_rows_avx2(shear, &rows[slot as usize], t_max) },
-        )
+            |shear: &RowShear, _: &Blas, i: u32, t_max: f32| unsafe {
+                intersect_rows_avx2(shear, &rows[i as usize], t_max)
+            },
+        );
+        self.intersect_flat_inlined(v3, ray, triangle)
     }
 
-    /// The baseline's triangle test, on the triangles' vertices.
-    #[inline(always)]
-    fn vertex_test(&self) -> impl Fn(&RayShear, u32, f32) -> Option<TriangleHit> {
-        let triangles = &self.blases[self.instances[0].blas as usize].triangles[..];
-        #[inline(always)]
-        move |shear, slot, t_max| {
-            let tri = &triangles[slot as usize];
-            intersect_triangle(shear, tri.p[0], tri.p[1], tri.p[2], t_max)
-        }
-    }
-
-    /// The closest-hit query of a flat world; `test(prepare(shear), slot, t_max)` is the
-    /// triangle test of a slot, on the ray's shear as `prepare` makes it.
+    /// The closest-hit query of a flat world; `triangle` is how to test a triangle, as in
+    /// [`World::intersect_instance_inlined`].
     #[inline(always)]
     fn intersect_flat_inlined<S>(
         &self,
         lanes: impl NodeLanes,
         ray: &Ray,
-        prepare: impl Fn(&RayShear) -> S,
-        test: impl Fn(&S, u32, f32) -> Option<TriangleHit>,
+        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
     ) -> Option<Hit> {
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
@@ -93,7 +83,7 @@ impl World {
             &mut tray,
             #[inline(always)]
             |r, slot| {
-                let h = test(&shear, slot, r.t_max)?;
+                let h = test(&shear, blas, slot, r.t_max)?;
                 if h.t <= t_min {
                     return None;
                 }
@@ -118,7 +108,7 @@ impl World {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.transmittance_flat_v3(v3, ray) };
         }
-        self.transmittance_flat_inlined(Baseline, ray, |shear| *shear, self.vertex_test())
+        self.transmittance_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
     }
 
     /// [`World::transmittance_flat`] compiled for x86-64-v3, with the row test as
@@ -126,15 +116,17 @@ impl World {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn transmittance_flat_v3(&self, v3: X86_64V3, ray: &Ray) -> Vec3 {
-        let rows = &self.flat_rows[..];
-        self.transmittance_flat_inlined(
-            v3,
-            ray,
+        // The one BLAS's rows, held here rather than read through `blas` per triangle.
+        let rows = &self.blases[self.instances[0].blas as usize].rows[..];
+        let triangle = (
             RowShear::new,
             #[inline(always)]
             // SAFETY: the token `v3` exists only on a CPU with AVX2.
-            |shear, slot, t_max| unsafe { intersect_rows_avx2(shear, &rows[slot as usize], t_max) },
-        )
+            |shear: &RowShear, _: &Blas, i: u32, t_max: f32| unsafe {
+                intersect_rows_avx2(shear, &rows[i as usize], t_max)
+            },
+        );
+        self.transmittance_flat_inlined(v3, ray, triangle)
     }
 
     /// The shadow query of a flat world, the triangle test as in
@@ -144,8 +136,7 @@ impl World {
         &self,
         lanes: impl NodeLanes,
         ray: &Ray,
-        prepare: impl Fn(&RayShear) -> S,
-        test: impl Fn(&S, u32, f32) -> Option<TriangleHit>,
+        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
     ) -> Vec3 {
         let mut tr = Vec3::ONE;
         let inst = &self.instances[0];
@@ -160,7 +151,7 @@ impl World {
             &tray,
             #[inline(always)]
             |_, slot| {
-                let Some(h) = test(&shear, slot, t_max) else {
+                let Some(h) = test(&shear, blas, slot, t_max) else {
                     return false;
                 };
                 if h.t <= t_min {
