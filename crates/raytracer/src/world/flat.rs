@@ -33,12 +33,20 @@ impl World {
     }
 
     /// [`World::intersect`] in a flat world.
+    #[inline]
     pub(super) fn intersect_flat(&self, ray: &Ray) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = self.x86_64_v3 {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.intersect_flat_v3(v3, ray) };
         }
+        self.intersect_flat_baseline(ray)
+    }
+
+    /// [`World::intersect_flat`] on a CPU without x86-64-v3. Out of line, as the x86-64-v3
+    /// copy is, so that the dispatch before them is a few instructions without a frame.
+    #[inline(never)]
+    fn intersect_flat_baseline(&self, ray: &Ray) -> Option<Hit> {
         self.intersect_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
     }
 
@@ -102,12 +110,20 @@ impl World {
     }
 
     /// [`World::transmittance`] in a flat world.
+    #[inline]
     pub(super) fn transmittance_flat(&self, ray: &Ray) -> Vec3 {
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = self.x86_64_v3 {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.transmittance_flat_v3(v3, ray) };
         }
+        self.transmittance_flat_baseline(ray)
+    }
+
+    /// [`World::transmittance_flat`] on a CPU without x86-64-v3. Out of line, as the x86-64-v3
+    /// copy is, so that the dispatch before them is a few instructions without a frame.
+    #[inline(never)]
+    fn transmittance_flat_baseline(&self, ray: &Ray) -> Vec3 {
         self.transmittance_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
     }
 

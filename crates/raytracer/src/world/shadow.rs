@@ -14,10 +14,18 @@ impl World {
     /// Fraction of light passing along the segment `ray` (origin + t direction, `t` in
     /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
     /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
+    #[inline]
     pub fn transmittance(&self, ray: &Ray) -> Vec3 {
         if self.flat {
             return self.transmittance_flat(ray);
         }
+        self.transmittance_general(ray)
+    }
+
+    /// [`World::transmittance`] in a world that is not flat, out of line as
+    /// [`World::intersect`]'s general query.
+    #[inline(never)]
+    fn transmittance_general(&self, ray: &Ray) -> Vec3 {
         let mut tr = Vec3::ONE;
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
