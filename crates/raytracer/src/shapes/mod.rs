@@ -3,6 +3,8 @@
 pub mod quadric;
 pub mod roots;
 pub mod triangle;
+pub mod triangle_rows;
 
 pub use quadric::{DegenerateQuadric, Quadric, QuadricHit, QuadricShape};
 pub use triangle::{RayShear, TriangleHit, barycentric_point, hits_front, intersect_triangle};
+pub use triangle_rows::{RowShear, TriangleRows};

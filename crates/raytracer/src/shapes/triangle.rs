@@ -32,12 +32,12 @@ pub struct RayShear {
     pub origin: Vec3,
     pub direction: Vec3,
     /// The axis that becomes z (the largest direction component); x and y follow cyclically.
-    kz: u8,
+    pub(super) kz: u8,
     /// The origin's coordinates in the permuted order.
-    origin_permuted: [f32; 3],
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    pub(super) origin_permuted: [f32; 3],
+    pub(super) sx: f32,
+    pub(super) sy: f32,
+    pub(super) sz: f32,
 }
 
 impl RayShear {
@@ -168,21 +168,35 @@ pub fn intersect_triangle(shear: &RayShear, p0: Vec3, p1: Vec3, p2: Vec3, t_max:
     // would have made an edge function, so `det`, non-finite. `greater` is then the same as
     // `max`, without `max`'s NaN handling (four more instructions per maximum on x86-64).
     let max_zt = greater(greater(az.abs(), bz.abs()), cz.abs()) as f32;
-    let delta_z = gamma(3) * max_zt;
     let max_z_unscaled = greater(greater(a[2].abs(), b[2].abs()), c[2].abs());
     let max_xt = greater(greater(ax.abs(), bx.abs()), cx.abs()) as f32;
     let max_yt = greater(greater(ay.abs(), by.abs()), cy.abs()) as f32;
-    let delta_x = gamma(5) * (max_xt + max_z_unscaled);
-    let delta_y = gamma(5) * (max_yt + max_z_unscaled);
-    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = greater(greater(e0.abs(), e1.abs()), e2.abs()) as f32;
-    let delta_t =
-        3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * (inv_det.abs() as f32);
+    let delta_t = t_error_bound(max_xt, max_yt, max_zt, max_z_unscaled, max_e, inv_det);
     let t32 = t as f32;
     if !(t32 > delta_t) || !(t32 < t_max as f32 || t_max.is_infinite()) {
         return None;
     }
     Some(TriangleHit { t: t32, b: [e0 * inv_det, e1 * inv_det, e2 * inv_det] })
+}
+
+/// The bound on the error of `t` from the largest magnitudes of the sheared `x`, `y`, the
+/// scaled and the unscaled `z` of the three vertices, of the edge functions, and `1 / det`
+/// (see [`intersect_triangle`]). Shared with the row test, which must compute it identically.
+#[inline(always)]
+pub(super) fn t_error_bound(
+    max_xt: f32,
+    max_yt: f32,
+    max_zt: f32,
+    max_z_unscaled: f32,
+    max_e: f32,
+    inv_det: f64,
+) -> f32 {
+    let delta_z = gamma(3) * max_zt;
+    let delta_x = gamma(5) * (max_xt + max_z_unscaled);
+    let delta_y = gamma(5) * (max_yt + max_z_unscaled);
+    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * (inv_det.abs() as f32)
 }
 
 /// The larger of `a` and `b` (`b` when they compare equal or either is NaN: one `maxss` or

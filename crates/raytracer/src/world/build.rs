@@ -704,8 +704,29 @@ impl World {
             footprint,
             x86_64_v3: crate::accel::X86_64V3::detect(),
             flat: false,
+            flat_sides: Vec::new(),
         };
         world.flat = world.is_flat();
+        // The x86-64-v3 queries test triangles stored as rows (`shapes/triangle_rows.rs`). A
+        // deforming shape's vertices move, and its queries test them where they are.
+        if world.x86_64_v3.is_some() {
+            for blas in world.blases.iter_mut().filter(|b| b.deforming.is_none()) {
+                blas.rows = blas.triangles.iter().map(|t| crate::shapes::TriangleRows::new(t.p)).collect();
+                world.stats.bvh_bytes += blas.rows.len() * std::mem::size_of::<crate::shapes::TriangleRows>();
+            }
+        }
+        if world.flat {
+            let triangles = &world.blases[world.instances[0].blas as usize].triangles;
+            let (inst, blas) = (&world.instances[0], &world.blases[world.instances[0].blas as usize]);
+            world.flat_sides = triangles
+                .iter()
+                .map(|t| {
+                    let (one_sided, reversed) = world.sidedness(inst, blas, t.shape);
+                    (if one_sided { super::ONE_SIDED } else { 0 })
+                        | (if reversed { super::REVERSED } else { 0 })
+                })
+                .collect();
+        }
         Ok(world)
     }
 }

@@ -9,9 +9,11 @@
 //! the record of the closest hit written through pointers (a hit is 120 bytes), and one call
 //! level. On the Cornell box that work was about a tenth of a ray's instructions.
 
-use super::{Hit, HitDetail, Ray, World};
+use super::{Blas, Hit, HitDetail, ONE_SIDED, REVERSED, Ray, World, vertex_shear, vertex_test};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
-use crate::shapes::{RayShear, intersect_triangle};
+use crate::shapes::{RayShear, TriangleHit};
+#[cfg(target_arch = "x86_64")]
+use crate::shapes::{RowShear, triangle_rows::intersect_rows_avx2};
 use glam::Vec3;
 
 impl World {
@@ -31,28 +33,55 @@ impl World {
     }
 
     /// [`World::intersect`] in a flat world.
+    #[inline]
     pub(super) fn intersect_flat(&self, ray: &Ray) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = self.x86_64_v3 {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.intersect_flat_v3(v3, ray) };
         }
-        self.intersect_flat_inlined(Baseline, ray)
+        self.intersect_flat_baseline(ray)
     }
 
-    /// [`World::intersect_flat`] compiled for x86-64-v3.
+    /// [`World::intersect_flat`] on a CPU without x86-64-v3. Out of line, as the x86-64-v3
+    /// copy is, so that the dispatch before them is a few instructions without a frame.
+    #[inline(never)]
+    fn intersect_flat_baseline(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
+    }
+
+    /// [`World::intersect_flat`] compiled for x86-64-v3, with the triangle test on the rows
+    /// stored for it ([`TriangleRows`](crate::shapes::TriangleRows); the closure is defined here
+    /// so that it has these target features).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn intersect_flat_v3(&self, v3: X86_64V3, ray: &Ray) -> Option<Hit> {
-        self.intersect_flat_inlined(v3, ray)
+        // The one BLAS's rows, held here rather than read through `blas` per triangle.
+        let rows = &self.blases[self.instances[0].blas as usize].rows[..];
+        let triangle = (
+            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2.
+            |shear: &RowShear, _: &Blas, i: u32, t_max: f32| unsafe {
+                intersect_rows_avx2(shear, &rows[i as usize], t_max)
+            },
+        );
+        self.intersect_flat_inlined(v3, ray, triangle)
     }
 
+    /// The closest-hit query of a flat world; `triangle` is how to test a triangle, as in
+    /// [`World::intersect_instance_inlined`].
     #[inline(always)]
-    fn intersect_flat_inlined(&self, lanes: impl NodeLanes, ray: &Ray) -> Option<Hit> {
+    fn intersect_flat_inlined<S>(
+        &self,
+        lanes: impl NodeLanes,
+        ray: &Ray,
+        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
+    ) -> Option<Hit> {
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
         let mut tray = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
-        let shear = RayShear::for_traversal(&tray);
+        let shear = prepare(&RayShear::for_traversal(&tray));
         let (direction, t_min) = (ray.direction, ray.t_min);
         // The closest hit so far: its slot, which in a BLAS of triangles alone is its triangle
         // (`BlasBuilder::finish`), `t` and barycentrics; the hit record is made once, at the end.
@@ -62,13 +91,14 @@ impl World {
             &mut tray,
             #[inline(always)]
             |r, slot| {
-                let tri = &blas.triangles[slot as usize];
-                let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], r.t_max)?;
+                let h = test(&shear, blas, slot, r.t_max)?;
                 if h.t <= t_min {
                     return None;
                 }
-                let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (tri.hits_front(direction) == reverse) {
+                let sides = self.flat_sides[slot as usize];
+                if sides & ONE_SIDED != 0
+                    && (blas.triangles[slot as usize].hits_front(direction) == (sides & REVERSED != 0))
+                {
                     return None;
                 }
                 best = Some((slot, h.t, h.b));
@@ -80,46 +110,72 @@ impl World {
     }
 
     /// [`World::transmittance`] in a flat world.
+    #[inline]
     pub(super) fn transmittance_flat(&self, ray: &Ray) -> Vec3 {
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = self.x86_64_v3 {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.transmittance_flat_v3(v3, ray) };
         }
-        self.transmittance_flat_inlined(Baseline, ray)
+        self.transmittance_flat_baseline(ray)
     }
 
-    /// [`World::transmittance_flat`] compiled for x86-64-v3.
+    /// [`World::transmittance_flat`] on a CPU without x86-64-v3. Out of line, as the x86-64-v3
+    /// copy is, so that the dispatch before them is a few instructions without a frame.
+    #[inline(never)]
+    fn transmittance_flat_baseline(&self, ray: &Ray) -> Vec3 {
+        self.transmittance_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
+    }
+
+    /// [`World::transmittance_flat`] compiled for x86-64-v3, with the row test as
+    /// [`World::intersect_flat_v3`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn transmittance_flat_v3(&self, v3: X86_64V3, ray: &Ray) -> Vec3 {
-        self.transmittance_flat_inlined(v3, ray)
+        // The one BLAS's rows, held here rather than read through `blas` per triangle.
+        let rows = &self.blases[self.instances[0].blas as usize].rows[..];
+        let triangle = (
+            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2.
+            |shear: &RowShear, _: &Blas, i: u32, t_max: f32| unsafe {
+                intersect_rows_avx2(shear, &rows[i as usize], t_max)
+            },
+        );
+        self.transmittance_flat_inlined(v3, ray, triangle)
     }
 
+    /// The shadow query of a flat world, the triangle test as in
+    /// [`World::intersect_flat_inlined`].
     #[inline(always)]
-    fn transmittance_flat_inlined(&self, lanes: impl NodeLanes, ray: &Ray) -> Vec3 {
+    fn transmittance_flat_inlined<S>(
+        &self,
+        lanes: impl NodeLanes,
+        ray: &Ray,
+        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
+    ) -> Vec3 {
         let mut tr = Vec3::ONE;
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
         let Some(tray) = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max) else {
             return tr;
         };
-        let shear = RayShear::for_traversal(&tray);
+        let shear = prepare(&RayShear::for_traversal(&tray));
         let (direction, t_min, t_max) = (ray.direction, ray.t_min, ray.t_max);
         blas.bvh.any_with(
             lanes,
             &tray,
             #[inline(always)]
             |_, slot| {
-                let tri = &blas.triangles[slot as usize];
-                let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
+                let Some(h) = test(&shear, blas, slot, t_max) else {
                     return false;
                 };
                 if h.t <= t_min {
                     return false;
                 }
-                let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
-                if one_sided && (tri.hits_front(direction) == reverse) {
+                let tri = &blas.triangles[slot as usize];
+                let sides = self.flat_sides[slot as usize];
+                if sides & ONE_SIDED != 0 && (tri.hits_front(direction) == (sides & REVERSED != 0)) {
                     return false;
                 }
                 let attributes = inst.attributes.unwrap_or(blas.shapes[tri.shape as usize].attributes);

@@ -32,7 +32,12 @@ use crate::lights::{Light, LightSet};
 use crate::materials::Material;
 use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
 
-use crate::shapes::{Quadric, QuadricHit, RayShear, barycentric_point, hits_front, intersect_triangle};
+use crate::shapes::{
+    Quadric, QuadricHit, RayShear, TriangleHit, TriangleRows, barycentric_point, hits_front,
+    intersect_triangle,
+};
+#[cfg(target_arch = "x86_64")]
+use crate::shapes::{RowShear, triangle_rows::intersect_rows_avx2};
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use rib_parser::motion::TransformMotion;
 use rib_parser::scene::AttributesId;
@@ -75,6 +80,20 @@ impl TrianglePrim {
     }
 }
 
+/// The baseline's triangle test takes the ray's shear as it is ([`vertex_test`]).
+#[inline(always)]
+fn vertex_shear(shear: &RayShear) -> RayShear {
+    *shear
+}
+
+/// The baseline's triangle test of triangle `i` of `blas`, on its vertices; the x86-64-v3 query
+/// copies test its rows instead ([`intersect_rows_avx2`], the same result bit for bit).
+#[inline(always)]
+fn vertex_test(shear: &RayShear, blas: &Blas, i: u32, t_max: f32) -> Option<TriangleHit> {
+    let tri = &blas.triangles[i as usize];
+    intersect_triangle(shear, tri.p[0], tri.p[1], tri.p[2], t_max)
+}
+
 #[derive(Clone, Debug)]
 struct QuadricPrim {
     quadric: Quadric,
@@ -111,6 +130,10 @@ struct Blas {
     bvh: Bvh,
     prims: Vec<Prim>,
     triangles: Vec<TrianglePrim>,
+    /// `triangles` stored for the x86-64-v3 triangle test ([`TriangleRows`]), made when the
+    /// world is built on a CPU with x86-64-v3 (empty otherwise, and for deforming shapes, whose
+    /// vertices move).
+    rows: Vec<TriangleRows>,
     quadrics: Vec<QuadricPrim>,
     shapes: Vec<BlasShape>,
     meshes: Vec<MeshShading>,
@@ -270,7 +293,15 @@ pub struct World {
     /// One BLAS of triangles alone in render space ([`World::is_flat`]): the ray queries then
     /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
     flat: bool,
+    /// The flat BLAS's triangles' sidedness in slot order, [`World::sidedness`] of each as
+    /// [`ONE_SIDED`] and [`REVERSED`] bits, read on every hit (empty when the world is not flat).
+    flat_sides: Vec<u8>,
 }
+
+/// [`World::flat_sides`]: the triangle's surface is one-sided.
+const ONE_SIDED: u8 = 1;
+/// [`World::flat_sides`]: the triangle's orientation is reversed.
+const REVERSED: u8 = 2;
 
 impl World {
     /// A camera sample over the background colour (alpha, the coverage, is kept).
@@ -363,10 +394,18 @@ impl World {
     }
 
     /// The closest hit along `ray` within `(t_min, t_max)`.
+    #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         if self.flat {
             return self.intersect_flat(ray);
         }
+        self.intersect_general(ray)
+    }
+
+    /// [`World::intersect`] in a world that is not flat. Out of line so that a flat world's
+    /// query does not pay this function's prologue (a 1.3 KB frame and six saved registers).
+    #[inline(never)]
+    fn intersect_general(&self, ray: &Ray) -> Option<Hit> {
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
             ray
@@ -460,10 +499,20 @@ impl World {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.intersect_instance_v3(v3, instance, inst, query, t_max, best) };
         }
-        self.intersect_instance_inlined(Baseline, instance, inst, query, t_max, best)
+        self.intersect_instance_inlined(
+            Baseline,
+            (vertex_shear, vertex_test),
+            instance,
+            inst,
+            query,
+            t_max,
+            best,
+        )
     }
 
-    /// [`World::intersect_instance`] compiled for x86-64-v3.
+    /// [`World::intersect_instance`] compiled for x86-64-v3, with the triangle test on the rows
+    /// stored for it ([`TriangleRows`]; the closure is defined here so that it has these target
+    /// features).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn intersect_instance_v3(
@@ -475,13 +524,25 @@ impl World {
         t_max: &mut f32,
         best: &mut Option<Hit>,
     ) {
-        self.intersect_instance_inlined(v3, instance, inst, query, t_max, best)
+        let triangle = (
+            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2.
+            |shear: &RowShear, blas: &Blas, i: u32, t_max: f32| unsafe {
+                intersect_rows_avx2(shear, &blas.rows[i as usize], t_max)
+            },
+        );
+        self.intersect_instance_inlined(v3, triangle, instance, inst, query, t_max, best)
     }
 
+    /// The closest-hit query of one instance; `triangle` is how to test triangle `i` of a BLAS:
+    /// a shear prepared once per ray from the ray's [`RayShear`], and the test on it.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn intersect_instance_inlined(
+    fn intersect_instance_inlined<S>(
         &self,
         lanes: impl NodeLanes,
+        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
         instance: u32,
         inst: &Instance,
         query: &mut RayQuery,
@@ -503,6 +564,7 @@ impl World {
             return self.intersect_deforming(instance, inst, query, t_max, best);
         }
         let Some((mut tray, shear)) = Self::blas_ray(inst, query, *t_max) else { return };
+        let shear = prepare(&shear);
         let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         // Tests BVH slot `slot` against the ray whose closest hit so far is at `r.t_max`; inlined
         // into the traversal loop (a call per primitive costs more than the test's setup).
@@ -516,11 +578,11 @@ impl World {
                 let t_max = r.t_max;
                 match if triangles_only { Prim::Triangle(slot) } else { blas.prims[slot as usize] } {
                     Prim::Triangle(i) => {
-                        let tri = &blas.triangles[i as usize];
-                        let h = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max)?;
+                        let h = test(&shear, blas, i, t_max)?;
                         if h.t <= t_min {
                             return None;
                         }
+                        let tri = &blas.triangles[i as usize];
                         let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
                         if one_sided && (tri.hits_front(direction) == reverse) {
                             return None;

@@ -378,6 +378,7 @@ impl BlasBuilder {
             bvh,
             prims,
             triangles,
+            rows: Vec::new(),
             quadrics: self.quadrics,
             shapes: self.shapes,
             meshes: self.meshes,

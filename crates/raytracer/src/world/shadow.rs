@@ -2,8 +2,11 @@
 //! that blocks it (any-hit traversal).
 
 use super::{Blas, HitDetail, Instance, Prim, QuadricPrim, Ray, RayQuery, World, clipping, csg};
+use super::{vertex_shear, vertex_test};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
-use crate::shapes::intersect_triangle;
+use crate::shapes::{RayShear, TriangleHit};
+#[cfg(target_arch = "x86_64")]
+use crate::shapes::{RowShear, triangle_rows::intersect_rows_avx2};
 use glam::Vec3;
 use rib_parser::scene::AttributesId;
 
@@ -11,10 +14,18 @@ impl World {
     /// Fraction of light passing along the segment `ray` (origin + t direction, `t` in
     /// `(t_min, t_max)`): zero when something opaque, a mirror or glass is in the way, the
     /// product of `1 - Os` of the semi-transparent surfaces crossed otherwise.
+    #[inline]
     pub fn transmittance(&self, ray: &Ray) -> Vec3 {
         if self.flat {
             return self.transmittance_flat(ray);
         }
+        self.transmittance_general(ray)
+    }
+
+    /// [`World::transmittance`] in a world that is not flat, out of line as
+    /// [`World::intersect`]'s general query.
+    #[inline(never)]
+    fn transmittance_general(&self, ray: &Ray) -> Vec3 {
         let mut tr = Vec3::ONE;
         let clipped;
         let ray = if self.clipping_planes.is_empty() {
@@ -58,20 +69,31 @@ impl World {
             // SAFETY: the token exists only on a CPU with these features.
             return unsafe { self.transmittance_instance_v3(v3, inst, query, tr) };
         }
-        self.transmittance_instance_inlined(Baseline, inst, query, tr)
+        self.transmittance_instance_inlined(Baseline, (vertex_shear, vertex_test), inst, query, tr)
     }
 
-    /// [`World::transmittance_instance`] compiled for x86-64-v3.
+    /// [`World::transmittance_instance`] compiled for x86-64-v3, with the triangle test on the
+    /// rows stored for it, as [`World::intersect_instance`]'s copy.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     fn transmittance_instance_v3(&self, v3: X86_64V3, inst: &Instance, query: &mut RayQuery, tr: &mut Vec3) {
-        self.transmittance_instance_inlined(v3, inst, query, tr)
+        let triangle = (
+            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2.
+            |shear: &RowShear, blas: &Blas, i: u32, t_max: f32| unsafe {
+                intersect_rows_avx2(shear, &blas.rows[i as usize], t_max)
+            },
+        );
+        self.transmittance_instance_inlined(v3, triangle, inst, query, tr)
     }
 
+    /// The shadow query of one instance, `triangle` as in [`World::intersect_instance_inlined`].
     #[inline(always)]
-    fn transmittance_instance_inlined(
+    fn transmittance_instance_inlined<S>(
         &self,
         lanes: impl NodeLanes,
+        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
         inst: &Instance,
         query: &mut RayQuery,
         tr: &mut Vec3,
@@ -99,6 +121,7 @@ impl World {
             return self.transmittance_deforming(inst, blas, deforming, query, tr);
         }
         let Some((tray, shear)) = Self::blas_ray(inst, query, ray.t_max) else { return };
+        let shear = prepare(&shear);
         let (origin, direction) = (Vec3::from(tray.origin), Vec3::from(tray.direction));
         let (t_min, t_max) = (ray.t_min, ray.t_max);
         // Whether slot `slot` stops the segment's light (after attenuating `tr`); inlined into the
@@ -111,13 +134,13 @@ impl World {
             #[inline(always)]
             |_, slot| match if triangles_only { Prim::Triangle(slot) } else { blas.prims[slot as usize] } {
                 Prim::Triangle(i) => {
-                    let tri = &blas.triangles[i as usize];
-                    let Some(h) = intersect_triangle(&shear, tri.p[0], tri.p[1], tri.p[2], t_max) else {
+                    let Some(h) = test(&shear, blas, i, t_max) else {
                         return false;
                     };
                     if h.t <= t_min {
                         return false;
                     }
+                    let tri = &blas.triangles[i as usize];
                     let (one_sided, reverse) = self.sidedness(inst, blas, tri.shape);
                     if one_sided && (tri.hits_front(direction) == reverse) {
                         return false;
