@@ -502,8 +502,13 @@ impl Compositor {
             },
         );
         let formats = (linear_format, depth_format);
-        let reduced =
-            reduced_gather::ReducedGather::new(device, reduced_grid, (&module, &frame_only), formats);
+        let reduced = reduced_gather::ReducedGather::new(
+            device,
+            reduced_grid,
+            (&module, &frame_only),
+            formats,
+            settings.occlusion_from_behind,
+        );
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,

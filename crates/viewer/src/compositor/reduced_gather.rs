@@ -78,12 +78,15 @@ pub(super) fn grid_textures(
 
 impl ReducedGather {
     /// The pipelines from the compositing shaders' `module` with the frame bind group alone
-    /// (`frame_only`), for a frame in `linear_format` with a depth buffer in `depth_format`.
+    /// (`frame_only`), for a frame in `linear_format` with a depth buffer in `depth_format`;
+    /// the bounce light's spreading takes the light a sphere hides from behind it only with
+    /// `occlusion_from_behind` (`CompositorSettings`).
     pub(super) fn new(
         device: &wgpu::Device,
         grid: DrawnAndRead,
         (module, frame_only): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         (linear_format, depth_format): (wgpu::TextureFormat, wgpu::TextureFormat),
+        occlusion_from_behind: bool,
     ) -> Self {
         let vertex = fullscreen_vertex(module);
         let alone = |label: &str, entry: &str, format: wgpu::TextureFormat| {
@@ -97,7 +100,7 @@ impl ReducedGather {
                 "bounce light, spread",
                 frame_only,
                 vertex.clone(),
-                "fs_bounce_spread",
+                if occlusion_from_behind { "fs_bounce_spread_from_behind" } else { "fs_bounce_spread" },
             ),
             loss_gather: alone("shadow bounce taken, reduced", "fs_loss_gather", linear_format),
             loss_spread: alone(

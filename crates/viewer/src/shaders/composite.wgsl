@@ -397,7 +397,12 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
-    let lit = direct_light(p, n, n, 1.0, false);
+    return diffuse_radiance_lit(material, p, n, direct_light(p, n, n, 1.0, false));
+}
+
+// diffuse_radiance of a lit material, with the lights' direct light at p already integrated
+// (`lit`: direct_light(p, n, n, 1.0, false)).
+fn diffuse_radiance_lit(material: Material, p: vec3<f32>, n: vec3<f32>, lit: DirectLight) -> vec3<f32> {
     var loss = vec3<f32>(0.0);
     if frame.counts.y == 1u && frame.counts.w == 1u {
         loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);

@@ -95,10 +95,22 @@ fn spread(pixel: vec2<i32>, r: Receiver, stride: i32) -> vec4<f32> {
     return select(nearest, sum / max(weight, 1e-30), weight > 0.0);
 }
 
-// fs_bounce with the bounce light spread from the grid (the light a sphere hides taken from
-// behind it, when on, is still found per pixel).
+// fs_bounce with the bounce light spread from the grid, without the light a sphere hides taken
+// from behind it (bounce.wgsl with_bounce_light_alone).
 @fragment
 fn fs_bounce_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let r = receiver_at(pixel, i32(frame.bounce.y));
+    if !r.valid {
+        discard;
+    }
+    return with_bounce_light_alone(pixel, r, spread(pixel, r, REDUCED_BOUNCE_STRIDE).rgb);
+}
+
+// fs_bounce_spread with the light a sphere hides taken from behind it, found per pixel
+// (`occlusion_from_behind`).
+@fragment
+fn fs_bounce_spread_from_behind(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
     let r = receiver_at(pixel, i32(frame.bounce.y));
     if !r.valid {
