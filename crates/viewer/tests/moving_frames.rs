@@ -326,10 +326,12 @@ fn a_moving_sphere_is_shaded_from_its_radiosity_map_and_exactly_at_rest() {
 /// A moving frame gathers an area light's layered shadows at reduced resolution (the share of
 /// the light the sphere hides, spread along each surface and applied to each pixel's own
 /// layer): with the bounce light and the second bounce off, the moving frame differs from the
-/// exact one only there, within a relMSE of 2e-3 over the pixels the sphere changes (1.1e-3
-/// when written: the worst case for relMSE, a light layer that holds all of the pixel, so the
-/// umbra is black, and the interpolation's error is largest where it meets the penumbra); the
-/// next frame at rest is exact.
+/// exact one only there, within a relMSE of 5e-3 over the pixels the sphere changes (issue 10's
+/// bound for that region; 3.2e-3 at one sample per 4x4 pixels, 1.1e-3 at 2x2 before: the worst
+/// case for relMSE, a light layer that holds all of the pixel, so the umbra is black, and the
+/// interpolation's error is largest where it meets the penumbra; in the Cornell sweep the whole
+/// moving frame's relMSE over the region the sphere changes is 2.1e-4, docs/viewer-frame-time.md);
+/// the next frame at rest is exact.
 #[test]
 fn a_moving_frame_gathers_the_shadows_at_reduced_resolution_and_the_frame_at_rest_is_exact() {
     let shadows_only = CompositorSettings {
@@ -355,7 +357,7 @@ fn a_moving_frame_gathers_the_shadows_at_reduced_resolution_and_the_frame_at_res
         "moving shadows against the exact ones: relMSE {error:.3e} over the {pixels} pixels the sphere changes"
     );
     assert!(frames[1] != exact_here, "the moving frame's shadows were drawn exactly");
-    assert!(error <= 2e-3, "relMSE {error:.3e} over the pixels the sphere changes");
+    assert!(error <= 5e-3, "relMSE {error:.3e} over the pixels the sphere changes");
     assert!(frames[2] == exact_here, "the frame at rest differs from a fresh compositor's");
 }
 

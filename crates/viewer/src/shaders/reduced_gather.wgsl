@@ -12,10 +12,10 @@
 
 // Pixels along each side of a block: the bounce light's (compositor/reduced_gather.rs
 // BOUNCE_STRIDE) and the second bounce's loss (LOSS_STRIDE: a smaller term, drawn over the frame).
-const REDUCED_BOUNCE_STRIDE: i32 = 4;
-const REDUCED_LOSS_STRIDE: i32 = 16;
+const REDUCED_BOUNCE_STRIDE: i32 = 8;
+const REDUCED_LOSS_STRIDE: i32 = 32;
 // The layered shadows' (compositor/reduced_gather.rs SHADOW_STRIDE).
-const REDUCED_SHADOW_STRIDE: i32 = 2;
+const REDUCED_SHADOW_STRIDE: i32 = 4;
 // A sample lies on the receiver's surface when their normals are within about 25 degrees and
 // the sample is within this share of its distance from the receiver off the receiver's plane.
 const REDUCED_SAME_NORMAL: f32 = 0.9;
