@@ -13,7 +13,9 @@
 //! the walls' materials (`-no-near-field`, `-near-field`: what `hybrid-view` binds with
 //! `--no-near-field` and by default).
 //!
-//! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md).
+//! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md);
+//! `FRAME_PASS_TIMES=lit-moving cargo bench -p viewer --bench frame -- frame-cpu/` also prints
+//! each pass's CPU time of the named lit frames.
 
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, SamplingMode, criterion_group, criterion_main};
@@ -352,8 +354,36 @@ fn cpu_frame_time(c: &mut Criterion) {
             compositor.render(&sphere_at(frame)).expect("render");
             compositor.wait_idle().expect("wait");
         });
+        let name = format!("{what}{suffix}");
+        if std::env::var("FRAME_PASS_TIMES").is_ok_and(|names| names.split(',').any(|n| n == name)) {
+            print_pass_times(&mut compositor, &name, moving, &mut frame);
+        }
     }
     group.finish();
+}
+
+/// With `FRAME_PASS_TIMES` naming it (`lit-moving`, `lit-rest-near-field`, ...; a comma-separated
+/// list), a CPU-timed lit frame's passes over 8 more frames
+/// (`Compositor::set_pass_timing`: a pass's CPU time of the process, as `hybrid-view
+/// --pass-times` prints it), so that a moving frame's cost can be split where the ratio is
+/// measured.
+fn print_pass_times(compositor: &mut Compositor, name: &str, moving: bool, frame: &mut u32) {
+    compositor.set_pass_timing(true);
+    for _ in 0..8 {
+        if moving {
+            *frame += 1;
+        }
+        compositor.render(&sphere_at(*frame)).expect("render");
+        compositor.wait_idle().expect("wait");
+    }
+    compositor.set_pass_timing(false);
+    let (times, frames) = compositor.pass_times();
+    println!("pass times of {name} over {frames} frames, per frame (CPU, wall):");
+    for t in times.iter().filter(|t| t.frames > 0) {
+        let cpu = t.cpu.map_or(f64::NAN, |c| c.as_secs_f64() * 1e3 / f64::from(frames));
+        let wall = t.wall.as_secs_f64() * 1e3 / f64::from(frames);
+        println!("  {:<44} {cpu:8.1} ms {wall:8.1} ms", t.pass);
+    }
 }
 
 criterion_group!(benches, frame_time, lit_frame_time, cpu_frame_time);

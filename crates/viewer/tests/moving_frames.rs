@@ -326,10 +326,12 @@ fn a_moving_sphere_is_shaded_from_its_radiosity_map_and_exactly_at_rest() {
 /// A moving frame gathers an area light's layered shadows at reduced resolution (the share of
 /// the light the sphere hides, spread along each surface and applied to each pixel's own
 /// layer): with the bounce light and the second bounce off, the moving frame differs from the
-/// exact one only there, within a relMSE of 2e-3 over the pixels the sphere changes (1.1e-3
-/// when written: the worst case for relMSE, a light layer that holds all of the pixel, so the
-/// umbra is black, and the interpolation's error is largest where it meets the penumbra); the
-/// next frame at rest is exact.
+/// exact one only there, within a relMSE of 5e-3 over the pixels the sphere changes (issue 10's
+/// bound for that region; 3.2e-3 at one sample per 4x4 pixels, 1.1e-3 at 2x2 before: the worst
+/// case for relMSE, a light layer that holds all of the pixel, so the umbra is black, and the
+/// interpolation's error is largest where it meets the penumbra; in the Cornell sweep the whole
+/// moving frame's relMSE over the region the sphere changes is 2.1e-4, docs/viewer-frame-time.md);
+/// the next frame at rest is exact.
 #[test]
 fn a_moving_frame_gathers_the_shadows_at_reduced_resolution_and_the_frame_at_rest_is_exact() {
     let shadows_only = CompositorSettings {
@@ -355,7 +357,7 @@ fn a_moving_frame_gathers_the_shadows_at_reduced_resolution_and_the_frame_at_res
         "moving shadows against the exact ones: relMSE {error:.3e} over the {pixels} pixels the sphere changes"
     );
     assert!(frames[1] != exact_here, "the moving frame's shadows were drawn exactly");
-    assert!(error <= 2e-3, "relMSE {error:.3e} over the pixels the sphere changes");
+    assert!(error <= 5e-3, "relMSE {error:.3e} over the pixels the sphere changes");
     assert!(frames[2] == exact_here, "the frame at rest differs from a fresh compositor's");
 }
 
@@ -418,4 +420,54 @@ fn the_frames_at_rest_settle_band_by_band_into_the_exact_frame() {
     eprintln!(
         "the frames at rest against the exact one, relMSE over the pixels the sphere changes: {errors:?}"
     );
+}
+
+/// With `cursor_map_while_moving`, a moving frame shades the cursor sphere once per texel of a
+/// map over its half facing the eye and its fragments and edge samples read it bilinearly
+/// (`compositor/cursor_radiance_map.rs`), instead of shading each fragment the same way: a
+/// plastic sphere under the Cornell area light (its highlight integrated over the light's
+/// samples), against the same moving frame shaded per fragment, within a relMSE of 2e-5 over
+/// the sphere and the pixels next to it (its blended edges) and of 3e-3 at the worst pixel
+/// (6.1e-6 and 1.0e-3 when written, the worst at the outline); the next frame at rest is exact,
+/// bit for bit.
+#[test]
+fn a_moving_sphere_read_from_its_radiance_map_is_near_its_shading_per_fragment() {
+    let mapped = CompositorSettings { amortise_while_moving: true, ..Default::default() };
+    let per_fragment = CompositorSettings { cursor_map_while_moving: false, ..mapped };
+    let exact = CompositorSettings { amortise_while_moving: false, ..mapped };
+    let scene = area_lit_scene();
+    let mut reference = Compositor::new(&gpu(), &scene, exact).unwrap();
+    reference.render(&plastic_sphere(HERE)).unwrap();
+    let (exact_here, mask) =
+        (reference.read_back_linear().unwrap().rgba, reference.read_back().unwrap().mask);
+    let mut frames = Vec::new();
+    for settings in [mapped, per_fragment] {
+        let mut c = Compositor::new(&gpu(), &scene, settings).unwrap();
+        let mut seen = Vec::new();
+        for centre in [THERE, HERE, HERE] {
+            c.render(&plastic_sphere(centre)).unwrap();
+            seen.push(c.read_back_linear().unwrap().rgba);
+        }
+        frames.push(seen);
+    }
+    let (from_map, per_pixel) = (&frames[0][1], &frames[1][1]);
+    let near_sphere = |k: usize| mask[k] > 0 || next_to_mask(&mask, 512, k);
+    let (error, pixels) = rel_mse(from_map, per_pixel, near_sphere);
+    let worst = (0..mask.len())
+        .filter(|&k| near_sphere(k))
+        .map(|k| rel_mse(&from_map[4 * k..4 * k + 4], &per_pixel[4 * k..4 * k + 4], |_| true).0)
+        .fold(0.0, f64::max);
+    let outside = (0..mask.len())
+        .filter(|&k| !near_sphere(k) && from_map[4 * k..4 * k + 3] != per_pixel[4 * k..4 * k + 3])
+        .count();
+    eprintln!(
+        "moving sphere from its radiance map against per fragment: relMSE {error:.3e} over {pixels} pixels, worst {worst:.3e}"
+    );
+    assert!(pixels > 1_000, "the sphere covers only {pixels} pixels");
+    assert!(from_map != per_pixel, "the moving sphere was not read from its radiance map");
+    assert!(outside == 0, "{outside} pixels away from the sphere differ");
+    assert!(error <= 2e-5, "relMSE {error:.3e} over the sphere's pixels");
+    assert!(worst <= 3e-3, "relMSE {worst:.3e} at the worst pixel");
+    assert!(frames[0][2] == exact_here, "the frame at rest differs from a fresh compositor's");
+    assert!(frames[1][2] == exact_here, "the frame at rest (per fragment) differs from a fresh compositor's");
 }

@@ -40,6 +40,8 @@ pub(super) struct Antialias {
     depth_view: wgpu::TextureView,
     backdrop_pipeline: wgpu::RenderPipeline,
     sphere_pipeline: wgpu::RenderPipeline,
+    /// The cursor sphere's samples shaded from its radiance map (a moving frame's).
+    sphere_mapped_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
     /// Live spheres drawn as meshes, covered as exact spheres (`fs_mesh_sphere_coverage`).
     mesh_sphere_pipeline: wgpu::RenderPipeline,
@@ -211,6 +213,14 @@ impl Antialias {
             cube,
             setup.nearer,
         );
+        let sphere_mapped_pipeline = pipeline(
+            "sphere coverage from its radiance map",
+            &frame_only,
+            ("vs_sphere", "fs_sphere_coverage_mapped"),
+            &[],
+            cube,
+            setup.nearer,
+        );
         let mesh_sphere_pipeline = pipeline(
             "mesh sphere coverage",
             &with_mesh,
@@ -335,6 +345,7 @@ impl Antialias {
             depth_view: view(&depth_texture),
             backdrop_pipeline,
             sphere_pipeline,
+            sphere_mapped_pipeline,
             mesh_pipeline,
             mesh_sphere_pipeline,
             resolve_pipeline,
@@ -409,7 +420,7 @@ impl Compositor {
         encoder: &mut wgpu::CommandEncoder,
         bounds: LiveBounds,
         draws: &[usize],
-        sphere: bool,
+        (sphere, cursor_mapped): (bool, bool),
     ) {
         let Some(aa) = &self.antialias else { return };
         let LiveBounds { rect: bounds, exact_spheres } = bounds;
@@ -463,7 +474,11 @@ impl Compositor {
                 }
             }
             if sphere {
-                pass.set_pipeline(&aa.sphere_pipeline);
+                pass.set_pipeline(if cursor_mapped {
+                    &aa.sphere_mapped_pipeline
+                } else {
+                    &aa.sphere_pipeline
+                });
                 pass.draw(0..36, 0..1);
             }
         }

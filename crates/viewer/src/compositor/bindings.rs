@@ -130,6 +130,9 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage_entry(31),
             // The live spheres' near-field maps (compositor/near_field_map.rs).
             texture_entry(32, wgpu::ShaderStages::FRAGMENT),
+            // A moving cursor sphere's radiance map (compositor/cursor_radiance_map.rs), full
+            // floats, read texel by texel.
+            texture_entry(33, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }

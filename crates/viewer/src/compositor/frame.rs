@@ -82,12 +82,20 @@ impl Compositor {
         let moving = self.reduced.moving();
         // The uniform the shaders read: a moving frame whose radiosity maps are drawn (this
         // frame, before the live objects) shades the cursor sphere, their row 0, from its map
-        // (composite.wgsl shade_cursor_sphere). The flag stays out of the keys above, so that
-        // the frame at rest after a move is known as such and shades the sphere exactly.
+        // (composite.wgsl shade_cursor_sphere), and with `cursor_map_while_moving` from the
+        // map of its radiance drawn from it (2: cursor_radiance_map.rs). The flag stays out of
+        // the keys above, so that the frame at rest after a move is known as such and shades
+        // the sphere exactly.
         let bounce_rect = if keep_shadowed { self.bounce_scissor(&uniform) } else { None };
         let mut written = uniform;
-        if moving && sphere && bounce_rect.is_some() && uniform.layer_info[3] >= 1 {
-            written.tone[1] = 1.0;
+        let sphere_from_maps = moving && sphere && bounce_rect.is_some() && uniform.layer_info[3] >= 1;
+        // The radiance map holds the sphere's outside: only where the eye sees nothing else of
+        // it (the sphere wholly beyond the near plane, so every visible hit is a near one).
+        let [_, _, centre_depth, radius] = uniform.sphere.map(f64::from);
+        let sphere_outside = centre_depth - radius > self.projection.planes().near * (1.0 + 1e-4);
+        let cursor_map = sphere_from_maps && sphere_outside && self.settings.cursor_map_while_moving;
+        if sphere_from_maps {
+            written.tone[1] = if cursor_map { 2.0 } else { 1.0 };
         }
         // A moving frame gathers the layered shadows at reduced resolution (reduced_gather.rs)
         // after the backdrop's pass.
@@ -188,6 +196,10 @@ impl Compositor {
             if let Some(rect) = bounce_rect {
                 self.record_radiosity_maps(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
                 lap(&mut encoder, "radiosity maps");
+                if cursor_map {
+                    self.record_cursor_radiance_map(&mut encoder);
+                    lap(&mut encoder, "cursor sphere's radiance map");
+                }
                 if moving {
                     self.record_bounce_reduced(&mut encoder, rect);
                 } else if let Some(step) = settling {
@@ -221,12 +233,14 @@ impl Compositor {
         }
         if keep_shadowed {
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
-            self.record_live(&mut pass, &draws, sphere);
+            let sphere_pipeline =
+                if cursor_map { &self.sphere_mapped_pipeline } else { &self.sphere_pipeline };
+            self.draw_live(&mut pass, (&self.mesh_pipeline, sphere_pipeline), &draws, sphere);
             drop(pass);
             lap(&mut encoder, "live objects");
         }
         if let Some((_, bounds)) = antialiased {
-            self.record_antialiased(&mut encoder, bounds, &draws, sphere);
+            self.record_antialiased(&mut encoder, bounds, &draws, (sphere, cursor_map));
             lap(&mut encoder, "antialiased edges");
         }
         self.encode.record(&mut encoder, &self.frame_view);

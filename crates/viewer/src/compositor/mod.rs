@@ -6,6 +6,7 @@ mod backdrop_points;
 mod bindings;
 mod bounce;
 mod caustic_shadow;
+mod cursor_radiance_map;
 mod drawn_from;
 mod encode;
 mod frame;
@@ -107,6 +108,8 @@ pub struct Compositor {
     backdrop_fullscreen: wgpu::RenderPipeline,
     shadow_pipeline: wgpu::RenderPipeline,
     sphere_pipeline: wgpu::RenderPipeline,
+    /// The cursor sphere read from its radiance map (a moving frame's, `cursor_radiance_map.rs`).
+    sphere_mapped_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
     readback_pipeline: wgpu::ComputePipeline,
     readback_bind_group: wgpu::BindGroup,
@@ -124,6 +127,8 @@ pub struct Compositor {
     /// The light live spheres reflect onto the scene: their radiosity maps (binding 15) and
     /// the pass that adds it.
     bounce: bounce::Bounce,
+    /// A moving cursor sphere's radiance over its half facing the eye (binding 33).
+    cursor_radiance: cursor_radiance_map::CursorRadianceMap,
     /// The live spheres seen in the scene's specular reflections, and through its glass.
     specular: specular::SpecularReflections,
     transmission: Option<transmission::Transmission>,
@@ -152,6 +157,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/scene_visibility.wgsl"),
     include_str!("../shaders/near_field.wgsl"),
     include_str!("../shaders/bounce.wgsl"),
+    include_str!("../shaders/cursor_radiance.wgsl"),
     include_str!("../shaders/specular.wgsl"),
     include_str!("../shaders/transmission.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
@@ -335,6 +341,7 @@ impl Compositor {
         );
         let radiosity_map_textures = bounce::radiosity_atlas(device);
         let near_field_map_textures = near_field_map::near_field_atlas(device);
+        let cursor_radiance_textures = cursor_radiance_map::cursor_radiance_textures(device);
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
@@ -411,6 +418,10 @@ impl Compositor {
                     binding: 32,
                     resource: wgpu::BindingResource::TextureView(&near_field_map_textures.read_view),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 33,
+                    resource: wgpu::BindingResource::TextureView(&cursor_radiance_textures.read_view),
+                },
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -451,6 +462,12 @@ impl Compositor {
         let loss_maps = loss_map::LossMaps::new(device, loss_map_textures, &module, &with_mesh);
         let near_field_maps =
             near_field_map::NearFieldMaps::new(device, near_field_map_textures, &module, &with_mesh, scene);
+        let cursor_radiance = cursor_radiance_map::CursorRadianceMap::new(
+            device,
+            cursor_radiance_textures,
+            &module,
+            &frame_only,
+        );
         let bounce = bounce::Bounce::new(
             device,
             radiosity_map_textures,
@@ -485,8 +502,13 @@ impl Compositor {
             },
         );
         let formats = (linear_format, depth_format);
-        let reduced =
-            reduced_gather::ReducedGather::new(device, reduced_grid, (&module, &frame_only), formats);
+        let reduced = reduced_gather::ReducedGather::new(
+            device,
+            reduced_grid,
+            (&module, &frame_only),
+            formats,
+            settings.occlusion_from_behind,
+        );
         let nearer = nearer(settings.depth.convention);
         let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
             format: depth_format,
@@ -592,6 +614,21 @@ impl Compositor {
             &frame_only,
             "vs_sphere",
             "fs_sphere",
+            &[],
+            wgpu::PrimitiveState {
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: Some(wgpu::Face::Front),
+                ..Default::default()
+            },
+            depth_state(nearer, true),
+            &write_all,
+        );
+        // A moving frame's cursor sphere from its radiance map (cursor_radiance_map.rs).
+        let sphere_mapped_pipeline = pipeline(
+            "sphere impostor from its radiance map",
+            &frame_only,
+            "vs_sphere",
+            "fs_sphere_mapped",
             &[],
             wgpu::PrimitiveState {
                 front_face: wgpu::FrontFace::Ccw,
@@ -712,6 +749,7 @@ impl Compositor {
             backdrop_fullscreen,
             shadow_pipeline,
             sphere_pipeline,
+            sphere_mapped_pipeline,
             mesh_pipeline,
             readback_pipeline,
             readback_bind_group,
@@ -721,6 +759,7 @@ impl Compositor {
             loss_maps,
             near_field_maps,
             bounce,
+            cursor_radiance,
             specular,
             transmission,
             shadow_bounce,

@@ -24,16 +24,19 @@ use super::overlay::{Overlay, fullscreen_vertex, offscreen_pipeline};
 use super::sphere_atlas::DrawnAndRead;
 
 /// Pixels along each side of a block whose centre gathers the bounce light while moving
-/// (`reduced_gather.wgsl` REDUCED_BOUNCE_STRIDE).
-pub const BOUNCE_STRIDE: u32 = 4;
+/// (`reduced_gather.wgsl` REDUCED_BOUNCE_STRIDE): smooth along a surface, its samples cost 153
+/// ms of CPU a moving frame at 4 in the Cornell sweep on lavapipe, 45 ms at 8.
+pub const BOUNCE_STRIDE: u32 = 8;
 /// The same for the shadows' second bounce (REDUCED_LOSS_STRIDE): a smaller term than the
 /// bounce light, smooth, and gathered over the whole frame (256 clusters a sample: at 8, its
-/// samples cost 130 ms of CPU a frame in the Cornell box on lavapipe).
-pub const LOSS_STRIDE: u32 = 16;
+/// samples cost 130 ms of CPU a frame in the Cornell box on lavapipe, 53 ms at 16, 19 ms at 32).
+pub const LOSS_STRIDE: u32 = 32;
 /// The same for the layered shadows (REDUCED_SHADOW_STRIDE): the share of each area light they
 /// hide, soft but with kinks where the penumbra meets the umbra (at 4 the moving frame's relMSE
-/// over the pixels a sphere changes in `tests/moving_frames.rs` was 3.2e-3, at 2 1.1e-3).
-pub const SHADOW_STRIDE: u32 = 2;
+/// over the pixels a sphere changes in `tests/moving_frames.rs` was 3.2e-3, at 2 1.1e-3; in the
+/// Cornell sweep, with the bounce light at 8 and the loss at 32, 2.1e-4 against 1.2e-4 at 2, 4
+/// and 16: docs/viewer-frame-time.md).
+pub const SHADOW_STRIDE: u32 = 4;
 /// The most area lights whose layered shadows a moving frame gathers at reduced resolution
 /// (REDUCED_SHADOW_LIGHTS: a share each in the grid's colour, the occlusion of indirect light in
 /// its alpha). With more, or with a light with a layer that is no area light (hard shadows,
@@ -78,12 +81,15 @@ pub(super) fn grid_textures(
 
 impl ReducedGather {
     /// The pipelines from the compositing shaders' `module` with the frame bind group alone
-    /// (`frame_only`), for a frame in `linear_format` with a depth buffer in `depth_format`.
+    /// (`frame_only`), for a frame in `linear_format` with a depth buffer in `depth_format`;
+    /// the bounce light's spreading takes the light a sphere hides from behind it only with
+    /// `occlusion_from_behind` (`CompositorSettings`).
     pub(super) fn new(
         device: &wgpu::Device,
         grid: DrawnAndRead,
         (module, frame_only): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         (linear_format, depth_format): (wgpu::TextureFormat, wgpu::TextureFormat),
+        occlusion_from_behind: bool,
     ) -> Self {
         let vertex = fullscreen_vertex(module);
         let alone = |label: &str, entry: &str, format: wgpu::TextureFormat| {
@@ -97,7 +103,7 @@ impl ReducedGather {
                 "bounce light, spread",
                 frame_only,
                 vertex.clone(),
-                "fs_bounce_spread",
+                if occlusion_from_behind { "fs_bounce_spread_from_behind" } else { "fs_bounce_spread" },
             ),
             loss_gather: alone("shadow bounce taken, reduced", "fs_loss_gather", linear_format),
             loss_spread: alone(

@@ -129,6 +129,12 @@ pub struct CompositorSettings {
     /// the move) instead of all in the first; `false` (the default) draws the first frame at
     /// rest exactly.
     pub settle_at_rest: bool,
+    /// With `amortise_while_moving`, a moving frame shades the cursor sphere once per texel of
+    /// a map of its radiance over its half facing the eye and its fragments read it
+    /// (`compositor/cursor_radiance_map.rs`); `false` shades each fragment as the map's texels
+    /// are shaded (the reference the map is tested against). The frame at rest is exact either
+    /// way.
+    pub cursor_map_while_moving: bool,
 }
 
 impl Default for CompositorSettings {
@@ -147,6 +153,7 @@ impl Default for CompositorSettings {
             amortise_while_moving: false,
             reduce_while_moving: true,
             settle_at_rest: false,
+            cursor_map_while_moving: true,
         }
     }
 }

@@ -67,9 +67,10 @@ fn radiosity_texel(row: u32, m: vec3<f32>) -> vec2<i32> {
 }
 
 // The share of the lights' direct irradiance at camera-space point p (unit normal n) that the
-// scene lets through: `direct_light`'s shadowed diffuse irradiance over the same sum unshadowed
-// (1 where no light reaches p).
-fn lights_let_through(p: vec3<f32>, n: vec3<f32>) -> f32 {
+// scene lets through: `direct_light`'s shadowed diffuse irradiance (`shadowed`, which the caller
+// has from its own direct_light(p, n, n, 1.0, false)) over the same sum unshadowed (1 where no
+// light reaches p).
+fn lights_let_through(p: vec3<f32>, n: vec3<f32>, shadowed: vec3<f32>) -> f32 {
     var unshadowed = 0.0;
     for (var k = 0u; k < min(frame.counts.x, MAX_LIGHTS); k++) {
         let kind = u32(frame.lights[k].position.w + 0.5);
@@ -91,7 +92,7 @@ fn lights_let_through(p: vec3<f32>, n: vec3<f32>) -> f32 {
     if unshadowed <= 0.0 {
         return 1.0;
     }
-    return clamp(luminance(direct_light(p, n, n, 1.0, false).diffuse) / unshadowed, 0.0, 1.0);
+    return clamp(luminance(shadowed) / unshadowed, 0.0, 1.0);
 }
 
 // The radiance the lights' highlights on the sphere of row `row` send from its camera-space
@@ -139,11 +140,16 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     // The own-shadow loss from the sphere's loss map on the half the map covers (as the
     // sphere's shading reads it), gathered here on the half turned from the eye.
     loss_map_row = loss_map_row_at(row, s.xyz, n);
-    var let_through = 1.0;
-    if material.colour.w < 0.5 && material.coefficients.z > 0.0 {
-        let_through = lights_let_through(p, n);
+    if material.colour.w > 0.5 {
+        return vec4<f32>(material.colour.rgb, 1.0);
     }
-    return vec4<f32>(diffuse_radiance(material, p, n), let_through);
+    // The lights' light with the scene's shadows, once for both the radiance and the share.
+    let lit = direct_light(p, n, n, 1.0, false);
+    var let_through = 1.0;
+    if material.coefficients.z > 0.0 {
+        let_through = lights_let_through(p, n, lit.diffuse);
+    }
+    return vec4<f32>(diffuse_radiance_lit(material, p, n, lit), let_through);
 }
 
 // The light the highlights of the sphere of row `row` send to the surface at p (unit normal n),
@@ -360,6 +366,18 @@ fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         discard;
     }
     return with_bounce_light(pixel, r, bounce_irradiance(r.p, r.n));
+}
+
+// with_bounce_light without the light a sphere hides taken from behind it (off by default): a
+// moving frame's spreading pass takes it when that is off (compositor/reduced_gather.rs), since
+// lavapipe runs an untaken branch's code, each loop's body once, for every group of fragments.
+fn with_bounce_light_alone(pixel: vec2<i32>, r: Receiver, irradiance: vec3<f32>) -> vec4<f32> {
+    let added = r.albedo / PI * irradiance * frame.tone.x;
+    if all(added == vec3<f32>(0.0)) {
+        discard;
+    }
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + added, vec3<f32>(0.0)), before.a);
 }
 
 // The frame's colour at `pixel` with receiver `r`'s bounce light added, from the spheres'

@@ -397,7 +397,12 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
-    let lit = direct_light(p, n, n, 1.0, false);
+    return diffuse_radiance_lit(material, p, n, direct_light(p, n, n, 1.0, false));
+}
+
+// diffuse_radiance of a lit material, with the lights' direct light at p already integrated
+// (`lit`: direct_light(p, n, n, 1.0, false)).
+fn diffuse_radiance_lit(material: Material, p: vec3<f32>, n: vec3<f32>, lit: DirectLight) -> vec3<f32> {
     var loss = vec3<f32>(0.0);
     if frame.counts.y == 1u && frame.counts.w == 1u {
         loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);
@@ -423,9 +428,14 @@ fn shade_seen(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
 
 // The cursor sphere's radiance at p (unit outward normal n) seen along view_dir: in a moving
 // frame whose radiosity maps hold it (frame.tone.y, compositor/frame.rs) and seen from outside,
-// from its map (shade_with's `from_map`), else exactly.
+// from its map (shade_with's `from_map`), or where its radiance map is drawn from that (tone.y
+// 2), from the radiance map (cursor_radiance.wgsl); else exactly.
 fn shade_cursor_sphere(p: vec3<f32>, n: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
-    let from_map = frame.tone.y > 0.5 && dot(n, view_dir) < 0.0;
+    let outside = dot(n, view_dir) < 0.0;
+    if frame.tone.y > 1.5 && outside {
+        return cursor_radiance_lookup(n);
+    }
+    let from_map = frame.tone.y > 0.5 && outside;
     return shade_with(frame.sphere_material, p, n, view_dir, from_map, true);
 }
 

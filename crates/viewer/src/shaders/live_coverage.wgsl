@@ -117,29 +117,49 @@ fn centre_live_samples(covered: SphereSamples) -> vec4<f32> {
     return vec4<f32>(f32(covered.hidden), f32(covered.occluder), -1.0, 1.0);
 }
 
+// Whether the resolve takes the colour of the cursor sphere's `covered` samples in the pixel at
+// `position` from the centre frame: where the pixel centre shows the sphere (clearly in front of
+// the pre-rendered surface), no need to shade it again.
+fn centre_shows_sphere(position: vec2<f32>, covered: SphereSamples) -> bool {
+    if covered.raster.x != position.x || covered.raster.y != position.y {
+        return false;
+    }
+    let surface = textureLoad(backdrop_radial_depth, vec2<i32>(position), 0).r;
+    let distance = select(covered.hit.z, length(covered.hit.xyz), frame.raster.w > 0.5);
+    return distance < surface * (1.0 - 1e-5);
+}
+
 @fragment
 fn fs_sphere_coverage(@builtin(position) position: vec4<f32>) -> CoverageOut {
     let covered = sphere_samples(position.xy, frame.sphere);
     let hit = covered.hit;
-    let raster = covered.raster;
-    let samples = covered.samples;
-    if samples == 0u {
+    if covered.samples == 0u {
         discard;
     }
-    // Where the pixel centre shows the sphere (clearly in front of the pre-rendered surface),
-    // the resolve takes the centre frame's colour: no need to shade it again.
-    if raster.x == position.x && raster.y == position.y {
-        let surface = textureLoad(backdrop_radial_depth, vec2<i32>(position.xy), 0).r;
-        let distance = select(hit.z, length(hit.xyz), frame.raster.w > 0.5);
-        if distance < surface * (1.0 - 1e-5) {
-            return CoverageOut(centre_live_samples(covered), hit.w, samples);
-        }
+    if centre_shows_sphere(position.xy, covered) {
+        return CoverageOut(centre_live_samples(covered), hit.w, covered.samples);
     }
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
     loss_map_row = 0;
-    let colour = to_image_units(shade_cursor_sphere(p, n, ray_through_raster(raster).direction));
-    return CoverageOut(coverage_colour(colour), hit.w, samples);
+    let colour = to_image_units(shade_cursor_sphere(p, n, ray_through_raster(covered.raster).direction));
+    return CoverageOut(coverage_colour(colour), hit.w, covered.samples);
+}
+
+// fs_sphere_coverage for a moving frame that reads the cursor sphere's radiance map
+// (cursor_radiance.wgsl fs_sphere_mapped: an entry point without shade_with).
+@fragment
+fn fs_sphere_coverage_mapped(@builtin(position) position: vec4<f32>) -> CoverageOut {
+    let covered = sphere_samples(position.xy, frame.sphere);
+    let hit = covered.hit;
+    if covered.samples == 0u {
+        discard;
+    }
+    if centre_shows_sphere(position.xy, covered) {
+        return CoverageOut(centre_live_samples(covered), hit.w, covered.samples);
+    }
+    let n = (hit.xyz - frame.sphere.xyz) / frame.sphere.w;
+    return CoverageOut(coverage_colour(to_image_units(cursor_radiance_lookup(n))), hit.w, covered.samples);
 }
 
 // The centre-sampled frame's live-object mask (compositor/antialias.rs binds it for meshes).

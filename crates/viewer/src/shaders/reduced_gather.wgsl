@@ -12,10 +12,10 @@
 
 // Pixels along each side of a block: the bounce light's (compositor/reduced_gather.rs
 // BOUNCE_STRIDE) and the second bounce's loss (LOSS_STRIDE: a smaller term, drawn over the frame).
-const REDUCED_BOUNCE_STRIDE: i32 = 4;
-const REDUCED_LOSS_STRIDE: i32 = 16;
+const REDUCED_BOUNCE_STRIDE: i32 = 8;
+const REDUCED_LOSS_STRIDE: i32 = 32;
 // The layered shadows' (compositor/reduced_gather.rs SHADOW_STRIDE).
-const REDUCED_SHADOW_STRIDE: i32 = 2;
+const REDUCED_SHADOW_STRIDE: i32 = 4;
 // A sample lies on the receiver's surface when their normals are within about 25 degrees and
 // the sample is within this share of its distance from the receiver off the receiver's plane.
 const REDUCED_SAME_NORMAL: f32 = 0.9;
@@ -95,10 +95,22 @@ fn spread(pixel: vec2<i32>, r: Receiver, stride: i32) -> vec4<f32> {
     return select(nearest, sum / max(weight, 1e-30), weight > 0.0);
 }
 
-// fs_bounce with the bounce light spread from the grid (the light a sphere hides taken from
-// behind it, when on, is still found per pixel).
+// fs_bounce with the bounce light spread from the grid, without the light a sphere hides taken
+// from behind it (bounce.wgsl with_bounce_light_alone).
 @fragment
 fn fs_bounce_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let r = receiver_at(pixel, i32(frame.bounce.y));
+    if !r.valid {
+        discard;
+    }
+    return with_bounce_light_alone(pixel, r, spread(pixel, r, REDUCED_BOUNCE_STRIDE).rgb);
+}
+
+// fs_bounce_spread with the light a sphere hides taken from behind it, found per pixel
+// (`occlusion_from_behind`).
+@fragment
+fn fs_bounce_spread_from_behind(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
     let r = receiver_at(pixel, i32(frame.bounce.y));
     if !r.valid {
