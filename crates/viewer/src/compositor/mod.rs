@@ -19,6 +19,7 @@ mod near_field;
 mod near_field_map;
 mod overlay;
 mod pass_timing;
+mod pipelines;
 mod readback;
 mod reduced_gather;
 mod reflections;
@@ -51,10 +52,9 @@ use crate::projection::{Projection, nearer};
 use crate::scene::ViewerScene;
 use glam::DVec3;
 
-use backdrop_points::PointVertex;
 use drawn_from::DrawnFrom;
 use lighting::{FrameUniform, MeshUniform};
-use live_objects::{GpuMesh, MeshVertex};
+use live_objects::GpuMesh;
 use shadows::camera_space_bounds;
 use sphere_atlas::colour_pass;
 
@@ -510,148 +510,22 @@ impl Compositor {
             settings.occlusion_from_behind,
         );
         let nearer = nearer(settings.depth.convention);
-        let depth_state = |compare: wgpu::CompareFunction, write: bool| wgpu::DepthStencilState {
-            format: depth_format,
-            depth_write_enabled: Some(write),
-            depth_compare: Some(compare),
-            stencil: wgpu::StencilState::default(),
-            bias: wgpu::DepthBiasState::default(),
-        };
-        let write_all = [
-            Some(wgpu::ColorTargetState {
-                format: linear_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: MASK_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-        ];
-        let point_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
-        let mesh_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
-        let pipeline = |label: &str,
-                        layout: &wgpu::PipelineLayout,
-                        vs: &str,
-                        fs: &str,
-                        buffers: &[Option<wgpu::VertexBufferLayout>],
-                        primitive: wgpu::PrimitiveState,
-                        depth: wgpu::DepthStencilState,
-                        targets: &[Option<wgpu::ColorTargetState>]| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some(vs),
-                    compilation_options: Default::default(),
-                    buffers,
-                },
-                primitive,
-                depth_stencil: Some(depth),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let triangles = wgpu::PrimitiveState::default();
-        let backdrop_points = pipeline(
-            "backdrop points",
-            &frame_only,
-            "vs_backdrop_points",
-            "fs_backdrop_points",
-            &[Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<PointVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &point_attributes,
-            })],
-            wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::PointList, ..Default::default() },
-            depth_state(wgpu::CompareFunction::Always, true),
-            &write_all,
-        );
-        let backdrop_fullscreen = pipeline(
-            "backdrop full-screen",
-            &frame_only,
-            "vs_fullscreen",
-            "fs_backdrop_fullscreen",
-            &[],
-            triangles,
-            depth_state(wgpu::CompareFunction::Always, true),
-            &write_all,
-        );
-        let shadow_pipeline = pipeline(
-            "shadow",
-            &frame_only,
-            "vs_fullscreen",
-            "fs_shadow",
-            &[],
-            triangles,
-            depth_state(wgpu::CompareFunction::Always, false),
-            &[
-                // The shadow pass writes the darkened backdrop itself: 32-bit float targets
-                // cannot blend everywhere.
-                Some(wgpu::ColorTargetState {
-                    format: linear_format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::COLOR,
-                }),
-                Some(wgpu::ColorTargetState {
-                    format: MASK_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::empty(),
-                }),
-            ],
-        );
-        let sphere_pipeline = pipeline(
-            "sphere impostor",
-            &frame_only,
-            "vs_sphere",
-            "fs_sphere",
-            &[],
-            wgpu::PrimitiveState {
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: Some(wgpu::Face::Front),
-                ..Default::default()
-            },
-            depth_state(nearer, true),
-            &write_all,
-        );
-        // A moving frame's cursor sphere from its radiance map (cursor_radiance_map.rs).
-        let sphere_mapped_pipeline = pipeline(
-            "sphere impostor from its radiance map",
-            &frame_only,
-            "vs_sphere",
-            "fs_sphere_mapped",
-            &[],
-            wgpu::PrimitiveState {
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: Some(wgpu::Face::Front),
-                ..Default::default()
-            },
-            depth_state(nearer, true),
-            &write_all,
-        );
-        let mesh_pipeline = pipeline(
-            "live mesh",
-            &with_mesh,
-            "vs_mesh",
-            "fs_mesh",
-            &[Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<MeshVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &mesh_attributes,
-            })],
-            triangles,
-            depth_state(nearer, true),
-            &write_all,
-        );
+        let pipelines::FramePipelines {
+            backdrop_points,
+            backdrop_fullscreen,
+            shadow: shadow_pipeline,
+            sphere: sphere_pipeline,
+            sphere_mapped: sphere_mapped_pipeline,
+            mesh: mesh_pipeline,
+        } = pipelines::FramePipelines::new(&pipelines::PipelineSetup {
+            device,
+            module: &module,
+            frame_only: &frame_only,
+            with_mesh: &with_mesh,
+            linear_format,
+            depth_format,
+            nearer,
+        });
 
         let (antialias, antialias_off) = if !settings.antialias {
             (None, Some("turned off".to_string()))
