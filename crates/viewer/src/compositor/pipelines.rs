@@ -134,35 +134,28 @@ impl FramePipelines {
                 }),
             ],
         );
-        let sphere_pipeline = pipeline(
-            "sphere impostor",
-            frame_only,
-            "vs_sphere",
-            "fs_sphere",
-            &[],
-            wgpu::PrimitiveState {
+        // The cursor sphere's impostor, shaded per fragment or read from its map: the same proxy
+        // geometry, culling and depth test either way.
+        let sphere = |label: &str, fs: &str| {
+            let front_faces = wgpu::PrimitiveState {
                 front_face: wgpu::FrontFace::Ccw,
                 cull_mode: Some(wgpu::Face::Front),
                 ..Default::default()
-            },
-            depth_state(nearer, true),
-            &write_all,
-        );
+            };
+            pipeline(
+                label,
+                frame_only,
+                "vs_sphere",
+                fs,
+                &[],
+                front_faces,
+                depth_state(nearer, true),
+                &write_all,
+            )
+        };
+        let sphere_pipeline = sphere("sphere impostor", "fs_sphere");
         // A moving frame's cursor sphere from its radiance map (cursor_radiance_map.rs).
-        let sphere_mapped_pipeline = pipeline(
-            "sphere impostor from its radiance map",
-            frame_only,
-            "vs_sphere",
-            "fs_sphere_mapped",
-            &[],
-            wgpu::PrimitiveState {
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: Some(wgpu::Face::Front),
-                ..Default::default()
-            },
-            depth_state(nearer, true),
-            &write_all,
-        );
+        let sphere_mapped_pipeline = sphere("sphere impostor from its radiance map", "fs_sphere_mapped");
         let mesh_pipeline = pipeline(
             "live mesh",
             with_mesh,
