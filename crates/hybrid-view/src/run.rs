@@ -439,9 +439,11 @@ fn print_stats(
         (true, true) => eprintln!(
             "while live objects move: the area lights' layered shadows gathered at one pixel in \
              {s}x{s}, the bounce light at one in {b}x{b}, the shadows' second bounce at one in \
-             {l}x{l}, spread along each surface; the cursor sphere shaded from its radiosity map; \
-             {rest} (--exact-while-moving: every frame exact)",
+             {l}x{l}, spread along each surface; the cursor sphere shaded once per texel of a \
+             {m}x{m} map of its radiance over its half facing the eye, its diffuse light from its \
+             radiosity map; {rest} (--exact-while-moving: every frame exact)",
             s = viewer::compositor::MOVING_SHADOW_STRIDE,
+            m = viewer::compositor::MOVING_SPHERE_MAP_TEXELS,
             b = viewer::compositor::MOVING_BOUNCE_STRIDE,
             l = viewer::compositor::MOVING_LOSS_STRIDE,
             rest = if s.settle_at_rest {

@@ -14,7 +14,7 @@ use super::overlay::offscreen_pipeline;
 use super::sphere_atlas::{DrawnAndRead, colour_pass};
 
 /// Texels along each side of the map (`cursor_radiance.wgsl` CURSOR_RADIANCE_TEXELS).
-pub(super) const CURSOR_RADIANCE_TEXELS: u32 = 64;
+pub const CURSOR_RADIANCE_TEXELS: u32 = 64;
 /// Radiance in full floats: the fragments read it as they would have computed it, less the
 /// interpolation.
 pub(super) const MAP_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;

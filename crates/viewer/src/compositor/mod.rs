@@ -32,6 +32,7 @@ mod specular;
 mod sphere_atlas;
 mod transmission;
 
+pub use cursor_radiance_map::CURSOR_RADIANCE_TEXELS as MOVING_SPHERE_MAP_TEXELS;
 pub use pass_timing::{PassTime, process_cpu_time};
 pub use readback::{FrameReadback, LinearFrame, is_exr_path};
 pub use reduced_gather::{
