@@ -15,18 +15,12 @@ use super::sphere_atlas::{DrawnAndRead, colour_pass};
 
 /// Texels along each side of the map (`cursor_radiance.wgsl` CURSOR_RADIANCE_TEXELS).
 pub const CURSOR_RADIANCE_TEXELS: u32 = 64;
-/// Radiance in full floats: the fragments read it as they would have computed it, less the
-/// interpolation.
-pub(super) const MAP_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
-
-/// The map the pass draws and the copy the sphere's fragments read (binding 33).
-pub(super) fn cursor_radiance_textures(device: &wgpu::Device) -> DrawnAndRead {
-    DrawnAndRead::new(
-        device,
-        "cursor radiance map",
-        MAP_FORMAT,
-        (CURSOR_RADIANCE_TEXELS, CURSOR_RADIANCE_TEXELS),
-    )
+/// The map the pass draws and the copy the sphere's fragments read (binding 33), in the frame's
+/// linear format (`linear_format`): full floats where the adapter can render them, so that the
+/// fragments read the radiance as they would have computed it, less the interpolation; half
+/// floats where it cannot (GL's downlevel limits), as the frame itself.
+pub(super) fn cursor_radiance_textures(device: &wgpu::Device, format: wgpu::TextureFormat) -> DrawnAndRead {
+    DrawnAndRead::new(device, "cursor radiance map", format, (CURSOR_RADIANCE_TEXELS, CURSOR_RADIANCE_TEXELS))
 }
 
 /// The map's textures and the pass that draws it.
@@ -37,11 +31,11 @@ pub(super) struct CursorRadianceMap {
 }
 
 impl CursorRadianceMap {
-    /// The pass over `map`, with the compositing shaders' `module` and the frame bind group's
-    /// pipeline `layout`.
+    /// The pass over `map` (of `format`, as [`cursor_radiance_textures`] made it), with the
+    /// compositing shaders' `module` and the frame bind group's pipeline `layout`.
     pub(super) fn new(
         device: &wgpu::Device,
-        map: DrawnAndRead,
+        (map, format): (DrawnAndRead, wgpu::TextureFormat),
         module: &wgpu::ShaderModule,
         layout: &wgpu::PipelineLayout,
     ) -> CursorRadianceMap {
@@ -50,7 +44,7 @@ impl CursorRadianceMap {
             module,
             layout,
             ("cursor radiance map", "fs_cursor_radiance_map"),
-            MAP_FORMAT,
+            format,
         );
         CursorRadianceMap { map, pipeline }
     }

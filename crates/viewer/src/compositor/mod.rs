@@ -342,7 +342,7 @@ impl Compositor {
         );
         let radiosity_map_textures = bounce::radiosity_atlas(device);
         let near_field_map_textures = near_field_map::near_field_atlas(device);
-        let cursor_radiance_textures = cursor_radiance_map::cursor_radiance_textures(device);
+        let cursor_radiance_textures = cursor_radiance_map::cursor_radiance_textures(device, linear_format);
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
@@ -465,7 +465,7 @@ impl Compositor {
             near_field_map::NearFieldMaps::new(device, near_field_map_textures, &module, &with_mesh, scene);
         let cursor_radiance = cursor_radiance_map::CursorRadianceMap::new(
             device,
-            cursor_radiance_textures,
+            (cursor_radiance_textures, linear_format),
             &module,
             &frame_only,
         );
