@@ -16,6 +16,7 @@ mod csg;
 mod deformation;
 mod displacement;
 mod flat;
+mod interaction;
 mod lighting;
 mod motion;
 mod placement;
@@ -30,11 +31,10 @@ pub use placement::{
 use crate::accel::{Baseline, Bvh, NodeLanes, TraversalRay, X86_64V3};
 use crate::lights::{Light, LightSet};
 use crate::materials::Material;
-use crate::math::{offset_ray_origin, round_point, transform_normal, transform_point_error};
+use crate::math::offset_ray_origin;
 
 use crate::shapes::{
-    Quadric, QuadricHit, RayShear, TriangleHit, TriangleRows, barycentric_point, hits_front,
-    intersect_triangle,
+    Quadric, QuadricHit, RayShear, TriangleHit, TriangleRows, hits_front, intersect_triangle,
 };
 #[cfg(target_arch = "x86_64")]
 use crate::shapes::{RowShear, triangle_rows::intersect_rows_avx2};
@@ -660,171 +660,5 @@ impl World {
             })
             .collect();
         Some((&blas.bvh, tris))
-    }
-
-    /// Evaluates the surface at a hit. Texture coordinates and their footprint (`st`,
-    /// `st_width`) are computed only for materials that read a texture; they are zero for the
-    /// others.
-    pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
-        let inst = &self.instances[hit.instance as usize];
-        let blas = &self.blases[inst.blas as usize];
-        let shape = match hit.detail {
-            HitDetail::Triangle(i, _) => blas.triangles[i as usize].shape,
-            HitDetail::Quadric(i, _) => blas.quadrics[i as usize].shape,
-        };
-        let attributes = inst.attributes.unwrap_or(blas.shapes[shape as usize].attributes);
-        let wants_st = self.material(attributes).reads_texture_coordinates();
-        let (p_blas, err_blas, ng_blas, dpdu_blas);
-        // `None` when the normal is the geometric one (computed and normalised once).
-        let (ns_blas, n_outward_blas): (Option<DVec3>, Option<DVec3>);
-        let mut st = Vec2::ZERO;
-        // Texture-space units per BLAS-space unit around the hit (isotropic).
-        let mut st_per_length = 0.0f64;
-        match hit.detail {
-            HitDetail::Triangle(i, b) => {
-                let tri = &blas.triangles[i as usize];
-                // A deforming triangle where the ray met it.
-                let deformed = blas.deforming.as_ref().and_then(|d| d.triangle(tri.index, ray.time));
-                let tp = deformed.unwrap_or(tri.p);
-                let (p, err) = barycentric_point(b, tp[0], tp[1], tp[2]);
-                p_blas = p;
-                err_blas = err;
-                let ng = (tp[1] - tp[0]).cross(tp[2] - tp[0]).as_dvec3();
-                ng_blas = ng;
-                let s = &blas.shapes[tri.shape as usize];
-                let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
-                let vidx = mesh.map(|m| m.triangles[tri.index as usize]);
-                let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
-                ns_blas = match (mesh.and_then(|m| m.normals.as_ref()), vidx) {
-                    (Some(_), Some(_)) if deformed.is_some() => blas
-                        .deforming
-                        .as_ref()
-                        .and_then(|d| d.normal(tri.index, bw, ray.time))
-                        .map(|n| n.as_dvec3()),
-                    (Some(normals), Some(v)) => {
-                        let n = normals[v[0] as usize] * bw[0]
-                            + normals[v[1] as usize] * bw[1]
-                            + normals[v[2] as usize] * bw[2];
-                        (n.length_squared() > 0.0 && n.is_finite()).then(|| n.as_dvec3())
-                    }
-                    _ => None,
-                };
-                n_outward_blas = None;
-                if wants_st {
-                    let area = 0.5 * ng.length();
-                    (st, st_per_length) = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
-                        (Some(sts), Some(v)) => {
-                            let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
-                            let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
-                            (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
-                        }
-                        _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
-                    };
-                }
-                dpdu_blas = (tp[1] - tp[0]).as_dvec3();
-            }
-            HitDetail::Quadric(i, h) => {
-                // A deforming quadric as the ray met it.
-                let deformed = blas.deforming.as_ref().and_then(|d| d.quadric(i, ray.time));
-                let q = deformed.as_ref().unwrap_or(&blas.quadrics[i as usize]);
-                let m = &q.blas_from_object;
-                p_blas = m.transform_point3(h.p);
-                // The f64 solve and projection leave errors far below f32 rounding; bound them
-                // generously with a relative 1e-9 of the quadric's extent.
-                let extent = (q.quadric.bounds_max - q.quadric.bounds_min).length();
-                let scale = m
-                    .x_axis
-                    .truncate()
-                    .length()
-                    .max(m.y_axis.truncate().length())
-                    .max(m.z_axis.truncate().length());
-                err_blas = transform_point_error(m, h.p) + DVec3::splat(1e-9 * extent * scale);
-                let normal_matrix = &q.object_from_blas;
-                ng_blas = transform_normal(normal_matrix, h.n);
-                ns_blas = None;
-                n_outward_blas = Some(transform_normal(normal_matrix, h.n * q.quadric.orientation));
-                dpdu_blas = m.transform_vector3(h.dpdu);
-                if wants_st {
-                    st = h.uv.as_vec2();
-                    st_per_length = 1.0 / dpdu_blas.length();
-                }
-            }
-        }
-        // BLAS space to render space (where a moving instance is at the ray's time).
-        let placement = (!inst.identity).then(|| Self::placement(inst, ray.time));
-        let (p64, err64) = match &placement {
-            None => (p_blas, err_blas),
-            Some((m, _)) => {
-                let p = m.transform_point3(p_blas);
-                let abs = DMat4::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs(), glam::DVec4::ZERO);
-                let err = abs.transform_vector3(err_blas) + transform_point_error(m, p_blas);
-                (p, err)
-            }
-        };
-        let map_n = |n: DVec3| match &placement {
-            Some((_, inv)) => transform_normal(inv, n),
-            None => n,
-        };
-        let ng_unit = map_n(ng_blas).normalize_or_zero().as_vec3();
-        let mut ng = ng_unit;
-        let mut ns = match ns_blas {
-            Some(n) => map_n(n).normalize_or_zero().as_vec3(),
-            None => ng_unit,
-        };
-        let mut n_outward = match n_outward_blas {
-            Some(n) => map_n(n).normalize_or_zero().as_vec3(),
-            None => ng_unit,
-        };
-        // On a solid's boundary the outward side is where the ray is not inside the solid.
-        if let Some(entering) = hit.csg_entering
-            && (n_outward.dot(ray.direction) < 0.0) != entering
-        {
-            n_outward = -n_outward;
-        }
-        let dpdu = match &placement {
-            Some((m, _)) => m.transform_vector3(dpdu_blas).as_vec3(),
-            None => dpdu_blas.as_vec3(),
-        };
-        let (_, reverse) = self.sidedness(inst, blas, shape);
-        if reverse {
-            ng = -ng;
-            ns = -ns;
-        }
-        if ns.dot(ng) < 0.0 {
-            ns = -ns;
-        }
-        if ng == Vec3::ZERO || !ng.is_finite() {
-            ng = -ray.direction.normalize_or(Vec3::Z);
-        }
-        if ns == Vec3::ZERO || !ns.is_finite() {
-            ns = ng;
-        }
-        let (p, p_error) = round_point(p64, err64);
-        let st_width = if wants_st {
-            let pixel = self.footprint.width_at(p64.length());
-            let st_width = (pixel * st_per_length) as f32;
-            if st_width.is_finite() { st_width } else { 0.0 }
-        } else {
-            0.0
-        };
-        let emitter = inst.emitters.get(shape as usize).copied().filter(|&e| e != u32::MAX);
-        let wo = -ray.direction.normalize_or(Vec3::Z);
-        SurfaceInteraction {
-            p,
-            p_error,
-            p64,
-            t: hit.t,
-            ng,
-            ns,
-            n_outward: if n_outward == Vec3::ZERO { ng } else { n_outward },
-            dpdu,
-            st,
-            st_width,
-            wo,
-            front: ray.direction.dot(ng) < 0.0,
-            attributes,
-            emitter,
-            time: ray.time,
-        }
     }
 }
