@@ -133,6 +133,14 @@ pub(super) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             // A moving cursor sphere's radiance map (compositor/cursor_radiance_map.rs), full
             // floats, read texel by texel.
             texture_entry(33, wgpu::ShaderStages::FRAGMENT),
+            // The moving frame's spreading weights, a layer per stride
+            // (compositor/reduced_gather.rs).
+            texture_layout_entry(
+                34,
+                wgpu::ShaderStages::FRAGMENT,
+                wgpu::TextureViewDimension::D2Array,
+                false,
+            ),
         ],
     })
 }

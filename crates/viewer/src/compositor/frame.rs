@@ -125,6 +125,10 @@ impl Compositor {
             written.tone[3] = 1.0;
         }
         self.gpu.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&written));
+        // A moving frame's spreading passes read weights drawn once (reduced_gather.rs).
+        if moving {
+            self.record_spread_weights(&mut encoder, &written);
+        }
         // The maps and reflections kept while their inputs stay (loss, radiosity, specular) are
         // keyed with these flags too: what a moving frame drew of them from its approximate
         // shadows or shading is drawn again at rest.

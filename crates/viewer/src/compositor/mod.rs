@@ -346,6 +346,7 @@ impl Compositor {
         let shadow_bounce_textures =
             shadow_bounce::ShadowBounceTextures::new(device, (width, height), linear_format);
         let reduced_grid = reduced_gather::grid_textures(device, (width, height), linear_format);
+        let spread_weights = reduced_gather::SpreadWeights::new(device, (width, height));
         let caustic_shadow =
             caustic_shadow::CausticShadow::new(device, scene.caustics_arc(), (width, height));
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -422,6 +423,10 @@ impl Compositor {
                 wgpu::BindGroupEntry {
                     binding: 33,
                     resource: wgpu::BindingResource::TextureView(&cursor_radiance_textures.read_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 34,
+                    resource: wgpu::BindingResource::TextureView(&spread_weights.read_view),
                 },
             ],
         });
@@ -505,7 +510,7 @@ impl Compositor {
         let formats = (linear_format, depth_format);
         let reduced = reduced_gather::ReducedGather::new(
             device,
-            reduced_grid,
+            (reduced_grid, spread_weights),
             (&module, &frame_only),
             formats,
             settings.occlusion_from_behind,

@@ -47,10 +47,67 @@ pub const SHADOW_LIGHTS: usize = 3;
 const GRID_STRIDE: u32 = if SHADOW_STRIDE < BOUNCE_STRIDE { SHADOW_STRIDE } else { BOUNCE_STRIDE };
 const _: () = assert!(GRID_STRIDE <= LOSS_STRIDE);
 
-/// The grid of samples (binding 22), sized for the finest stride, and its pipelines.
+/// The format of the spreading weights: each in [0, 1], renormalised where they are read.
+const WEIGHTS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+/// The spreading weights' layers, in the order of `reduced_gather.wgsl`'s REDUCED_SPREAD_*: the
+/// layered shadows', the bounce light's and the second bounce's loss's (their fragment entry
+/// points).
+const WEIGHTS_ENTRIES: [&str; 3] =
+    ["fs_spread_weights_shadows", "fs_spread_weights_bounce", "fs_spread_weights_loss"];
+
+/// Each pixel's weights of its four nearest samples at each stride (binding 34, a layer per
+/// stride): which samples lie on its own surface depends on the pre-rendered surfaces alone, so
+/// they are drawn once, into `drawn` a layer at a time and copied into `read`, and a moving
+/// frame's spreading passes read them instead of comparing each pixel's surface with four
+/// samples' (which cost most of each spreading pass on lavapipe).
+#[derive(Debug)]
+pub(super) struct SpreadWeights {
+    drawn: wgpu::Texture,
+    drawn_view: wgpu::TextureView,
+    read: wgpu::Texture,
+    /// The view of every layer, for the frame bind group.
+    pub(super) read_view: wgpu::TextureView,
+}
+
+impl SpreadWeights {
+    /// The textures for a frame of `width` x `height`: made before the frame bind group.
+    pub(super) fn new(device: &wgpu::Device, (width, height): (u32, u32)) -> Self {
+        let texture = |label: &str, layers: u32, usage: wgpu::TextureUsages| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: WEIGHTS_FORMAT,
+                usage,
+                view_formats: &[],
+            })
+        };
+        use wgpu::TextureUsages as U;
+        let layers = WEIGHTS_ENTRIES.len() as u32;
+        let drawn = texture("spreading weights, drawn", 1, U::RENDER_ATTACHMENT | U::COPY_SRC);
+        let read = texture("spreading weights", layers, U::TEXTURE_BINDING | U::COPY_DST);
+        let read_view = read.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        SpreadWeights { drawn_view: drawn.create_view(&Default::default()), drawn, read, read_view }
+    }
+}
+
+/// The grid of samples (binding 22), sized for the finest stride, the spreading weights and
+/// their pipelines.
 #[derive(Debug)]
 pub(super) struct ReducedGather {
     grid: DrawnAndRead,
+    weights: SpreadWeights,
+    /// The pipelines drawing each layer of the weights.
+    weights_pipelines: Vec<wgpu::RenderPipeline>,
+    /// What the weights were drawn from (the frame uniform's albedo and normal layers; none
+    /// before they are first drawn): the depth and the layers stay for the compositor's life.
+    weights_from: std::cell::Cell<Option<[u32; 3]>>,
     bounce_gather: wgpu::RenderPipeline,
     bounce_spread: wgpu::RenderPipeline,
     loss_gather: wgpu::RenderPipeline,
@@ -86,7 +143,7 @@ impl ReducedGather {
     /// `occlusion_from_behind` (`CompositorSettings`).
     pub(super) fn new(
         device: &wgpu::Device,
-        grid: DrawnAndRead,
+        (grid, weights): (DrawnAndRead, SpreadWeights),
         (module, frame_only): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         (linear_format, depth_format): (wgpu::TextureFormat, wgpu::TextureFormat),
         occlusion_from_behind: bool,
@@ -119,6 +176,12 @@ impl ReducedGather {
                 vertex.clone(),
                 "fs_shadow_spread",
             ),
+            weights_pipelines: WEIGHTS_ENTRIES
+                .iter()
+                .map(|&entry| alone("spreading weights", entry, WEIGHTS_FORMAT))
+                .collect(),
+            weights,
+            weights_from: Default::default(),
             grid,
             last_frame: Default::default(),
             moving: Default::default(),
@@ -163,6 +226,30 @@ pub(super) fn shadows_fit(uniform: &FrameUniform) -> bool {
 }
 
 impl Compositor {
+    /// Draws the spreading weights (`SpreadWeights`) unless they were drawn from the same
+    /// layers of `uniform` (the frame's): before a moving frame's spreading passes.
+    pub(super) fn record_spread_weights(&self, encoder: &mut wgpu::CommandEncoder, uniform: &FrameUniform) {
+        let reduced = &self.reduced;
+        let from = [uniform.bounce[1], uniform.shadow_bounce[3], uniform.layer_info[2]];
+        if reduced.weights_from.replace(Some(from)) == Some(from) {
+            return;
+        }
+        let weights = &reduced.weights;
+        for (layer, pipeline) in reduced.weights_pipelines.iter().enumerate() {
+            {
+                let clear = wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT);
+                let mut pass = super::colour_pass(encoder, "spreading weights", &weights.drawn_view, clear);
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &self.frame_bind_group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+            let mut to = weights.read.as_image_copy();
+            to.origin.z = layer as u32;
+            encoder.copy_texture_to_texture(weights.drawn.as_image_copy(), to, weights.drawn.size());
+        }
+        self.pass_timing.lap(&self.gpu.device, &self.gpu.queue, encoder, "spreading weights");
+    }
+
     /// Gathers the grid of samples at `stride` with `pipeline` over the texels pixels of `rect`
     /// read, and copies it where the spreading pass reads it.
     fn record_grid(

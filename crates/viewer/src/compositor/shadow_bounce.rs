@@ -84,6 +84,9 @@ pub(super) fn band_rect(k: u32, (width, height): (u32, u32)) -> [u32; 4] {
 pub(super) struct ShadowBounceTextures {
     pub(super) clusters: DrawnAndRead,
     pub(super) taken: DrawnAndRead,
+    /// The fine clusters' three parts, each [`FINE`]^2, drawn in one pass (each tile summed
+    /// once) and copied side by side into the clusters' fine rows.
+    fine_parts: [(wgpu::Texture, wgpu::TextureView); 3],
 }
 
 impl ShadowBounceTextures {
@@ -103,6 +106,20 @@ impl ShadowBounceTextures {
                 (3 * FINE, FINE + COARSE),
             ),
             taken: DrawnAndRead::new(device, "shadow bounce taken", TAKEN_FORMAT, frame_size),
+            fine_parts: std::array::from_fn(|_| {
+                let texture = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("shadow bounce fine clusters"),
+                    size: wgpu::Extent3d { width: FINE, height: FINE, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: linear_format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                });
+                let view = texture.create_view(&Default::default());
+                (texture, view)
+            }),
         }
     }
 }
@@ -111,7 +128,8 @@ impl ShadowBounceTextures {
 #[derive(Debug)]
 pub(super) struct ShadowBounce {
     textures: ShadowBounceTextures,
-    cluster_pipeline: wgpu::RenderPipeline,
+    fine_cluster_pipeline: wgpu::RenderPipeline,
+    coarse_cluster_pipeline: wgpu::RenderPipeline,
     taken_pipeline: wgpu::RenderPipeline,
     apply_pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the clusters and the loss were last drawn from (empty:
@@ -142,8 +160,29 @@ impl ShadowBounce {
         let alone = |label: &str, entry: &str, format: wgpu::TextureFormat| {
             offscreen_pipeline(device, setup.module, setup.frame_only, (label, entry), format)
         };
-        let cluster_pipeline =
-            alone("shadow bounce clusters", "fs_shadow_bounce_clusters", setup.linear_format);
+        let part = Some(wgpu::ColorTargetState {
+            format: setup.linear_format,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        });
+        let fine_cluster_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadow bounce fine clusters"),
+            layout: Some(setup.frame_only),
+            vertex: vertex.clone(),
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: setup.module,
+                entry_point: Some("fs_shadow_bounce_fine_clusters"),
+                compilation_options: Default::default(),
+                targets: &[part.clone(), part.clone(), part],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let coarse_cluster_pipeline =
+            alone("shadow bounce coarse clusters", "fs_shadow_bounce_coarse_clusters", setup.linear_format);
         let taken_pipeline = alone("shadow bounce taken", "fs_shadow_bounce_taken", TAKEN_FORMAT);
         // Into the frame's colour target (the mask and depth stay as the backdrop left them).
         let overlay = Overlay {
@@ -156,7 +195,8 @@ impl ShadowBounce {
             overlay.pipeline(device, "shadow bounce", setup.frame_only, vertex, "fs_shadow_bounce");
         ShadowBounce {
             textures,
-            cluster_pipeline,
+            fine_cluster_pipeline,
+            coarse_cluster_pipeline,
             taken_pipeline,
             apply_pipeline,
             drawn_from: super::DrawnFrom::default(),
@@ -279,22 +319,58 @@ impl Compositor {
             return;
         }
         bounce.clusters_from_reduced_shadows.set(self.reduced.shadows_reduced.get());
-        // The fine rows from the pixels, then the coarse rows from the copy of the fine ones.
+        // The fine rows from the pixels, their three parts at once and copied side by side into
+        // the clusters the passes read.
         let clusters = &bounce.textures.clusters;
-        for (load, [x, y, w, h]) in [
-            (wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), [0, 0, 3 * FINE, FINE]),
-            (wgpu::LoadOp::Load, [0, FINE, 3 * COARSE, COARSE]),
-        ] {
-            {
-                let mut pass =
-                    super::colour_pass(encoder, "shadow bounce clusters", &clusters.drawn_view, load);
-                pass.set_pipeline(&bounce.cluster_pipeline);
-                pass.set_bind_group(0, &self.frame_bind_group, &[]);
-                pass.set_scissor_rect(x, y, w, h);
-                pass.draw(0..3, 0..1);
-            }
-            clusters.copy_drawn_to_read(encoder);
+        let parts = &bounce.textures.fine_parts;
+        {
+            let clear = wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Store,
+            };
+            let attachment = |view| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: clear,
+                })
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("shadow bounce fine clusters"),
+                color_attachments: &[
+                    attachment(&parts[0].1),
+                    attachment(&parts[1].1),
+                    attachment(&parts[2].1),
+                ],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&bounce.fine_cluster_pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.draw(0..3, 0..1);
         }
+        for (k, (texture, _)) in parts.iter().enumerate() {
+            let mut to = clusters.read.as_image_copy();
+            to.origin.x = k as u32 * FINE;
+            encoder.copy_texture_to_texture(texture.as_image_copy(), to, texture.size());
+        }
+        // Then the coarse rows from them, copied alone (the drawn texture's fine rows are none).
+        {
+            let load = wgpu::LoadOp::Load;
+            let mut pass = super::colour_pass(encoder, "shadow bounce clusters", &clusters.drawn_view, load);
+            pass.set_pipeline(&bounce.coarse_cluster_pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_scissor_rect(0, FINE, 3 * COARSE, COARSE);
+            pass.draw(0..3, 0..1);
+        }
+        let mut from = clusters.drawn.as_image_copy();
+        let mut to = clusters.read.as_image_copy();
+        (from.origin.y, to.origin.y) = (FINE, FINE);
+        let coarse = wgpu::Extent3d { width: 3 * COARSE, height: COARSE, depth_or_array_layers: 1 };
+        encoder.copy_texture_to_texture(from, to, coarse);
     }
 
     /// Whether what each pixel loses is drawn in full from `uniform`'s inputs (or the pass is

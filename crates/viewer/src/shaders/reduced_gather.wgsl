@@ -54,17 +54,43 @@ fn fs_loss_gather(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f
     return vec4<f32>(shadow_bounce_loss(r.p, r.n), 1.0);
 }
 
-// The gathered function at `pixel` (receiver `r`): bilinear between the four nearest samples of
-// the grid of `stride` (all four channels), over those on the receiver's surface
-// (renormalised), else the one of them whose normal is nearest the receiver's; zero when none
-// of them is a receiver (alpha below 0.5).
-fn spread(pixel: vec2<i32>, r: Receiver, stride: i32) -> vec4<f32> {
+// Which sample a spreading pass reads, and so which layer of the spreading weights it takes
+// (compositor/reduced_gather.rs SpreadWeights).
+const REDUCED_SPREAD_SHADOWS: i32 = 0;
+const REDUCED_SPREAD_BOUNCE: i32 = 1;
+const REDUCED_SPREAD_LOSS: i32 = 2;
+
+// Per pixel, a layer for each of the three strides (REDUCED_SPREAD_*): the
+// weight of each of the four nearest samples (x: the one below and left, y: below and right,
+// z: above and left, w: above and right), which sum to 1, or all zero where the pixel takes
+// nothing. They depend on the pre-rendered surfaces alone, so they are drawn once
+// (fs_spread_weights_*), and a moving frame's spreading passes read them instead of comparing
+// each pixel's surface with its four samples' again.
+@group(0) @binding(34) var reduced_weights: texture_2d_array<f32>;
+
+// Whether the sample `q` of the grid of `stride` holds a value: its pixel is a receiver of the
+// spread `which` (as fs_bounce_gather, fs_loss_gather and fs_shadow_gather find it).
+fn reduced_sample_valid(q: vec2<i32>, stride: i32, which: i32) -> bool {
+    let pixel = reduced_sample_pixel(q, stride);
+    if which == REDUCED_SPREAD_BOUNCE {
+        return receiver_at(pixel, i32(frame.bounce.y)).valid;
+    }
+    if which == REDUCED_SPREAD_LOSS {
+        return receiver_at(pixel, i32(frame.shadow_bounce.w)).valid;
+    }
+    return surface_point(pixel).w >= 0.5;
+}
+
+// The weights of the four samples nearest `pixel` (receiver `r`) of the grid of `stride`:
+// bilinear over those that hold a value and lie on the receiver's surface (renormalised), else
+// all on the one of them whose normal is nearest the receiver's; zero when none holds a value.
+fn spread_weights(pixel: vec2<i32>, r: Receiver, stride: i32, which: i32) -> vec4<f32> {
     let size = vec2<i32>(frame.raster.xy);
     let grid = (size + vec2<i32>(stride - 1)) / stride;
     let at = (vec2<f32>(pixel) - f32(stride / 2)) / f32(stride);
     let base = vec2<i32>(floor(at));
     let f = at - floor(at);
-    var sum = vec4<f32>(0.0);
+    var weights = vec4<f32>(0.0);
     var weight = 0.0;
     var nearest = vec4<f32>(0.0);
     var nearest_cos = -2.0;
@@ -74,37 +100,100 @@ fn spread(pixel: vec2<i32>, r: Receiver, stride: i32) -> vec4<f32> {
         if any(q < vec2<i32>(0)) || any(q >= grid) {
             continue;
         }
-        let sample = textureLoad(reduced_gather, q, 0);
-        if sample.a < 0.5 {
+        if !reduced_sample_valid(q, stride, which) {
             continue;
         }
+        let one = select(vec4<f32>(0.0), vec4<f32>(1.0), vec4<i32>(0, 1, 2, 3) == vec4<i32>(k));
         let sample_pixel = reduced_sample_pixel(q, stride);
         let apart = surface_point(sample_pixel).xyz - r.p;
         let n = normalize(textureLoad(light_layers, sample_pixel, i32(frame.layer_info.z), 0).xyz);
         if dot(n, r.n) > nearest_cos {
             nearest_cos = dot(n, r.n);
-            nearest = sample;
+            nearest = one;
         }
         if dot(n, r.n) < REDUCED_SAME_NORMAL || abs(dot(apart, r.n)) > REDUCED_SAME_PLANE * length(apart) {
             continue;
         }
         let w = select(1.0 - f.x, f.x, corner.x == 1) * select(1.0 - f.y, f.y, corner.y == 1);
-        sum += w * sample;
+        weights += w * one;
         weight += w;
     }
-    return select(nearest, sum / max(weight, 1e-30), weight > 0.0);
+    return select(nearest, weights / max(weight, 1e-30), weight > 0.0);
 }
 
-// fs_bounce with the bounce light spread from the grid, without the light a sphere hides taken
-// from behind it (bounce.wgsl with_bounce_light_alone).
+// The spreading weights of the layer `which` at `pixel` (its stride's), summing to 1, or zero
+// where the pixel takes nothing.
+fn reduced_weights_at(pixel: vec2<i32>, which: i32) -> vec4<f32> {
+    let w = textureLoad(reduced_weights, pixel, which, 0);
+    let total = w.x + w.y + w.z + w.w;
+    return select(vec4<f32>(0.0), w / total, total > 0.0);
+}
+
+// The gathered function at `pixel` (all four channels): its samples of the grid of `stride`
+// times their spreading `weights` (reduced_weights_at).
+fn spread(pixel: vec2<i32>, weights: vec4<f32>, stride: i32) -> vec4<f32> {
+    let size = vec2<i32>(frame.raster.xy);
+    let last = (size + vec2<i32>(stride - 1)) / stride - vec2<i32>(1);
+    let base = vec2<i32>(floor((vec2<f32>(pixel) - f32(stride / 2)) / f32(stride)));
+    // A sample outside the grid has no weight; the clamps keep its load inside.
+    let lo = clamp(base, vec2<i32>(0), last);
+    let hi = clamp(base + vec2<i32>(1), vec2<i32>(0), last);
+    return weights.x * textureLoad(reduced_gather, lo, 0)
+        + weights.y * textureLoad(reduced_gather, vec2<i32>(hi.x, lo.y), 0)
+        + weights.z * textureLoad(reduced_gather, vec2<i32>(lo.x, hi.y), 0)
+        + weights.w * textureLoad(reduced_gather, hi, 0);
+}
+
+// The spreading weights of the layered shadows (REDUCED_SPREAD_SHADOWS), drawn once: a pixel
+// with a surface point takes them, with the layers' normal (zero where they hold none).
 @fragment
-fn fs_bounce_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs_spread_weights_shadows(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let centre = surface_point(pixel);
+    if centre.w < 0.5 {
+        return vec4<f32>(0.0);
+    }
+    var r: Receiver;
+    r.p = centre.xyz;
+    r.n = layer_normal(pixel);
+    r.valid = true;
+    return spread_weights(pixel, r, REDUCED_SHADOW_STRIDE, REDUCED_SPREAD_SHADOWS);
+}
+
+// The spreading weights of the bounce light (REDUCED_SPREAD_BOUNCE), drawn once.
+@fragment
+fn fs_spread_weights_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
     let r = receiver_at(pixel, i32(frame.bounce.y));
     if !r.valid {
+        return vec4<f32>(0.0);
+    }
+    return spread_weights(pixel, r, REDUCED_BOUNCE_STRIDE, REDUCED_SPREAD_BOUNCE);
+}
+
+// The spreading weights of the second bounce's loss (REDUCED_SPREAD_LOSS), drawn once.
+@fragment
+fn fs_spread_weights_loss(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let r = receiver_at(pixel, i32(frame.shadow_bounce.w));
+    if !r.valid {
+        return vec4<f32>(0.0);
+    }
+    return spread_weights(pixel, r, REDUCED_LOSS_STRIDE, REDUCED_SPREAD_LOSS);
+}
+
+// fs_bounce with the bounce light spread from the grid, without the light a sphere hides taken
+// from behind it (bounce.wgsl with_bounce_light_alone, which reads the receiver's albedo alone).
+@fragment
+fn fs_bounce_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(position.xy);
+    let weights = reduced_weights_at(pixel, REDUCED_SPREAD_BOUNCE);
+    if all(weights == vec4<f32>(0.0)) {
         discard;
     }
-    return with_bounce_light_alone(pixel, r, spread(pixel, r, REDUCED_BOUNCE_STRIDE).rgb);
+    var r: Receiver;
+    r.albedo = textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb;
+    return with_bounce_light_alone(pixel, r, spread(pixel, weights, REDUCED_BOUNCE_STRIDE).rgb);
 }
 
 // fs_bounce_spread with the light a sphere hides taken from behind it, found per pixel
@@ -116,18 +205,20 @@ fn fs_bounce_spread_from_behind(@builtin(position) position: vec4<f32>) -> @loca
     if !r.valid {
         discard;
     }
-    return with_bounce_light(pixel, r, spread(pixel, r, REDUCED_BOUNCE_STRIDE).rgb);
+    let weights = reduced_weights_at(pixel, REDUCED_SPREAD_BOUNCE);
+    return with_bounce_light(pixel, r, spread(pixel, weights, REDUCED_BOUNCE_STRIDE).rgb);
 }
 
 // fs_shadow_bounce_taken with the loss spread from the grid.
 @fragment
 fn fs_loss_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let r = receiver_at(pixel, i32(frame.shadow_bounce.w));
-    if !r.valid {
+    let weights = reduced_weights_at(pixel, REDUCED_SPREAD_LOSS);
+    if all(weights == vec4<f32>(0.0)) {
         discard;
     }
-    let taken = r.albedo * spread(pixel, r, REDUCED_LOSS_STRIDE).rgb;
+    let albedo = textureLoad(light_layers, pixel, i32(frame.shadow_bounce.w), 0).rgb;
+    let taken = albedo * spread(pixel, weights, REDUCED_LOSS_STRIDE).rgb;
     let before = textureLoad(backdrop_shadowed, pixel, 0).rgb;
     if all(taken <= before * SHADOW_BOUNCE_NEGLIGIBLE) {
         discard;
@@ -179,15 +270,11 @@ fn fs_shadow_gather(@builtin(position) position: vec4<f32>) -> @location(0) vec4
 @fragment
 fn fs_shadow_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let centre = surface_point(pixel);
-    if centre.w < 0.5 {
+    let weights = reduced_weights_at(pixel, REDUCED_SPREAD_SHADOWS);
+    if all(weights == vec4<f32>(0.0)) {
         discard;
     }
-    var r: Receiver;
-    r.p = centre.xyz;
-    r.n = layer_normal(pixel);
-    r.valid = true;
-    let shadow = spread(pixel, r, REDUCED_SHADOW_STRIDE);
+    let shadow = spread(pixel, weights, REDUCED_SHADOW_STRIDE);
     let shares = array<f32, REDUCED_SHADOW_LIGHTS>(shadow.r, shadow.g, shadow.b);
     var removed = max(shadow.a - 1.0, 0.0) * occludable_indirect(pixel);
     var k = 0u;

@@ -61,8 +61,17 @@ fn pixel_area(direction: vec3<f32>, r: f32, n: vec3<f32>) -> f32 {
     return footprint / obliquity;
 }
 
+// A fine cluster's three texels (see the texture), drawn at once into three targets
+// (compositor/shadow_bounce.rs copies them into the clusters' rows): summing each tile once
+// instead of once per part.
+struct FineCluster {
+    @location(0) flux_area: vec4<f32>,
+    @location(1) position_weight: vec4<f32>,
+    @location(2) normal: vec4<f32>,
+}
+
 // The sums over a fine cluster's tile of the shadows' scissor (see the texture).
-fn fine_cluster(part: u32, cell: vec2<u32>) -> vec4<f32> {
+fn fine_cluster(cell: vec2<u32>) -> FineCluster {
     let rect = shadow_bounce_rect();
     let lo = rect.xy + rect.zw * cell / SHADOW_BOUNCE_FINE;
     let hi = rect.xy + rect.zw * (cell + vec2<u32>(1u)) / SHADOW_BOUNCE_FINE;
@@ -98,15 +107,13 @@ fn fine_cluster(part: u32, cell: vec2<u32>) -> vec4<f32> {
         }
     }
     if weight <= 0.0 {
-        return vec4<f32>(0.0);
+        return FineCluster(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     }
-    if part == 0u {
-        return vec4<f32>(flux, area);
-    }
-    if part == 1u {
-        return vec4<f32>(position_sum / weight, weight);
-    }
-    return vec4<f32>(normal_sum / weight, 0.0);
+    return FineCluster(
+        vec4<f32>(flux, area),
+        vec4<f32>(position_sum / weight, weight),
+        vec4<f32>(normal_sum / weight, 0.0),
+    );
 }
 
 // The sums over a coarse cluster's 4x4 fine clusters (read from the copy of the fine rows).
@@ -141,14 +148,17 @@ fn coarse_cluster(part: u32, cell: vec2<u32>) -> vec4<f32> {
     return vec4<f32>(normal_sum / weight, 0.0);
 }
 
-// One texel of the clusters (see the texture): the fine rows from the shadows' scissor, the
-// coarse rows from the fine ones (drawn in a second pass, after the fine rows were copied).
+// The three texels of the fine cluster at the texel drawn (a FINE x FINE target each).
 @fragment
-fn fs_shadow_bounce_clusters(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs_shadow_bounce_fine_clusters(@builtin(position) position: vec4<f32>) -> FineCluster {
+    return fine_cluster(vec2<u32>(position.xy));
+}
+
+// One texel of the coarse rows (see the texture), from the fine ones (drawn in a second pass,
+// after the fine rows were copied).
+@fragment
+fn fs_shadow_bounce_coarse_clusters(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let texel = vec2<u32>(position.xy);
-    if texel.y < SHADOW_BOUNCE_FINE {
-        return fine_cluster(texel.x / SHADOW_BOUNCE_FINE, vec2<u32>(texel.x % SHADOW_BOUNCE_FINE, texel.y));
-    }
     let cell = vec2<u32>(texel.x % SHADOW_BOUNCE_COARSE, texel.y - SHADOW_BOUNCE_FINE);
     return coarse_cluster(texel.x / SHADOW_BOUNCE_COARSE, cell);
 }
