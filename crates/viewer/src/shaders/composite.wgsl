@@ -433,17 +433,16 @@ fn direct_light_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
                 }
             }
         } else if over_footprint {
-            // Which quadrants' shadow rays reach the light (all without `shadowed`).
+            // Which quadrants' shadow rays meet no scene surface on the way to the light (all
+            // without `shadowed`). Only the scene's occluders count here: whether the light's
+            // cone and the surface's cosine let it reach is each point's own (a quadrant's ray
+            // can leave the cone where some of its points are inside).
             var open = array<f32, 4>(1.0, 1.0, 1.0, 1.0);
             if shadowed {
                 for (var q = 0u; q < 4u; q++) {
                     let at = pixel_footprint_point(frame.footprint_rays[q].xy, n);
                     let toward = light_toward(k, at.p);
-                    var reaches = dot(at.n, toward.l) > 0.0 && !all(toward.e <= vec3<f32>(0.0));
-                    if reaches {
-                        reaches = scene_lets_light(at.p, at.n, toward.l, toward.distance, 0.0);
-                    }
-                    open[q] = select(0.0, 1.0, reaches);
+                    open[q] = select(0.0, 1.0, scene_lets_light(at.p, at.n, toward.l, toward.distance, 0.0));
                 }
             }
             for (var i = 0u; i < 16u; i++) {
