@@ -6,6 +6,7 @@ use super::{Compositor, MAX_LIGHTS};
 /// Most spheres casting shadows with light layers in one frame (further ones cast none).
 pub const MAX_SHADOW_SPHERES: usize = 8;
 use crate::live::{LiveLight, LiveObjects, Material, ShadowSource};
+use crate::pixel_filter::{FOOTPRINT_SAMPLES, footprint, footprint_rays};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
 
@@ -108,6 +109,11 @@ pub(super) struct FrameUniform {
     /// `reflected` slice, the `glossy` slice (`glossy_exponent` the next), each `NO_LAYER`
     /// where no pixel has one.
     pub(super) reflection: [u32; 4],
+    /// The points of a pixel's footprint the lights' direct light on live objects the eye sees
+    /// is integrated over, and their shadow rays' offsets (`pixel_filter::footprint`,
+    /// `footprint_rays`, for the image's pixel filter).
+    pub(super) footprint: [[f32; 4]; FOOTPRINT_SAMPLES],
+    pub(super) footprint_rays: [[f32; 4]; 4],
 }
 
 #[repr(C)]
@@ -296,6 +302,8 @@ impl Compositor {
             } else {
                 [0; 4]
             },
+            footprint: footprint(&self.pixel_filter),
+            footprint_rays: footprint_rays(&self.pixel_filter),
         }
     }
 }

@@ -70,6 +70,8 @@ pub struct Compositor {
     lights: Vec<LiveLight>,
     shadow_light: Option<usize>,
     tone: [f32; 4],
+    /// The image's pixel filter, over whose footprint live objects' direct light is integrated.
+    pixel_filter: crate::pixel_filter::PixelFilter,
     /// The light layers on the GPU (a placeholder without them).
     layers: layers::GpuLayers,
     /// The renderer's irradiance probes on the GPU (placeholders without them): live objects'
@@ -600,6 +602,7 @@ impl Compositor {
             lights,
             shadow_light,
             tone,
+            pixel_filter: scene.pixel_filter(),
             layers: gpu_layers,
             irradiance: gpu_irradiance,
             reflections: gpu_reflections,

@@ -91,6 +91,12 @@ struct Frame {
     // The live spheres seen in the scene's specular reflections (bounce.wgsl): 1 when on, the
     // reflectance layer's slice, the reflected layer's slice.
     reflection: vec4<u32>,
+    // The points of a pixel's footprint (offset in pixels from its centre, the pixel filter's
+    // weight, the quadrant whose shadow ray stands for it) over which the lights' direct light
+    // on live objects the eye sees is integrated, and the quadrants' shadow-ray offsets
+    // (pixel_filter.rs footprint, footprint_rays).
+    footprint: array<vec4<f32>, 16>,
+    footprint_rays: array<vec4<f32>, 4>,
 }
 
 const NO_LAYER: u32 = 0xffffffffu;
@@ -304,6 +310,66 @@ fn light_toward(k: u32, q: vec3<f32>) -> LightToward {
     return LightToward(intensity / dist2, l, sqrt(dist2));
 }
 
+// The footprint of the pixel being shaded on the live surface the eye sees there: the surface
+// to first order around the hit at the pixel centre (point p, unnormalised normal n, their
+// changes per pixel along raster x and y). The ray tracer's pixel is its filter's weighted mean
+// over this footprint, and a spot light's cone edge, a scene object's shadow edge or a small
+// highlight can cross a pixel: shade_with integrates the point, distant and spot lights over it
+// (direct_light_over). Set by the entry points that shade what the eye sees at a pixel centre
+// (fs_sphere, fs_mesh); `on` false everywhere else, e.g. where a surface is shaded as seen in
+// a mirror or for the bounce light, whose directions a pixel's footprint does not describe.
+struct PixelFootprint {
+    on: bool,
+    raster: vec2<f32>,
+    p: vec3<f32>,
+    dp_dx: vec3<f32>,
+    dp_dy: vec3<f32>,
+    n: vec3<f32>,
+    dn_dx: vec3<f32>,
+    dn_dy: vec3<f32>,
+}
+
+var<private> pixel_footprint: PixelFootprint;
+
+// Where the ray through raster position `at` meets the plane through p with normal n, less p:
+// a neighbouring pixel's point on the surface to first order. Rays grazing the plane are held
+// to 8 pixels' width at p's distance, as beyond that the first order says nothing.
+fn tangent_step(at: vec2<f32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let ray = ray_through_raster(at);
+    let along = dot(ray.direction, n);
+    let t = dot(p - ray.origin, n) / select(along, -1e-6, abs(along) < 1e-6);
+    let step = ray.origin + max(t, 0.0) * ray.direction - p;
+    let pixel = max(length(p - ray.origin), 1e-6) * 2.0 * max(frame.raster.z, 1e-6) / frame.raster.y;
+    let limit = 8.0 * select(pixel, (frame.screen_window.y - frame.screen_window.x) / frame.raster.x, frame.raster.w < 0.5);
+    return step * min(1.0, limit / max(length(step), 1e-30));
+}
+
+// The footprint of a sphere (camera-space centre and radius) hit at p through pixel centre
+// `raster`: its normal is (p - c) / r everywhere, so its change is the point's over r.
+fn sphere_footprint(raster: vec2<f32>, p: vec3<f32>, sphere: vec4<f32>) -> PixelFootprint {
+    let n = (p - sphere.xyz) / sphere.w;
+    let dp_dx = tangent_step(raster + vec2<f32>(1.0, 0.0), p, n);
+    let dp_dy = tangent_step(raster + vec2<f32>(0.0, 1.0), p, n);
+    return PixelFootprint(true, raster, p, dp_dx, dp_dy, n, dp_dx / sphere.w, dp_dy / sphere.w);
+}
+
+// The footprint's point at `offset` pixels from its centre: its point, unit normal facing the same side
+// as `n` (the shaded side), and unit direction toward the eye.
+struct PixelFootprintPoint {
+    p: vec3<f32>,
+    n: vec3<f32>,
+    v: vec3<f32>,
+}
+
+fn pixel_footprint_point(offset: vec2<f32>, n: vec3<f32>) -> PixelFootprintPoint {
+    let f = pixel_footprint;
+    let p = f.p + offset.x * f.dp_dx + offset.y * f.dp_dy;
+    var m = normalize(f.n + offset.x * f.dn_dx + offset.y * f.dn_dy);
+    m = select(m, -m, dot(m, n) < 0.0);
+    let ray = ray_through_raster(f.raster + offset);
+    return PixelFootprintPoint(p, m, -normalize(p - ray.origin));
+}
+
 // The lights' direct light at p (normal n, facing v): ambient, the irradiance the diffuse lobe
 // integrates (with the scene's shadows) and the Blinn lobe's (`exponent`) radiance per unit Ks,
 // the latter only `with_specular`.
@@ -319,6 +385,14 @@ fn direct_light(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_sp
 
 // direct_light, with the scene's shadow rays (`shadowed`) or without (every light reaching p).
 fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_specular: bool, shadowed: bool) -> DirectLight {
+    return direct_light_over(p, n, v, exponent, with_specular, shadowed, false);
+}
+
+// direct_light_with; `over_footprint`: the point, distant and spot lights integrated over the
+// pixel's footprint (pixel_footprint, whose centre p is), their unshadowed light at its 16
+// points and the scene's shadows from one ray per quadrant, as the ray tracer's pixel filter
+// averages its samples. Area lights stay at p: their light varies slowly over a pixel.
+fn direct_light_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, with_specular: bool, shadowed: bool, over_footprint: bool) -> DirectLight {
     var ambient = vec3<f32>(0.0);
     var diffuse = vec3<f32>(0.0);
     var specular = vec3<f32>(0.0);
@@ -355,6 +429,32 @@ fn direct_light_with(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
                     diffuse += e * n_dot_l;
                     if with_specular {
                         specular += e * blinn_lobe_cos(n, v, l, exponent);
+                    }
+                }
+            }
+        } else if over_footprint {
+            // Which quadrants' shadow rays meet no scene surface on the way to the light (all
+            // without `shadowed`). Only the scene's occluders count here: whether the light's
+            // cone and the surface's cosine let it reach is each point's own (a quadrant's ray
+            // can leave the cone where some of its points are inside).
+            var open = array<f32, 4>(1.0, 1.0, 1.0, 1.0);
+            if shadowed {
+                for (var q = 0u; q < 4u; q++) {
+                    let at = pixel_footprint_point(frame.footprint_rays[q].xy, n);
+                    let toward = light_toward(k, at.p);
+                    open[q] = select(0.0, 1.0, scene_lets_light(at.p, at.n, toward.l, toward.distance, 0.0));
+                }
+            }
+            for (var i = 0u; i < 16u; i++) {
+                let point = frame.footprint[i];
+                let at = pixel_footprint_point(point.xy, n);
+                let toward = light_toward(k, at.p);
+                let n_dot_l = dot(at.n, toward.l);
+                let weight = point.z * open[u32(point.w + 0.5)];
+                if n_dot_l > 0.0 {
+                    diffuse += weight * toward.e * n_dot_l;
+                    if with_specular {
+                        specular += weight * toward.e * blinn_lobe_cos(at.n, at.v, toward.l, exponent);
                     }
                 }
             }
@@ -466,7 +566,10 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
     // From the map, only the highlights need the lights.
     var lit = DirectLight(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     if !from_map || ks != 0.0 {
-        lit = direct_light_with(p, n, v, exponent, true, !from_map);
+        // Only what the eye sees at the pixel, where its footprint is set, is integrated
+        // over the footprint.
+        let over_footprint = pixel_footprint.on && all(p == pixel_footprint.p);
+        lit = direct_light_over(p, n, v, exponent, true, !from_map, over_footprint && !from_map);
     }
     var diffuse = lit.diffuse;
     var specular = lit.specular * select(1.0, map.a, from_map);
@@ -595,6 +698,7 @@ fn fs_sphere(@builtin(position) position: vec4<f32>) -> LiveOut {
     let p = hit.xyz;
     let n = (p - frame.sphere.xyz) / frame.sphere.w;
     loss_map_row = 0;
+    pixel_footprint = sphere_footprint(position.xy, p, frame.sphere);
     var out: LiveOut;
     out.colour = to_image_units(shade_cursor_sphere(p, n, ray_through_raster(position.xy).direction));
     out.mask = vec4<f32>(1.0);
@@ -635,5 +739,15 @@ fn mesh_colour(in: MeshVertexOut) -> vec4<f32> {
 
 @fragment
 fn fs_mesh(in: MeshVertexOut) -> MeshFragmentOut {
+    // The footprint from the interpolated point's and normal's changes across the pixel quad
+    // (uniform control flow here, as derivatives need).
+    let dp_dx = dpdxFine(in.p_camera);
+    let dp_dy = dpdyFine(in.p_camera);
+    let dn_dx = dpdxFine(in.n_camera);
+    let dn_dy = dpdyFine(in.n_camera);
+    let n = normalize(in.n_camera);
+    // The normal's change, for the unit normal (the varying is not normalised).
+    let scale = 1.0 / max(length(in.n_camera), 1e-30);
+    pixel_footprint = PixelFootprint(true, in.position.xy, in.p_camera, dp_dx, dp_dy, n, dn_dx * scale, dn_dy * scale);
     return MeshFragmentOut(mesh_colour(in), vec4<f32>(1.0));
 }
