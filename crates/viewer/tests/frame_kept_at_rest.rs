@@ -65,12 +65,15 @@ fn settings(mode: CompositeMode) -> CompositorSettings {
 }
 
 /// A frame's linear colour and mask.
-fn frame_of(c: &Compositor) -> (Vec<f32>, Vec<u8>) {
+type Frame = (Vec<f32>, Vec<u8>);
+
+/// `c`'s last frame.
+fn frame_of(c: &Compositor) -> Frame {
     (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask)
 }
 
 /// The frame a fresh compositor in `mode` draws of `live`.
-fn fresh(scene: &ViewerScene, mode: CompositeMode, live: &LiveObjects) -> (Vec<f32>, Vec<u8>) {
+fn fresh(scene: &ViewerScene, mode: CompositeMode, live: &LiveObjects) -> Frame {
     let mut c = Compositor::new(&gpu(), scene, settings(mode)).unwrap();
     c.render(live).unwrap();
     frame_of(&c)
@@ -78,7 +81,7 @@ fn fresh(scene: &ViewerScene, mode: CompositeMode, live: &LiveObjects) -> (Vec<f
 
 /// Renders `live` with its passes timed: whether the frame was the one kept at rest (it timed
 /// that alone), and the frame.
-fn render_timed(c: &mut Compositor, live: &LiveObjects) -> (bool, (Vec<f32>, Vec<u8>)) {
+fn render_timed(c: &mut Compositor, live: &LiveObjects) -> (bool, Frame) {
     let (before, _) = c.pass_times();
     c.set_pass_timing(true);
     c.render(live).unwrap();
@@ -117,7 +120,7 @@ fn the_frame_kept_at_rest_equals_a_fresh_one() {
 fn a_move_or_a_new_mode_draws_the_frame_again() {
     let scene = scene();
     let mut c = Compositor::new(&gpu(), &scene, settings(CompositeMode::Fullscreen)).unwrap();
-    let drawn: Vec<(bool, (Vec<f32>, Vec<u8>))> =
+    let drawn: Vec<(bool, Frame)> =
         [HERE, HERE, THERE, THERE, THERE].iter().map(|&at| render_timed(&mut c, &sphere(at))).collect();
     let kept: Vec<bool> = drawn.iter().map(|d| d.0).collect();
     assert_eq!(kept, [false, true, false, false, true], "which frames were kept");

@@ -147,7 +147,11 @@ impl Compositor {
         // alone.
         let mut finished_key = rest_key.clone();
         finished_key.extend_from_slice(self.settings.mode.name().as_bytes());
-        if at_rest && !moving && settling.is_none() && self.finished_from.is_current(&uniform, &finished_key)
+        if self.settings.keep_frame_at_rest
+            && at_rest
+            && !moving
+            && settling.is_none()
+            && self.finished_from.is_current(&uniform, &finished_key)
         {
             lap(&mut encoder, "the frame kept at rest");
             if timing.on {
