@@ -11,7 +11,9 @@
 //! work), steadier than wall time on a shared machine; and the lit frames at rest and moving
 //! with the room's walls bound as the scene's triangles and a reflection probe, without and with
 //! the walls' materials (`-no-near-field`, `-near-field`: what `hybrid-view` binds with
-//! `--no-near-field` and by default).
+//! `--no-near-field` and by default). A frame at rest with the last exact frame's inputs is kept
+//! (`CompositorSettings::keep_frame_at_rest`), which the plain frames turn off (the baseline
+//! draws every frame) and `fullscreen-lit-rest-drawn-near-field` too (the first frame at rest).
 //!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md);
 //! `FRAME_PASS_TIMES=lit-moving cargo bench -p viewer --bench frame -- frame-cpu/` also prints
