@@ -11,7 +11,9 @@
 //! work), steadier than wall time on a shared machine; and the lit frames at rest and moving
 //! with the room's walls bound as the scene's triangles and a reflection probe, without and with
 //! the walls' materials (`-no-near-field`, `-near-field`: what `hybrid-view` binds with
-//! `--no-near-field` and by default).
+//! `--no-near-field` and by default). A frame at rest with the last exact frame's inputs is kept
+//! (`CompositorSettings::keep_frame_at_rest`), which the plain frames turn off (the baseline
+//! draws every frame) and `fullscreen-lit-rest-drawn-near-field` too (the first frame at rest).
 //!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md);
 //! `FRAME_PASS_TIMES=lit-moving cargo bench -p viewer --bench frame -- frame-cpu/` also prints
@@ -190,9 +192,9 @@ fn frame_time(c: &mut Criterion) {
     for size in [512u32, 2048] {
         let scene = room(size);
         for mode in [CompositeMode::Points, CompositeMode::Fullscreen] {
-            let mut compositor =
-                Compositor::new(&gpu, &scene, CompositorSettings { mode, ..CompositorSettings::default() })
-                    .expect("compositor");
+            let settings =
+                CompositorSettings { mode, keep_frame_at_rest: false, ..CompositorSettings::default() };
+            let mut compositor = Compositor::new(&gpu, &scene, settings).expect("compositor");
             // The first frame uploads the point cloud; keep it out of the measurement.
             compositor.render(&live).expect("render");
             compositor.wait_idle().expect("wait");
@@ -213,6 +215,7 @@ fn frame_time(c: &mut Criterion) {
         {
             let settings = CompositorSettings {
                 shadows: if shadows { CompositorSettings::default().shadows } else { None },
+                keep_frame_at_rest: false,
                 ..CompositorSettings::default()
             };
             let mut compositor = Compositor::new(&gpu, &scene, settings).expect("compositor");
@@ -325,7 +328,10 @@ fn cpu_frame_time(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(10));
     let plain = room(512);
-    let mut compositor = Compositor::new(&gpu, &plain, CompositorSettings::default()).expect("compositor");
+    // The plain frame draws every frame, as it did when issue 10 took its time as the baseline:
+    // kept at rest (the default since 2026-11-27) it would cost next to nothing.
+    let keep_off = CompositorSettings { keep_frame_at_rest: false, ..CompositorSettings::default() };
+    let mut compositor = Compositor::new(&gpu, &plain, keep_off).expect("compositor");
     let live = sphere_at(0);
     bench_cpu(&mut group, "fullscreen/512", || {
         compositor.render(&live).expect("render");
@@ -358,6 +364,22 @@ fn cpu_frame_time(c: &mut Criterion) {
         if std::env::var("FRAME_PASS_TIMES").is_ok_and(|names| names.split(',').any(|n| n == name)) {
             print_pass_times(&mut compositor, &name, moving, &mut frame);
         }
+    }
+    // The frame at rest with the scene's triangles and materials bound drawn every frame, as the
+    // first frame after a move draws it (`lit-rest-drawn-near-field`).
+    let settings = CompositorSettings { amortise_while_moving: false, keep_frame_at_rest: false, ..keep_off };
+    let mut compositor = Compositor::new(&gpu, &near, settings).expect("compositor");
+    compositor.render(&sphere_at(0)).expect("render");
+    compositor.wait_idle().expect("wait");
+    bench_cpu(&mut group, "fullscreen-lit-rest-drawn-near-field/512", || {
+        compositor.render(&sphere_at(0)).expect("render");
+        compositor.wait_idle().expect("wait");
+    });
+    let mut frame = 0;
+    if std::env::var("FRAME_PASS_TIMES")
+        .is_ok_and(|names| names.split(',').any(|n| n == "lit-rest-drawn-near-field"))
+    {
+        print_pass_times(&mut compositor, "lit-rest-drawn-near-field", false, &mut frame);
     }
     group.finish();
 }

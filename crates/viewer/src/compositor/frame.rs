@@ -139,6 +139,29 @@ impl Compositor {
         let lap = |encoder: &mut wgpu::CommandEncoder, pass: &'static str| {
             timing.lap(&self.gpu.device, &self.gpu.queue, encoder, pass)
         };
+        // A frame at rest with the inputs and compositing mode of the last exact frame is that
+        // frame, which the targets (colour, mask, depth and the encoded frame) still hold, as
+        // nothing but `render` draws into them: nothing is drawn again. Most of such a frame's
+        // cost is the live objects' exact shading (with the scene's triangles bound, hundreds
+        // of shadow rays a fragment toward each area light), which depends on these inputs
+        // alone.
+        let mut finished_key = rest_key.clone();
+        finished_key.extend_from_slice(self.settings.mode.name().as_bytes());
+        if self.settings.keep_frame_at_rest
+            && at_rest
+            && !moving
+            && settling.is_none()
+            && self.finished_from.is_current(&uniform, &finished_key)
+        {
+            lap(&mut encoder, "the frame kept at rest");
+            if timing.on {
+                timing.frames.set(timing.frames.get() + 1);
+            }
+            self.gpu.queue.submit([encoder.finish()]);
+            return self.gpu.take_errors();
+        }
+        // Whether this frame is exact (what a fresh compositor draws of these inputs).
+        let mut exact = at_rest && !moving;
         // Live objects drawn with the backdrop read their near-field maps drawn before it (the
         // maps read the backdrop after shadows only with shadows on, which keeps that copy).
         if live_drawn && !keep_shadowed {
@@ -228,6 +251,7 @@ impl Compositor {
             let settled = settling.is_none_or(|step| settle.finish(step));
             if self.shadow_bounce_settled(&uniform) && !moving && settled {
                 self.shadowed_from.renew(&uniform, &rest_key);
+                exact = true;
             } else {
                 self.shadowed_from.forget();
             }
@@ -249,6 +273,11 @@ impl Compositor {
         }
         self.encode.record(&mut encoder, &self.frame_view);
         lap(&mut encoder, "display encoding");
+        if exact {
+            self.finished_from.renew(&uniform, &finished_key);
+        } else {
+            self.finished_from.forget();
+        }
         if timing.on {
             timing.frames.set(timing.frames.get() + 1);
         }

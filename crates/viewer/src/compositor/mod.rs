@@ -123,6 +123,9 @@ pub struct Compositor {
     /// bounce of in full (empty: none): a frame with the same inputs copies it back instead of
     /// drawing them again.
     shadowed_from: DrawnFrom,
+    /// The inputs (and compositing mode) of the last exact frame, which the frame's targets
+    /// still hold (empty: none): a frame at rest with the same inputs is that frame (frame.rs).
+    finished_from: DrawnFrom,
     /// The live spheres' own-shadow loss maps (binding 14).
     loss_maps: loss_map::LossMaps,
     /// The live spheres' near field and traced glossy lobes (binding 32).
@@ -639,6 +642,7 @@ impl Compositor {
             depth_storage,
             shadowed_texture,
             shadowed_from: DrawnFrom::default(),
+            finished_from: DrawnFrom::default(),
             loss_maps,
             near_field_maps,
             bounce,

@@ -135,6 +135,10 @@ pub struct CompositorSettings {
     /// are shaded (the reference the map is tested against). The frame at rest is exact either
     /// way.
     pub cursor_map_while_moving: bool,
+    /// A frame at rest with the inputs of the last exact frame draws nothing: the frame's
+    /// targets still hold that frame (`compositor/frame.rs`); `false` draws every frame (the
+    /// frame bench's plain frame, the baseline issue 10's ratio is taken against).
+    pub keep_frame_at_rest: bool,
 }
 
 impl Default for CompositorSettings {
@@ -154,6 +158,7 @@ impl Default for CompositorSettings {
             reduce_while_moving: true,
             settle_at_rest: false,
             cursor_map_while_moving: true,
+            keep_frame_at_rest: true,
         }
     }
 }

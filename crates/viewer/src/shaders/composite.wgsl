@@ -413,8 +413,10 @@ fn direct_light_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
             // The radiance each sample carries (compositor/lighting.rs).
             let radiance = light.params.rgb;
             var clear = 1.0;
+            var leaves = ConeLeaves(array<u32, CONE_LEAVES>(0u, 0u, 0u, 0u), 0u, false);
             if shadowed {
                 clear = scene_clear_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
+                leaves = scene_leaves_toward(p, n, light.position.xyz, bitcast<f32>(slot.w));
             }
             for (var i = 0u; i < sample_count; i++) {
                 let s = area_sample_toward(slot.y + i, p);
@@ -422,7 +424,7 @@ fn direct_light_over(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, wi
                 let n_dot_l = dot(n, l);
                 var lit = n_dot_l > 0.0 && s.cos_e > 0.0;
                 if lit && shadowed {
-                    lit = scene_lets_light(p, n, l, sqrt(s.dist2), clear);
+                    lit = scene_lets_light_among(p, n, l, sqrt(s.dist2), clear, leaves);
                 }
                 if lit {
                     let e = radiance * (s.weight * s.cos_e / s.dist2);

@@ -217,6 +217,116 @@ fn scene_clear_toward(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, bound: f32)
     return max(cut, 0.0) / d;
 }
 
+// The most leaves of the scene's hierarchy scene_leaves_toward lists.
+const CONE_LEAVES: u32 = 4u;
+
+// The leaves of the scene's hierarchy that a light's samples' shadow rays from one point can
+// meet (scene_leaves_toward): `count` node indices within the hierarchy; `listed` false where
+// there are more than CONE_LEAVES of them, or the hierarchy is too deep to follow, and each ray
+// traverses the whole hierarchy instead.
+struct ConeLeaves {
+    node: array<u32, CONE_LEAVES>,
+    count: u32,
+    listed: bool,
+}
+
+// Every leaf whose box a segment from live-object point p (normal n, the rays' origin as
+// scene_lets_light offsets it) to a point within `bound` of `centre` can enter: the cone of
+// scene_clear_toward over the whole length of the segments, each box widened by the cone's
+// radius (narrowed in the same three steps) and by a margin for rounding. A ray through
+// scene_lets_light_among then tests these leaves alone, with the same slab and triangle tests as
+// bvh_blocks: a leaf's ancestors' boxes hold its own, so a ray that passes a leaf's slab test
+// passes theirs, and a leaf no segment enters is one whose slab test no ray passes. So each ray's
+// answer is bvh_blocks', without a traversal from the root for each of a light's many samples.
+fn scene_leaves_toward(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, bound: f32) -> ConeLeaves {
+    var leaves = ConeLeaves(array<u32, CONE_LEAVES>(0u, 0u, 0u, 0u), 0u, false);
+    let bvh = frame.scene_occluders;
+    let eps = ray_offset(p);
+    let origin = p + n * eps;
+    let to_centre = centre - origin;
+    let d = length(to_centre);
+    if bvh.z == 0u || !(d > 0.0) {
+        return leaves;
+    }
+    // The rays run from origin toward the samples moved by n * eps (scene_lets_light), so within
+    // bound + eps of the centre; widened further for rounding.
+    let reach = (bound + eps) * (1.0 + 1e-3) + eps;
+    let end = d + reach;
+    let dir = to_centre / d;
+    let slope = reach / d;
+    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
+    var stack: array<u32, OCCLUDER_STACK>;
+    stack[0] = 0u;
+    var top = 1u;
+    while top > 0u {
+        top -= 1u;
+        let node = stack[top];
+        let k = bvh.x + node;
+        let lo = occluder_nodes[2u * k].xyz;
+        let hi = occluder_nodes[2u * k + 1u];
+        var range = slab(origin, inv, lo, hi.xyz, slope * end + eps, 0.0, end);
+        for (var step = 0; step < 3 && range.x <= range.y; step++) {
+            range = slab(origin, inv, lo, hi.xyz, slope * range.y + eps, 0.0, range.y);
+        }
+        if range.x > range.y {
+            continue;
+        }
+        if bitcast<u32>(hi.w) != 0u {
+            if leaves.count == CONE_LEAVES {
+                return leaves;
+            }
+            leaves.node[leaves.count] = node;
+            leaves.count += 1u;
+            continue;
+        }
+        if top + 2u > OCCLUDER_STACK {
+            return leaves;
+        }
+        let a = bitcast<u32>(occluder_nodes[2u * k].w);
+        stack[top] = a;
+        stack[top + 1u] = a + 1u;
+        top += 2u;
+    }
+    leaves.listed = true;
+    return leaves;
+}
+
+// scene_lets_light for a ray toward one of the samples `leaves` (scene_leaves_toward) was listed
+// for: the same answer, from those leaves alone when they are listed.
+fn scene_lets_light_among(p: vec3<f32>, n: vec3<f32>, dir: vec3<f32>, distance: f32, clear: f32, leaves: ConeLeaves) -> bool {
+    if !leaves.listed {
+        return scene_lets_light(p, n, dir, distance, clear);
+    }
+    let bvh = frame.scene_occluders;
+    let eps = ray_offset(p);
+    let origin = p + n * eps;
+    let t_min = clear * distance;
+    let t_max = distance * (1.0 - 1e-4) - eps;
+    // bvh_blocks' slab and triangle tests, leaf by leaf.
+    let inv = select(1.0 / dir, vec3<f32>(1e30), abs(dir) < vec3<f32>(1e-30));
+    var blocked = false;
+    for (var j = 0u; j < leaves.count && !blocked; j++) {
+        let k = bvh.x + leaves.node[j];
+        let lo = occluder_nodes[2u * k];
+        let hi = occluder_nodes[2u * k + 1u];
+        let t0 = (lo.xyz - origin) * inv;
+        let t1 = (hi.xyz - origin) * inv;
+        let tn = min(t0, t1);
+        let tf = max(t0, t1);
+        let near = max(max(tn.x, tn.y), max(tn.z, t_min));
+        let far = min(min(tf.x, tf.y), min(tf.z, t_max));
+        if near <= far {
+            let first = bvh.y + bitcast<u32>(lo.w);
+            let count = bitcast<u32>(hi.w);
+            for (var i = first; i < first + count; i++) {
+                let t = occluder_triangle_t(i, origin, dir);
+                blocked = blocked || (t > t_min && t < t_max);
+            }
+        }
+    }
+    return !blocked;
+}
+
 // Whether a live mesh blocks the segment from pre-rendered surface point p along unit dir up
 // to max_t. Meshes that are exact spheres cast their shadow as spheres instead.
 fn live_mesh_blocks(p: vec3<f32>, dir: vec3<f32>, max_t: f32) -> bool {
