@@ -357,7 +357,8 @@ fn frame_time(
     write(&live, &live_rib(&scene.placements[0], MATERIALS[1].1))?;
     let mut cmd = Command::new(viewer);
     cmd.arg(&image).arg(&depth).arg(dir.join(format!("{name}.rib"))).arg("--live").arg(&live);
-    cmd.args(["--headless", "--frames", "20", "--stats"]).args(viewer_args);
+    // Every frame drawn: a still sphere's frames after the first are otherwise kept as drawn.
+    cmd.args(["--headless", "--frames", "20", "--stats", "--redraw-at-rest"]).args(viewer_args);
     let r = run_measured(&mut cmd)?;
     if !r.success {
         return Err(format!("hybrid-view failed:\n{}", r.stderr));

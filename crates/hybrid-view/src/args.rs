@@ -86,6 +86,12 @@ pub struct Args {
     /// frame.
     #[arg(long)]
     pub settle_in_one_frame: bool,
+    /// Draw every frame, also a frame at rest whose inputs are the last exact frame's. By
+    /// default such a frame is kept as drawn (nothing changed); `--frames N --stats` then times
+    /// the kept frames, and this flag times the frame drawn in full (`cargo xtask illusion`'s
+    /// frame times).
+    #[arg(long)]
+    pub redraw_at_rest: bool,
     /// Accepted for compatibility: the near field and the glossy lobes traced through the scene
     /// are on by default (`--no-near-field` turns them off).
     #[arg(long, conflicts_with = "no_near_field")]
@@ -240,6 +246,9 @@ pub struct Settings {
     /// The frames at rest after a move made exact over several frames (`--settle-in-one-frame`
     /// clears it).
     pub settle_at_rest: bool,
+    /// A frame at rest with the last exact frame's inputs kept as drawn (`--redraw-at-rest`
+    /// clears it).
+    pub keep_frame_at_rest: bool,
     /// The near field from the scene surfaces' own materials (`--no-near-field` clears it).
     pub near_field: bool,
     pub depth_settings: DepthSettings,
@@ -310,6 +319,7 @@ impl Args {
             amortise_while_moving: !self.exact_while_moving,
             reduce_while_moving: !self.full_resolution_while_moving,
             settle_at_rest: !self.settle_in_one_frame,
+            keep_frame_at_rest: !self.redraw_at_rest,
             near_field: !self.no_near_field,
             depth_settings,
             backends,
@@ -420,6 +430,8 @@ mod tests {
         assert!(!parse(&["--full-resolution-while-moving"]).unwrap().reduce_while_moving);
         assert!(s.settle_at_rest, "the frames at rest after a move settle over several frames");
         assert!(!parse(&["--settle-in-one-frame"]).unwrap().settle_at_rest);
+        assert!(s.keep_frame_at_rest, "a frame at rest with unchanged inputs is kept by default");
+        assert!(!parse(&["--redraw-at-rest"]).unwrap().keep_frame_at_rest);
         assert!(s.near_field, "the near field is on by default");
         assert!(parse(&["--near-field"]).unwrap().near_field, "--near-field is still accepted");
         assert!(!parse(&["--no-near-field"]).unwrap().near_field);

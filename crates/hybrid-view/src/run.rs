@@ -127,7 +127,7 @@ pub fn prepare(settings: &Settings) -> Result<Prepared, Failure> {
         reduce_while_moving: settings.reduce_while_moving,
         settle_at_rest: settings.settle_at_rest,
         cursor_map_while_moving: true,
-        keep_frame_at_rest: true,
+        keep_frame_at_rest: settings.keep_frame_at_rest,
     };
     Ok(Prepared { scene, compositor, live, bounds, skipped, rib, near_field: settings.near_field })
 }
