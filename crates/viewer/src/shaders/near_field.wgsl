@@ -77,9 +77,11 @@ fn near_direct_light(y: vec3<f32>, m: vec3<f32>, w: vec3<f32>, exponent: f32) ->
 // camera-space y, unit normal m facing the live fragment, sends toward it along unit w (from y
 // to the fragment): its diffuse lobe over the lights' direct light (near_direct_light) and
 // the probes' irradiance at y less the live spheres' occlusion of it, its ambient term, its
-// glossy lobe's highlights of the lights toward w, and a shader's own emission. Area lights'
-// emission is the lights' direct light on the fragment already, and the probes' light in the
-// surface's glossy lobe is left out.
+// glossy lobe's highlights of the lights toward w and its reflection of the probes' light, and
+// a shader's own emission. Area lights' emission is the lights' direct light on the fragment
+// already. A metal beside a live object sends it the scene it reflects (the room's gold
+// cylinder warms a sphere's side facing it in the ray tracer's image, where the lobe's
+// highlights alone left that side dark).
 fn near_surface_radiance(material: u32, y: vec3<f32>, m: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
     let base = 1u + 4u * material;
     let diffuse = scene_materials[base];
@@ -91,7 +93,15 @@ fn near_surface_radiance(material: u32, y: vec3<f32>, m: vec3<f32>, w: vec3<f32>
     let m_world = normalize((frame.world_from_camera * vec4<f32>(m, 0.0)).xyz);
     let e = lit.diffuse + field_irradiance(y_world, m_world) * near_field_unoccluded(y, m);
     let cos_o = clamp(dot(m, w), 0.0, 1.0);
-    return diffuse.rgb / PI * e + ambient.rgb * lit.ambient + glossy.rgb * lit.specular
+    // The probes' radiance at y from the lobe's centre, the mirror direction of w: the SH's
+    // band limit blurs it as a rough lobe would. The lobe's albedo is taken as 1, the ray
+    // tracer's Blinn lobe being normalised (its albedo falls below 1 only toward grazing).
+    var reflected = vec3<f32>(0.0);
+    if any(glossy.rgb > vec3<f32>(0.0)) {
+        let r_world = normalize((frame.world_from_camera * vec4<f32>(reflect(-w, m), 0.0)).xyz);
+        reflected = sh_radiance(field_radiance_sh(y_world, m_world), r_world) * near_field_unoccluded(y, m);
+    }
+    return diffuse.rgb / PI * e + ambient.rgb * lit.ambient + glossy.rgb * (lit.specular + reflected)
         + emission.rgb * (emission.w + ambient.w * cos_o * cos_o);
 }
 

@@ -322,20 +322,26 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     // direction from a surface close to others meets points the probes around p do not see (the
     // floor behind a neighbour, a crevice): read from p's probes toward such a point, they show
     // the neighbour in front of it.
+    // A traced direction that meets a glossy scene surface takes that surface's radiance toward
+    // p from its own material (own_radiance, w 1): the probes saw its highlights and reflections
+    // from their own points.
     var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
     var traced: array<bool, GLOSSY_SAMPLES>;
+    var own_radiance: array<vec4<f32>, GLOSSY_SAMPLES>;
     let p_camera = camera_point_of(p);
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         traced[i] = false;
+        own_radiance[i] = vec4<f32>(0.0);
         if weights[i] > 0.0 {
             hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
-            var first = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+            var first = SceneHit(vec3<f32>(0.0), -1.0, vec3<f32>(0.0), 0u);
             if traced_hits {
                 first = scene_hit_world(p_camera, p, directions[i].xyz);
             }
-            if first.w >= 0.0 {
-                hits[i] = first.xyz;
+            if first.distance >= 0.0 {
+                hits[i] = first.at;
                 traced[i] = true;
+                own_radiance[i] = glossy_surface_radiance(p_camera, first);
             }
         }
     }
@@ -345,7 +351,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     var kept: array<vec3<f32>, GLOSSY_SAMPLES>;
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         kept[i] = vec3<f32>(1.0);
-        if frame.counts.y == 1u && weights[i] > 0.0 {
+        if frame.counts.y == 1u && weights[i] > 0.0 && own_radiance[i].w < 0.5 {
             if traced[i] {
                 kept[i] = vec3<f32>(1.0) - live_share_at_point(hits[i]);
             } else {
@@ -365,7 +371,9 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
         return vec3<f32>(0.0);
     }
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
-        if weights[i] > 0.0 {
+        if own_radiance[i].w > 0.5 {
+            sum += weights[i] * own_radiance[i].rgb;
+        } else if weights[i] > 0.0 {
             var hit_grid = grid;
             var from_hit_cell = false;
             if traced[i] {
@@ -416,17 +424,55 @@ fn probe_sees_hit(cell: vec3<u32>, x: vec3<f32>) -> bool {
     return 0.8 * d <= probe_distance_toward(probe_index(cell), to_x / d);
 }
 
+// Where a ray first meets the tessellated scene: the world point, its distance in camera units
+// (-1 where the ray leaves the scene or the viewer has no triangles), the ray's unit
+// camera-space direction and the triangle.
+struct SceneHit {
+    at: vec3<f32>,
+    distance: f32,
+    dir: vec3<f32>,
+    triangle: u32,
+}
+
 // The first triangle of the tessellated scene along unit world direction l from world point p
-// (camera-space p_camera): xyz the world point, w its distance in camera units, -1 where the
-// ray leaves the scene or the viewer has no triangles.
-fn scene_hit_world(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> vec4<f32> {
+// (camera-space p_camera).
+fn scene_hit_world(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> SceneHit {
     let dir = normalize(camera_point_of(p + l) - p_camera);
-    let first = scene_first_hit(p_camera, dir, 3.0e38);
-    if first.w < 0.0 {
-        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    let hit = bvh_nearest(frame.scene_occluders, p_camera, dir, 0.0, 3.0e38);
+    if frame.scene_occluders.z == 0u || !(hit.t < 3.0e38) {
+        return SceneHit(vec3<f32>(0.0), -1.0, dir, 0u);
     }
-    let at = (frame.world_from_camera_point * vec4<f32>(p_camera + first.w * dir, 1.0)).xyz;
-    return vec4<f32>(at, first.w);
+    let at = (frame.world_from_camera_point * vec4<f32>(p_camera + hit.t * dir, 1.0)).xyz;
+    return SceneHit(at, hit.t, dir, hit.triangle);
+}
+
+// The radiance a traced lobe direction's hit sends back along the ray to camera-space
+// p_camera when the scene's materials are bound and the hit's material has a glossy lobe (and is
+// no mirror or glass), w 1; else w 0 (the reflection probes' radiance serves). A glossy
+// surface's radiance depends on the direction it is seen from: a reflection probe reads the
+// highlights and reflections it shows toward the probe, not toward p (room given2: the red
+// plastic sphere beside a live sphere sent its side 0.02-0.03 too much grey in G and B, and the
+// gold metal cylinder on the other side too little warm light). Its own material gives it
+// (near_surface_radiance: the lights' direct light and highlights toward p, the irradiance
+// probes' diffuse light and their light the lobe reflects from the mirror direction), with the
+// live objects' shadows on it.
+fn glossy_surface_radiance(p_camera: vec3<f32>, hit: SceneHit) -> vec4<f32> {
+    let count = u32(scene_materials[0].x);
+    let tag = bitcast<u32>(occluder_triangles[3u * hit.triangle].w);
+    if tag < 1u || tag > count || frame.counts.w != 1u {
+        return vec4<f32>(0.0);
+    }
+    let material = tag - 1u;
+    let glossy = scene_materials[1u + 4u * material + 1u];
+    if glossy.w > 0.5 || !any(glossy.rgb > vec3<f32>(0.0)) {
+        return vec4<f32>(0.0);
+    }
+    let e1 = occluder_triangles[3u * hit.triangle + 1u].xyz;
+    let e2 = occluder_triangles[3u * hit.triangle + 2u].xyz;
+    var m = normalize(cross(e1, e2));
+    m = select(m, -m, dot(m, hit.dir) > 0.0);
+    let y = p_camera + hit.distance * hit.dir;
+    return vec4<f32>(near_surface_radiance(material, y, m, -hit.dir), 1.0);
 }
 
 // Where the ray p + t r meets the surface a probe's distance map describes (world space; the
