@@ -322,20 +322,31 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     // direction from a surface close to others meets points the probes around p do not see (the
     // floor behind a neighbour, a crevice): read from p's probes toward such a point, they show
     // the neighbour in front of it.
+    // Traced, a direction that meets a mirror follows it (specular_chain): its point
+    // is then where the chain ends, and its radiance carries the chain's weight; a chain that
+    // leaves the scene reads p's probes in its last direction.
     var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
     var traced: array<bool, GLOSSY_SAMPLES>;
+    var chain_weights: array<vec3<f32>, GLOSSY_SAMPLES>;
+    var escaped: array<bool, GLOSSY_SAMPLES>;
     let p_camera = camera_point_of(p);
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         traced[i] = false;
+        chain_weights[i] = vec3<f32>(1.0);
+        escaped[i] = false;
         if weights[i] > 0.0 {
             hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
-            var first = vec4<f32>(0.0, 0.0, 0.0, -1.0);
             if traced_hits {
-                first = scene_hit_world(p_camera, p, directions[i].xyz);
-            }
-            if first.w >= 0.0 {
-                hits[i] = first.xyz;
-                traced[i] = true;
+                let chain = specular_chain(p_camera, p, directions[i].xyz);
+                if chain.ended > 0.5 {
+                    hits[i] = chain.point;
+                    traced[i] = true;
+                    chain_weights[i] = chain.weight;
+                } else if chain.ended > -0.5 {
+                    directions[i] = vec4<f32>(chain.direction, directions[i].w);
+                    chain_weights[i] = chain.weight;
+                    escaped[i] = true;
+                }
             }
         }
     }
@@ -345,7 +356,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     var kept: array<vec3<f32>, GLOSSY_SAMPLES>;
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         kept[i] = vec3<f32>(1.0);
-        if frame.counts.y == 1u && weights[i] > 0.0 {
+        if frame.counts.y == 1u && weights[i] > 0.0 && !escaped[i] {
             if traced[i] {
                 kept[i] = vec3<f32>(1.0) - live_share_at_point(hits[i]);
             } else {
@@ -391,13 +402,13 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
                 if w > 0.0 {
                     let to_hit = hits[i] - probe_position(cell);
                     let len = length(to_hit);
-                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
+                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0 && !escaped[i]);
                     radiance += w * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe_index(cell), directions[i].w).rgb;
                     radiance_weight += w;
                 }
             }
             if radiance_weight > 0.0 {
-                sum += weights[i] * kept[i] * radiance / radiance_weight;
+                sum += weights[i] * kept[i] * chain_weights[i] * radiance / radiance_weight;
             }
         }
     }
@@ -414,19 +425,6 @@ fn probe_sees_hit(cell: vec3<u32>, x: vec3<f32>) -> bool {
         return true;
     }
     return 0.8 * d <= probe_distance_toward(probe_index(cell), to_x / d);
-}
-
-// The first triangle of the tessellated scene along unit world direction l from world point p
-// (camera-space p_camera): xyz the world point, w its distance in camera units, -1 where the
-// ray leaves the scene or the viewer has no triangles.
-fn scene_hit_world(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> vec4<f32> {
-    let dir = normalize(camera_point_of(p + l) - p_camera);
-    let first = scene_first_hit(p_camera, dir, 3.0e38);
-    if first.w < 0.0 {
-        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
-    }
-    let at = (frame.world_from_camera_point * vec4<f32>(p_camera + first.w * dir, 1.0)).xyz;
-    return vec4<f32>(at, first.w);
 }
 
 // Where the ray p + t r meets the surface a probe's distance map describes (world space; the
