@@ -221,7 +221,6 @@ mod tests {
                     Lobe::Blinn { ks, exponent: e } => (glossy, exponent) = (ks, e),
                     Lobe::SpecularReflection { r } => (specular, reflect) = (true, r),
                     Lobe::Dielectric { eta: e, .. } => (specular, eta) = (true, e),
-                    _ => specular = true,
                 }
             }
             assert!(
