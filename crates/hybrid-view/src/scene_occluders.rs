@@ -100,7 +100,8 @@ fn conserve(a: Vec3, b: Vec3) -> (Vec3, Vec3) {
 
 /// A shape's surface shader as the ray tracer's BSDF has it (`raytracer::materials`): the
 /// Lambertian and Blinn lobes' reflectances, `Ka * Cs`, and `constant`'s and
-/// `defaultsurface`'s own emission; `mirror` and `glass` are marked specular. Textures
+/// `defaultsurface`'s own emission; `mirror` and `glass` are marked specular, a mirror with
+/// its reflection's weight and glass with its `eta`, as the ray tracer has them. Textures
 /// (`paintedplastic`, `shinymetal`'s environment) are left out: the colour is `Cs` alone, and
 /// `shinymetal`'s mirror lobe too. Unknown shaders are `matte` with their `Kd` and `Ka`, as the
 /// ray tracer takes them.
@@ -148,7 +149,16 @@ pub fn scene_material(attributes: &Attributes) -> SceneMaterial {
             let (glossy, _mirror) = conserve(cs * p("Ks", 1.0).max(0.0), cs * p("Kr", 1.0).max(0.0));
             SceneMaterial { glossy, exponent, ambient: ambient(p("Ka", 1.0)), ..SceneMaterial::default() }
         }
-        "mirror" | "glass" => SceneMaterial { specular: true, ..SceneMaterial::default() },
+        "mirror" => SceneMaterial {
+            specular: true,
+            reflect: (cs * p("Kr", 1.0).max(0.0)).min(Vec3::ONE),
+            ..SceneMaterial::default()
+        },
+        "glass" => {
+            let eta =
+                params.float("eta").or_else(|| params.float("index")).filter(|e| e.is_finite() && *e > 0.0);
+            SceneMaterial { specular: true, eta: eta.unwrap_or(1.5), ..SceneMaterial::default() }
+        }
         _ => matte(p("Kd", 1.0), p("Ka", 1.0)),
     }
 }
@@ -183,7 +193,7 @@ mod tests {
     /// The lobes' reflectances and `Ka * Cs` equal the ray tracer's for each shader.
     #[test]
     fn the_materials_are_the_ray_tracers() {
-        let cases: [(&str, &[Float<'_>]); 7] = [
+        let cases: [(&str, &[Float<'_>]); 9] = [
             ("matte", &[("Kd", &[0.9])]),
             ("plastic", &[("Kd", &[0.7]), ("Ks", &[0.3]), ("roughness", &[0.1])]),
             ("plastic", &[("Kd", &[1.0]), ("Ks", &[1.0]), ("specularcolor", &[1.0, 0.5, 0.25])]),
@@ -191,6 +201,8 @@ mod tests {
             ("shinymetal", &[("Ks", &[0.6]), ("Kr", &[0.8])]),
             ("wood", &[("Kd", &[0.4])]),
             ("mirror", &[]),
+            ("mirror", &[("Kr", &[0.7])]),
+            ("glass", &[("Kr", &[0.9]), ("Kt", &[0.8]), ("eta", &[1.33])]),
         ];
         for (name, floats) in cases {
             let attributes = Attributes {
@@ -202,11 +214,13 @@ mod tests {
             let theirs = Material::from_attributes(&attributes, &mut |_| Err(String::new()), &mut Vec::new());
             let bsdf = theirs.bsdf(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, glam::Vec2::ZERO, 0.0);
             let (mut diffuse, mut glossy, mut exponent, mut specular) = (Vec3::ZERO, Vec3::ZERO, 0.0, false);
+            let (mut reflect, mut eta) = (Vec3::ZERO, 0.0);
             for lobe in bsdf.lobes() {
                 match *lobe {
                     Lobe::Lambert { r } => diffuse = r,
                     Lobe::Blinn { ks, exponent: e } => (glossy, exponent) = (ks, e),
-                    _ => specular = true,
+                    Lobe::SpecularReflection { r } => (specular, reflect) = (true, r),
+                    Lobe::Dielectric { eta: e, .. } => (specular, eta) = (true, e),
                 }
             }
             assert!(
@@ -220,8 +234,19 @@ mod tests {
             }
             let ambient = theirs.ambient_reflectance(glam::Vec2::ZERO, 0.0);
             assert!((ours.ambient - ambient).abs().max_element() < 1e-6, "{name}");
-            // shinymetal's mirror lobe is left out; mirror has only a specular lobe.
-            assert_eq!(ours.specular, specular && name == "mirror", "{name}");
+            // shinymetal's mirror lobe is left out; mirror and glass have only specular lobes.
+            let specular_shader = name == "mirror" || name == "glass";
+            assert_eq!(ours.specular, specular && specular_shader, "{name}");
+            if name == "mirror" {
+                assert!(
+                    (ours.reflect - reflect).abs().max_element() < 1e-6,
+                    "{name}: {} {reflect}",
+                    ours.reflect
+                );
+            }
+            if name == "glass" {
+                assert_eq!(ours.eta, eta, "{name}");
+            }
         }
     }
 

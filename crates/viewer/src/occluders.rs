@@ -147,8 +147,13 @@ pub struct SceneMaterial {
     pub emission_flat: f32,
     pub emission_cos2: f32,
     /// Mirror and glass: what they send depends on what lies behind or before them, so the
-    /// near field keeps the probes' light from that direction.
+    /// near field keeps the probes' light from that direction; a glossy live surface's lobe
+    /// follows a mirror (`specular_chain.wgsl`).
     pub specular: bool,
+    /// A mirror's reflection weight (`Kr * Cs`, at most one).
+    pub reflect: Vec3,
+    /// Glass: its index of refraction (`eta`), which tells it from a mirror; 0 for a mirror.
+    pub eta: f32,
 }
 
 /// The scene's surface materials and which one each of [`SceneOccluders::triangles`] has.

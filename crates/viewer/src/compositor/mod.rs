@@ -168,6 +168,7 @@ pub(super) const COMPOSITE_WGSL: &str = concat!(
     include_str!("../shaders/transmission.wgsl"),
     include_str!("../shaders/shadow_bounce.wgsl"),
     include_str!("../shaders/reduced_gather.wgsl"),
+    include_str!("../shaders/specular_chain.wgsl"),
 );
 
 const fn align_up(v: u64, a: u64) -> u64 {

@@ -12,15 +12,25 @@ pub(super) const MATERIAL_VEC4S: usize = 4;
 
 /// The table's words: a header vec4 (x: the material count as f32; 0 turns the near field off)
 /// and per material `MATERIAL_VEC4S` vec4s, laid out as `near_field.wgsl`'s
-/// `scene_material` reads them.
+/// `near_surface_radiance` and `specular_chain.wgsl` read them: the diffuse reflectance and the
+/// Blinn exponent, the glossy reflectance and the kind (0 lobes, 1 mirror, 2 glass), the
+/// ambient term and `emission_cos2`, the emission and `emission_flat`. A mirror or glass has no
+/// lobes, so its first vec4 holds `eta` in w (glass), its second a mirror's weight.
 pub(super) fn material_table(materials: Option<&SceneMaterials>) -> Vec<[f32; 4]> {
     let list: &[SceneMaterial] = materials.map_or(&[], |m| &m.materials);
     let mut table = Vec::with_capacity(1 + MATERIAL_VEC4S * list.len());
     table.push([list.len() as f32, 0.0, 0.0, 0.0]);
     for m in list {
-        let kind = if m.specular { 1.0 } else { 0.0 };
+        if m.specular {
+            let kind = if m.eta > 0.0 { 2.0 } else { 1.0 };
+            table.push([0.0, 0.0, 0.0, m.eta]);
+            table.push([m.reflect.x, m.reflect.y, m.reflect.z, kind]);
+            table.push([m.ambient.x, m.ambient.y, m.ambient.z, m.emission_cos2]);
+            table.push([m.emission.x, m.emission.y, m.emission.z, m.emission_flat]);
+            continue;
+        }
         table.push([m.diffuse.x, m.diffuse.y, m.diffuse.z, m.exponent]);
-        table.push([m.glossy.x, m.glossy.y, m.glossy.z, kind]);
+        table.push([m.glossy.x, m.glossy.y, m.glossy.z, 0.0]);
         table.push([m.ambient.x, m.ambient.y, m.ambient.z, m.emission_cos2]);
         table.push([m.emission.x, m.emission.y, m.emission.z, m.emission_flat]);
     }
@@ -42,19 +52,27 @@ mod tests {
     use glam::Vec3;
 
     #[test]
-    fn the_table_has_a_header_and_four_vec4s_per_material() {
+    fn the_table_has_a_header_and_four_vec4s_per_material_and_tells_mirrors_from_glass() {
         assert_eq!(material_table(None), vec![[0.0; 4]]);
-        let m = SceneMaterial {
+        let plastic = SceneMaterial {
             diffuse: Vec3::new(0.1, 0.2, 0.3),
             glossy: Vec3::splat(0.5),
             exponent: 10.0,
-            specular: true,
             ..SceneMaterial::default()
         };
-        let table = material_table(Some(&SceneMaterials { materials: vec![m; 2], of_triangle: vec![1] }));
-        assert_eq!(table.len(), 1 + 2 * MATERIAL_VEC4S);
-        assert_eq!(table[0][0], 2.0);
+        let mirror = SceneMaterial { specular: true, reflect: Vec3::splat(0.9), ..SceneMaterial::default() };
+        let glass = SceneMaterial { specular: true, eta: 1.5, ..SceneMaterial::default() };
+        let table = material_table(Some(&SceneMaterials {
+            materials: vec![plastic, mirror, glass],
+            of_triangle: vec![1],
+        }));
+        assert_eq!(table.len(), 1 + 3 * MATERIAL_VEC4S);
+        assert_eq!(table[0][0], 3.0);
         assert_eq!(table[1], [0.1, 0.2, 0.3, 10.0]);
-        assert_eq!(table[2], [0.5, 0.5, 0.5, 1.0]);
+        assert_eq!(table[2], [0.5, 0.5, 0.5, 0.0]);
+        assert_eq!(table[1 + MATERIAL_VEC4S], [0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(table[2 + MATERIAL_VEC4S], [0.9, 0.9, 0.9, 1.0]);
+        assert_eq!(table[1 + 2 * MATERIAL_VEC4S], [0.0, 0.0, 0.0, 1.5]);
+        assert_eq!(table[2 + 2 * MATERIAL_VEC4S], [0.0, 0.0, 0.0, 2.0]);
     }
 }

@@ -322,26 +322,37 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     // direction from a surface close to others meets points the probes around p do not see (the
     // floor behind a neighbour, a crevice): read from p's probes toward such a point, they show
     // the neighbour in front of it.
-    // A traced direction that meets a glossy scene surface takes that surface's radiance toward
-    // p from its own material (own_radiance, w 1): the probes saw its highlights and reflections
-    // from their own points.
+    // A traced direction that meets a mirror follows it (specular_chain): its point is then
+    // where the chain ends, and its radiance carries the chain's weight; a chain that leaves the
+    // scene reads p's probes in its last direction. A traced direction whose chain ends on a
+    // glossy scene surface takes that surface's radiance toward the chain's last point from its
+    // own material (own_radiance, w 1): the probes saw its highlights and reflections from their
+    // own points.
     var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
     var traced: array<bool, GLOSSY_SAMPLES>;
     var own_radiance: array<vec4<f32>, GLOSSY_SAMPLES>;
+    var chain_weights: array<vec3<f32>, GLOSSY_SAMPLES>;
+    var escaped: array<bool, GLOSSY_SAMPLES>;
     let p_camera = camera_point_of(p);
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         traced[i] = false;
         own_radiance[i] = vec4<f32>(0.0);
+        chain_weights[i] = vec3<f32>(1.0);
+        escaped[i] = false;
         if weights[i] > 0.0 {
             hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
-            var first = SceneHit(vec3<f32>(0.0), -1.0, vec3<f32>(0.0), 0u);
             if traced_hits {
-                first = scene_hit_world(p_camera, p, directions[i].xyz);
-            }
-            if first.distance >= 0.0 {
-                hits[i] = first.at;
-                traced[i] = true;
-                own_radiance[i] = glossy_surface_radiance(p_camera, first);
+                let chain = specular_chain(p_camera, p, directions[i].xyz);
+                if chain.ended > 0.5 {
+                    hits[i] = chain.point;
+                    traced[i] = true;
+                    chain_weights[i] = chain.weight;
+                    own_radiance[i] = glossy_surface_radiance(chain.start, chain.hit);
+                } else if chain.ended > -0.5 {
+                    directions[i] = vec4<f32>(chain.direction, directions[i].w);
+                    chain_weights[i] = chain.weight;
+                    escaped[i] = true;
+                }
             }
         }
     }
@@ -351,7 +362,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     var kept: array<vec3<f32>, GLOSSY_SAMPLES>;
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         kept[i] = vec3<f32>(1.0);
-        if frame.counts.y == 1u && weights[i] > 0.0 && own_radiance[i].w < 0.5 {
+        if frame.counts.y == 1u && weights[i] > 0.0 && own_radiance[i].w < 0.5 && !escaped[i] {
             if traced[i] {
                 kept[i] = vec3<f32>(1.0) - live_share_at_point(hits[i]);
             } else {
@@ -372,7 +383,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     }
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         if own_radiance[i].w > 0.5 {
-            sum += weights[i] * own_radiance[i].rgb;
+            sum += weights[i] * chain_weights[i] * own_radiance[i].rgb;
         } else if weights[i] > 0.0 {
             var hit_grid = grid;
             var from_hit_cell = false;
@@ -399,13 +410,13 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
                 if w > 0.0 {
                     let to_hit = hits[i] - probe_position(cell);
                     let len = length(to_hit);
-                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0);
+                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0 && !escaped[i]);
                     radiance += w * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe_index(cell), directions[i].w).rgb;
                     radiance_weight += w;
                 }
             }
             if radiance_weight > 0.0 {
-                sum += weights[i] * kept[i] * radiance / radiance_weight;
+                sum += weights[i] * kept[i] * chain_weights[i] * radiance / radiance_weight;
             }
         }
     }
@@ -424,9 +435,9 @@ fn probe_sees_hit(cell: vec3<u32>, x: vec3<f32>) -> bool {
     return 0.8 * d <= probe_distance_toward(probe_index(cell), to_x / d);
 }
 
-// Where a ray first meets the tessellated scene: the world point, its distance in camera units
-// (-1 where the ray leaves the scene or the viewer has no triangles), the ray's unit
-// camera-space direction and the triangle.
+// Where a ray first meets the tessellated scene (specular_chain's last segment): the world
+// point, its distance in camera units from the segment's start, the ray's unit camera-space
+// direction and the triangle.
 struct SceneHit {
     at: vec3<f32>,
     distance: f32,
@@ -434,20 +445,8 @@ struct SceneHit {
     triangle: u32,
 }
 
-// The first triangle of the tessellated scene along unit world direction l from world point p
-// (camera-space p_camera).
-fn scene_hit_world(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> SceneHit {
-    let dir = normalize(camera_point_of(p + l) - p_camera);
-    let hit = bvh_nearest(frame.scene_occluders, p_camera, dir, 0.0, 3.0e38);
-    if frame.scene_occluders.z == 0u || !(hit.t < 3.0e38) {
-        return SceneHit(vec3<f32>(0.0), -1.0, dir, 0u);
-    }
-    let at = (frame.world_from_camera_point * vec4<f32>(p_camera + hit.t * dir, 1.0)).xyz;
-    return SceneHit(at, hit.t, dir, hit.triangle);
-}
-
 // The radiance a traced lobe direction's hit sends back along the ray to camera-space
-// p_camera when the scene's materials are bound and the hit's material has a glossy lobe (and is
+// p_camera (the start of the hit's segment) when the scene's materials are bound and the hit's material has a glossy lobe (and is
 // no mirror or glass), w 1; else w 0 (the reflection probes' radiance serves). A glossy
 // surface's radiance depends on the direction it is seen from: a reflection probe reads the
 // highlights and reflections it shows toward the probe, not toward p (room given2: the red
