@@ -589,45 +589,20 @@ fn plate_box_hit(origin: DVec3, d: DVec3) -> (f64, bool) {
 /// `plate_box_hit`: the left one looks down onto the plate and sees almost none of the floor,
 /// the right one sees all of it.
 fn plate_probes() -> sidecar::ReflectionProbes {
-    let n = sidecar::REFLECTION_TEXELS;
-    let (mut levels, mut distance) = (vec![Vec::new(); sidecar::REFLECTION_LEVELS], Vec::new());
-    for x in [-0.5, 0.5] {
-        let origin = DVec3::new(x, -0.2, 0.0);
-        let mut base = Vec::new();
-        for t in 0..n * n {
-            let d = DVec3::from(sidecar::octahedral_texel_center(n, t).map(f64::from)).normalize();
-            let (s, floor) = plate_box_hit(origin, d);
-            base.push([if floor { 1.0 } else { 0.0 }; 3]);
-            distance.push(s as f32);
-        }
-        for (all, level) in levels.iter_mut().zip(sidecar::reflection_levels(&base)) {
-            all.extend(level);
-        }
-    }
-    sidecar::ReflectionProbes {
-        depth_fingerprint: 0,
-        origin: [-0.5, -0.2, 0.0],
-        spacing: [1.0; 3],
-        counts: [2, 1, 1],
-        radiance: levels,
-        distance,
-    }
+    probes_of(|origin, d| {
+        let (s, floor) = plate_box_hit(origin, d);
+        (if floor { 1.0 } else { 0.0 }, s)
+    })
 }
 
 /// The box's walls and the plate as the scene's triangles.
 fn plate_occluders() -> viewer::occluders::SceneOccluders {
-    let quad = |c: [DVec3; 4]| [[c[0], c[1], c[2]], [c[0], c[2], c[3]]];
-    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
     let (a, b) = (PLATE_MIN, PLATE_MAX);
-    let faces = [
-        [v(-1.0, -1.0, -1.0), v(1.0, -1.0, -1.0), v(1.0, -1.0, 1.0), v(-1.0, -1.0, 1.0)],
-        [v(-1.0, 1.0, -1.0), v(1.0, 1.0, -1.0), v(1.0, 1.0, 1.0), v(-1.0, 1.0, 1.0)],
-        [v(-1.0, -1.0, -1.0), v(1.0, -1.0, -1.0), v(1.0, 1.0, -1.0), v(-1.0, 1.0, -1.0)],
-        [v(-1.0, -1.0, -1.0), v(-1.0, 1.0, -1.0), v(-1.0, 1.0, 1.0), v(-1.0, -1.0, 1.0)],
-        [v(1.0, -1.0, -1.0), v(1.0, 1.0, -1.0), v(1.0, 1.0, 1.0), v(1.0, -1.0, 1.0)],
-        [v(a[0], PLATE_Y, a[1]), v(b[0], PLATE_Y, a[1]), v(b[0], PLATE_Y, b[1]), v(a[0], PLATE_Y, b[1])],
-    ];
-    viewer::occluders::SceneOccluders { triangles: faces.into_iter().flat_map(quad).collect() }
+    let v = |x: f64, z: f64| DVec3::new(x, PLATE_Y, z);
+    let plate = [v(a[0], a[1]), v(b[0], a[1]), v(b[0], b[1]), v(a[0], b[1])];
+    let mut triangles = box_faces();
+    triangles.extend([[plate[0], plate[1], plate[2]], [plate[0], plate[2], plate[3]]]);
+    viewer::occluders::SceneOccluders { triangles }
 }
 
 /// A glossy sphere beside a black plate reflects the lit floor under and in front of it, which
