@@ -62,8 +62,18 @@ type FloorLobes = Vec<Option<(DVec3, Vec<(DVec3, f64)>)>>;
 /// so that the bounce light's data are bound. With each floor pixel's lobe.
 fn metal_floor(
     s: &viewer::ViewerScene,
+    size: (u32, u32),
+    sources: Vec<sidecar::LightSource>,
+) -> (sidecar::LightLayers, FloorLobes) {
+    glossy_floor(s, size, sources, 0.0)
+}
+
+/// [`metal_floor`] with a diffuse albedo `albedo` on the floor as well (plastic).
+fn glossy_floor(
+    s: &viewer::ViewerScene,
     (w, h): (u32, u32),
     sources: Vec<sidecar::LightSource>,
+    albedo: f32,
 ) -> (sidecar::LightLayers, FloorLobes) {
     let eye = s.camera().world_from_camera().transform_point3(DVec3::ZERO);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
@@ -76,6 +86,7 @@ fn metal_floor(
             match floor_point(s, i, j) {
                 Some(p) => {
                     layers.glossy[k] = [KS as f32; 3];
+                    layers.albedo[k] = [albedo; 3];
                     layers.glossy_exponent[k] = [EXPONENT as f32; 3];
                     lobes[k] = Some((p, lobe_directions(DVec3::Y, (eye - p).normalize())));
                 }
@@ -148,6 +159,59 @@ fn a_metal_floor_shows_the_blurred_sphere_it_reflects() {
     let mask = c.read_back().unwrap().mask;
     let FloorChange { pixels, sum_got, sum_want, relative } =
         floor_change(&lobes, &mask, &linear, w, |p, directions| {
+            let met: f64 = directions
+                .iter()
+                .filter(|(d, weight)| *weight > 0.0 && ray_sphere(p, *d, centre, radius).is_some())
+                .map(|(_, weight)| weight)
+                .sum::<f64>()
+                / directions.len() as f64;
+            KS * met * f64::from(l)
+        });
+    assert!(pixels > 5_000 && sum_want > 1.0, "{pixels} floor pixels, change {sum_want}");
+    assert!((sum_got - sum_want).abs() <= 0.05 * sum_want, "the floor changes by {sum_got}, not {sum_want}");
+    assert!(relative <= 0.1, "relative squared error {relative} per pixel");
+}
+
+/// The first test's sphere over a plastic floor: the metal floor's lobe with a diffuse albedo
+/// of 0.5 as well. The floor's layers are black, so the sphere hides nothing, and both the
+/// glossy pass and the bounce light change the floor. The frame less the frame over a matte
+/// floor of the same albedo (the bounce light's change alone) must be `KS` times the f64
+/// integral of the sphere's radiance over the lobe's directions that meet it, within the first
+/// test's bounds: a plastic surface shows the sphere in its lobe as a metal does. Before the
+/// glossy pass traced a plastic surface's share of the lobe, it left such pixels to the shadow
+/// pass's occlusion of indirect light, and the difference was zero.
+#[test]
+fn a_plastic_floor_shows_the_blurred_sphere_in_its_lobe_besides_the_bounce_light() {
+    let (w, h) = (512u32, 512u32);
+    let l = 0.9f32;
+    let albedo = 0.5f32;
+    let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let frame_over = |ks: f32| {
+        let mut s = flat_cornell(LEVEL, vec![]);
+        let (mut layers, lobes) = glossy_floor(&s, (w, h), vec![], albedo);
+        if ks == 0.0 {
+            for (k, lobe) in lobes.iter().enumerate() {
+                if lobe.is_some() {
+                    layers.glossy[k] = [0.0; 3];
+                    layers.glossy_exponent[k] = [0.0; 3];
+                }
+            }
+        }
+        s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
+        s.set_probes(uniform_probe([l; 3]));
+        let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
+        let mut c = Compositor::new(&gpu(), &s, settings).unwrap();
+        c.render(&live).unwrap();
+        (c.read_back_linear().unwrap().rgba, c.read_back().unwrap().mask, lobes)
+    };
+    let (plastic, mask, lobes) = frame_over(KS as f32);
+    let (matte, _, _) = frame_over(0.0);
+    // The glossy pass's change alone, on the floor_change's scale (LEVEL plus the change).
+    let glossy: Vec<f32> = plastic.iter().zip(&matte).map(|(p, m)| LEVEL + p - m).collect();
+    let FloorChange { pixels, sum_got, sum_want, relative } =
+        floor_change(&lobes, &mask, &glossy, w, |p, directions| {
             let met: f64 = directions
                 .iter()
                 .filter(|(d, weight)| *weight > 0.0 && ray_sphere(p, *d, centre, radius).is_some())

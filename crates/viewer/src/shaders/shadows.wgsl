@@ -251,8 +251,8 @@ fn layer_normal(pixel: vec2<i32>) -> vec3<f32> {
 fn occludable_indirect(pixel: vec2<i32>) -> vec3<f32> {
     // A specular reflection's light is not hidden evenly: the reflection pass traces its one
     // direction (specular.wgsl, fs_reflection), so only the rest of the indirect light is. A
-    // surface with a glossy lobe and no diffuse one (metal) has its lobe traced there too
-    // (fs_glossy), so none of its indirect light is hidden here.
+    // glossy lobe is traced there too (fs_glossy): only the share of the indirect light that
+    // is not the lobe's (glossy_indirect_share) is hidden here, none of a metal's.
     var indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
     if frame.reflection.x == 1u && frame.reflection.z != NO_LAYER {
         indirect -= textureLoad(light_layers, pixel, i32(frame.reflection.z), 0).rgb;
@@ -264,8 +264,8 @@ fn occludable_indirect(pixel: vec2<i32>) -> vec3<f32> {
         if frame.bounce.x == 1u {
             albedo = textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb;
         }
-        if any(glossy > vec3<f32>(0.0)) && all(albedo <= vec3<f32>(0.0)) {
-            indirect = vec3<f32>(0.0);
+        if any(glossy > vec3<f32>(0.0)) {
+            indirect *= vec3<f32>(1.0) - glossy_indirect_share(pixel, glossy, albedo);
         }
     }
     return indirect;

@@ -126,11 +126,11 @@ fn seen_surface_change(p: vec3<f32>, origin: vec3<f32>, dir: vec3<f32>, weight: 
 // the gold cylinder under the spot light's shadow noisy enough to be worse than before). Where
 // no march finds it (hidden from the eye: the room's floor between the gold cylinder and a
 // sphere beside it, behind the torus), the scene's triangles do, and the share of its light the
-// live objects block (live_shadow_share) is taken from the lobe's mean radiance. Surfaces with a diffuse
-// albedo as well (plastic) are left to the shadow pass's occlusion of indirect light, which
-// takes what the sphere hides from the whole of their indirect light (the layers do not split
-// it into the two lobes' shares): adding the sphere's radiance on top made the room's rows
-// worse (docs/viewer-specular.md). Drawn once per sphere, each draw adding its
+// live objects block (live_shadow_share) is taken from the lobe's mean radiance. On a surface
+// with a diffuse albedo as well (plastic, or a metal's outline partly over a matte wall) the
+// lobe's mean radiance is taken from the lobe's share of the indirect light
+// (glossy_indirect_share), and the shadow pass's occlusion of indirect light takes only the
+// rest (docs/viewer-specular.md, "The glossy share of a plastic pixel"). Drawn once per sphere, each draw adding its
 // share to the backdrop after shadows as the draws before it left it (compositor/specular.rs
 // copies the frame there between draws).
 const GLOSSY_TRACED: u32 = 64u;
@@ -156,6 +156,47 @@ fn glossy_direction(i: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v:
     }
     let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
     return vec4<f32>(l, (e + 2.0) / (e + 1.0) * g * o_dot_h / cos_o);
+}
+
+// The tangents of normal n that glossy_direction turns the lobe about.
+fn lobe_tangents(n: vec3<f32>) -> mat2x3<f32> {
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t = normalize(cross(helper, n));
+    return mat2x3<f32>(t, cross(n, t));
+}
+
+// The turn of a scene pixel's lobe strata (fs_glossy), so that their pattern shows as fine
+// noise rather than as bands.
+fn lobe_turn(pixel: vec2<i32>) -> f32 {
+    return fract(f32((u32(pixel.x) * 1973u + u32(pixel.y) * 9277u) % 4096u) * 0.6180339887);
+}
+
+// The share of a glossy scene pixel's indirect light that its lobe brings, per channel: the
+// lobe's weight (Ks times its albedo at the view, the mean of fs_glossy's GLOSSY_TRACED
+// weights) against the diffuse albedo, as if the light around were even. 1 for a metal, about
+// a third for the room's red plastic; a pixel on a metal's outline that is partly a matte wall
+// is mostly glossy. fs_glossy traces that share; the shadow pass's occlusion of indirect light
+// takes the rest (shadows.wgsl occludable_indirect).
+fn glossy_indirect_share(pixel: vec2<i32>, ks: vec3<f32>, diffuse_albedo: vec3<f32>) -> vec3<f32> {
+    if all(diffuse_albedo <= vec3<f32>(0.0)) {
+        return vec3<f32>(1.0);
+    }
+    let exponent = textureLoad(light_layers, pixel, i32(frame.reflection.w) + 1, 0).r;
+    let centre = surface_point(pixel);
+    let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
+    if all(ks <= vec3<f32>(0.0)) || !(exponent >= 1.0) || centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
+        return vec3<f32>(0.0);
+    }
+    let n = normalize(n_raw);
+    let v = -view_direction_to(centre.xyz);
+    let tb = lobe_tangents(n);
+    let turn = lobe_turn(pixel);
+    var albedo = 0.0;
+    for (var i = 0u; i < GLOSSY_TRACED; i++) {
+        albedo += max(glossy_direction(i, exponent, n, tb[0], tb[1], v, turn).w, 0.0);
+    }
+    let lobe = ks * (albedo / f32(GLOSSY_TRACED));
+    return lobe / max(lobe + diffuse_albedo, vec3<f32>(1e-6));
 }
 
 // The first sphere along unit `l` from p: x its row (8 for none), y the entry distance, z the
@@ -196,12 +237,15 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     let view = view_direction_to(p);
     let v = -view;
     let sphere = frame.shadow_spheres[in.row];
-    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
-    let t = normalize(cross(helper, n));
-    let b = cross(n, t);
-    let turn = fract(f32((u32(pixel.x) * 1973u + u32(pixel.y) * 9277u) % 4096u) * 0.6180339887);
-    if frame.bounce.x == 1u && any(textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb > vec3<f32>(0.0)) {
-        discard;
+    let tb = lobe_tangents(n);
+    let t = tb[0];
+    let b = tb[1];
+    let turn = lobe_turn(pixel);
+    // A surface with a diffuse albedo as well (plastic, or a metal's outline partly on a matte
+    // surface) has only its lobe's share of the indirect light traced here.
+    var diffuse_albedo = vec3<f32>(0.0);
+    if frame.bounce.x == 1u {
+        diffuse_albedo = textureLoad(light_layers, pixel, i32(frame.bounce.y), 0).rgb;
     }
     // Which share of the lobe meets this draw's sphere first, and in how many directions; and
     // the shadows seen in the rest of the lobe (first draw).
@@ -260,7 +304,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     // The lobe's mean incoming radiance: what a direction hides, or sends from a surface the eye
     // does not see, where no march finds it.
     let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
-    let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED), vec3<f32>(1e-6));
+    let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED) + diffuse_albedo, vec3<f32>(1e-6));
     var change = shadowed - mean * hidden_taken;
     if met_count > 0u {
         let material = live_sphere_material(in.row);
