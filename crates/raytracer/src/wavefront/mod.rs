@@ -86,9 +86,33 @@ struct Paths {
     eta_scale: Vec<f32>,
     prev: Vec<PreviousVertex>,
     depth: Vec<u32>,
-    /// The surface the path's ray found and its BSDF, during a bounce.
-    si: Vec<Option<SurfaceInteraction>>,
-    bsdf: Vec<Option<Bsdf>>,
+    /// The surface the path's ray found and its BSDF, during a bounce: stage 1 writes the
+    /// surface of every path it keeps, stage 2 the BSDF of every path it keeps, so a live path's
+    /// are always its own bounce's. Plain records, not `Option`s: a record made in place of an
+    /// `Option` was built on the stack and copied in (two `memcpy`s per vertex).
+    si: Vec<SurfaceInteraction>,
+    bsdf: Vec<Bsdf>,
+}
+
+/// What [`Paths::si`] holds before a path's first hit (never read).
+fn no_surface() -> SurfaceInteraction {
+    SurfaceInteraction {
+        p: Vec3::ZERO,
+        p_error: Vec3::ZERO,
+        p64: DVec3::ZERO,
+        t: 0.0,
+        ng: Vec3::Z,
+        ns: Vec3::Z,
+        n_outward: Vec3::Z,
+        dpdu: Vec3::X,
+        st: glam::Vec2::ZERO,
+        st_width: 0.0,
+        wo: Vec3::Z,
+        front: true,
+        attributes: AttributesId(0),
+        emitter: None,
+        time: 0.0,
+    }
 }
 
 /// Renders a batch of camera rays, each with its sampler (the state after the camera's
@@ -112,8 +136,8 @@ pub fn render_batch(
         eta_scale: vec![1.0; n],
         prev: vec![None; n],
         depth: vec![0; n],
-        si: vec![None; n],
-        bsdf: vec![None; n],
+        si: vec![no_surface(); n],
+        bsdf: vec![Bsdf::new(crate::math::Frame::from_z(Vec3::Z), Vec3::Z); n],
     };
     let mut live: Vec<u32> = (0..n as u32).collect();
     let v3 = X86_64V3::detect();
@@ -142,7 +166,7 @@ fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters:
         let ray = paths.ray[i];
         match world.intersect(&ray) {
             Some(hit) => {
-                paths.si[i] = Some(world.interaction(&ray, &hit));
+                paths.si[i] = world.interaction(&ray, &hit);
                 // An opaque surface stops the ray with weight one (the scalar path's product).
                 paths.beta[i] *= Vec3::ONE;
                 true
@@ -169,7 +193,7 @@ fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters:
 fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, live: &mut Vec<u32>) {
     live.retain(|&i| {
         let i = i as usize;
-        let Some(si) = paths.si[i].as_ref() else { return false };
+        let si = &paths.si[i];
         let depth = paths.depth[i];
         let beta = paths.beta[i];
         let material = world.material(si.attributes);
@@ -197,7 +221,7 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, l
         *l += beta * surface_terms(world, si, material);
         let bsdf = material.bsdf_inlined(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
         let ends = bsdf.is_black() || depth >= settings.max_depth;
-        paths.bsdf[i] = Some(bsdf);
+        paths.bsdf[i] = bsdf;
         !ends
     });
 }
@@ -225,9 +249,7 @@ fn light_samples(
         .iter()
         .map(|&i| {
             let i = i as usize;
-            let (Some(si), Some(bsdf)) = (paths.si[i].as_ref(), paths.bsdf[i].as_ref()) else {
-                return (false, None);
-            };
+            let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
             if !bsdf.has_non_specular() {
                 return (false, None);
             }
@@ -251,10 +273,8 @@ fn light_samples(
     let mut filled = 0;
     for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
         let i = i as usize;
-        let (Some(picked), Some(si), Some(bsdf)) = (picked, paths.si[i].as_ref(), paths.bsdf[i].as_ref())
-        else {
-            continue;
-        };
+        let Some(picked) = picked else { continue };
+        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
         let ls = &picked.ls;
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
@@ -292,12 +312,19 @@ fn light_samples(
             continue;
         }
         let mut total = Vec3::ZERO;
-        if let (Some(picked), Some(si)) = (picked, paths.si[i].as_ref())
+        if let Some(picked) = picked
             && values[k].0 != Vec3::ZERO
             && picked.ls.li != Vec3::ZERO
         {
-            total +=
-                visible_light_estimate(world, si, &picked.ls, values[k], picked.pick, picked.mis, counters);
+            total += visible_light_estimate(
+                world,
+                &paths.si[i],
+                &picked.ls,
+                values[k],
+                picked.pick,
+                picked.mis,
+                counters,
+            );
         }
         // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
         paths.l[i] += paths.beta[i] * total;
@@ -322,7 +349,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths,
     let mut filled = 0;
     for (k, &i) in live.iter().enumerate() {
         let i = i as usize;
-        let (Some(si), Some(bsdf)) = (paths.si[i].as_ref(), paths.bsdf[i].as_ref()) else { continue };
+        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
         let (u_lobe, u) = numbers[k];
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
@@ -360,9 +387,8 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths,
 /// A path's throughput, next ray and Russian roulette after its BSDF sample `bs`: false when
 /// the path ends.
 fn continue_path(settings: PathSettings, paths: &mut Paths, i: usize, bs: Option<BsdfSample>) -> bool {
-    let (Some(si), Some(bsdf), Some(bs)) = (paths.si[i].as_ref(), paths.bsdf[i].as_ref(), bs) else {
-        return false;
-    };
+    let Some(bs) = bs else { return false };
+    let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
     let cos = bs.wi.dot(bsdf.frame.z).abs();
     let beta = &mut paths.beta[i];
     *beta *= bs.f * (cos / bs.pdf);

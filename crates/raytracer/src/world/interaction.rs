@@ -1,7 +1,7 @@
 //! The surface at a ray's hit: position, normals, texture coordinates and their footprint,
 //! and the material and emitter of the shape hit, from the hit the ray queries return.
 
-use super::{Hit, HitDetail, Ray, SurfaceInteraction, World};
+use super::{Hit, HitDetail, MeshShading, Ray, SurfaceInteraction, World};
 use crate::math::{round_point, transform_normal, transform_point_error};
 use crate::shapes::barycentric_point;
 use glam::{DMat4, DVec3, Vec2, Vec3};
@@ -10,7 +10,71 @@ impl World {
     /// Evaluates the surface at a hit. Texture coordinates and their footprint (`st`,
     /// `st_width`) are computed only for materials that read a texture; they are zero for the
     /// others.
+    #[inline]
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        if self.flat
+            && let HitDetail::Triangle(i, b) = hit.detail
+        {
+            return self.interaction_flat(ray, hit.t, i, b);
+        }
+        self.interaction_general(ray, hit)
+    }
+
+    /// [`World::interaction`] in a flat world (`flat.rs`): one BLAS of triangles alone, placed
+    /// as it is, so no deformation, placement or solid to look at. The same `f32` and `f64`
+    /// operations as [`World::interaction_general`] in the same order, so the same surface
+    /// bit for bit; what it leaves out (the checks and bounds checks of the general case,
+    /// about half of that function's instructions, and the record's copy where it is inlined)
+    /// was a tenth of a Cornell box sample's.
+    #[inline(always)]
+    fn interaction_flat(&self, ray: &Ray, t: f32, i: u32, b: [f64; 3]) -> SurfaceInteraction {
+        let inst = &self.instances[0];
+        let blas = &self.blases[inst.blas as usize];
+        let tri = &blas.triangles[i as usize];
+        let s = &blas.shapes[tri.shape as usize];
+        let attributes = inst.attributes.unwrap_or(s.attributes);
+        let wants_st = self.material(attributes).reads_texture_coordinates();
+        let tp = tri.p;
+        let (p64, err64) = barycentric_point(b, tp[0], tp[1], tp[2]);
+        let ng_blas = (tp[1] - tp[0]).cross(tp[2] - tp[0]).as_dvec3();
+        let mesh =
+            s.mesh.map(|m| (&blas.meshes[m as usize], blas.meshes[m as usize].triangles[tri.index as usize]));
+        let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
+        let ns_blas = match mesh {
+            Some((MeshShading { normals: Some(normals), .. }, v)) => {
+                let n = normals[v[0] as usize] * bw[0]
+                    + normals[v[1] as usize] * bw[1]
+                    + normals[v[2] as usize] * bw[2];
+                (n.length_squared() > 0.0 && n.is_finite()).then(|| n.as_dvec3())
+            }
+            _ => None,
+        };
+        let (mut st, mut st_per_length) = (Vec2::ZERO, 0.0f64);
+        if wants_st {
+            let area = 0.5 * ng_blas.length();
+            (st, st_per_length) = match mesh {
+                Some((MeshShading { st: Some(sts), .. }, v)) => {
+                    let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
+                    let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
+                    (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
+                }
+                _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
+            };
+        }
+        let ng_unit = ng_blas.normalize_or_zero().as_vec3();
+        let ns = match ns_blas {
+            Some(n) => n.normalize_or_zero().as_vec3(),
+            None => ng_unit,
+        };
+        let dpdu = (tp[1] - tp[0]).as_dvec3().as_vec3();
+        let reverse = self.flat_sides[i as usize] & super::REVERSED != 0;
+        let shape = Oriented { ng_unit, ns, n_outward: ng_unit, dpdu, st, st_per_length, reverse };
+        self.surface(ray, t, shape, (p64, err64), wants_st, attributes, inst.emitters.get(tri.shape as usize))
+    }
+
+    /// [`World::interaction`] in any world.
+    #[inline(never)]
+    fn interaction_general(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let inst = &self.instances[hit.instance as usize];
         let blas = &self.blases[inst.blas as usize];
         let shape = match hit.detail {
@@ -111,8 +175,7 @@ impl World {
             None => n,
         };
         let ng_unit = map_n(ng_blas).normalize_or_zero().as_vec3();
-        let mut ng = ng_unit;
-        let mut ns = match ns_blas {
+        let ns = match ns_blas {
             Some(n) => map_n(n).normalize_or_zero().as_vec3(),
             None => ng_unit,
         };
@@ -131,6 +194,33 @@ impl World {
             None => dpdu_blas.as_vec3(),
         };
         let (_, reverse) = self.sidedness(inst, blas, shape);
+        let oriented = Oriented { ng_unit, ns, n_outward, dpdu, st, st_per_length, reverse };
+        self.surface(
+            ray,
+            hit.t,
+            oriented,
+            (p64, err64),
+            wants_st,
+            attributes,
+            inst.emitters.get(shape as usize),
+        )
+    }
+
+    /// The end of [`World::interaction`] for both kinds of world: the normals' orientation,
+    /// the rounded point, the texture footprint and the record.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn surface(
+        &self,
+        ray: &Ray,
+        t: f32,
+        shape: Oriented,
+        (p64, err64): (DVec3, DVec3),
+        wants_st: bool,
+        attributes: rib_parser::scene::AttributesId,
+        emitter: Option<&u32>,
+    ) -> SurfaceInteraction {
+        let Oriented { ng_unit: mut ng, mut ns, n_outward, dpdu, st, st_per_length, reverse } = shape;
         if reverse {
             ng = -ng;
             ns = -ns;
@@ -152,13 +242,13 @@ impl World {
         } else {
             0.0
         };
-        let emitter = inst.emitters.get(shape as usize).copied().filter(|&e| e != u32::MAX);
+        let emitter = emitter.copied().filter(|&e| e != u32::MAX);
         let wo = -ray.direction.normalize_or(Vec3::Z);
         SurfaceInteraction {
             p,
             p_error,
             p64,
-            t: hit.t,
+            t,
             ng,
             ns,
             n_outward: if n_outward == Vec3::ZERO { ng } else { n_outward },
@@ -172,4 +262,17 @@ impl World {
             time: ray.time,
         }
     }
+}
+
+/// A hit's normals and surface directions before [`World::surface`] orients them: the unit
+/// geometric normal as the shape has it, the unit shading and outward normals, and whether
+/// the shape's orientation is reversed.
+struct Oriented {
+    ng_unit: Vec3,
+    ns: Vec3,
+    n_outward: Vec3,
+    dpdu: Vec3,
+    st: Vec2,
+    st_per_length: f64,
+    reverse: bool,
 }
