@@ -435,11 +435,10 @@ fn probe_sees_hit(cell: vec3<u32>, x: vec3<f32>) -> bool {
     return 0.8 * d <= probe_distance_toward(probe_index(cell), to_x / d);
 }
 
-// Where a ray first meets the tessellated scene (specular_chain's last segment): the world
-// point, its distance in camera units from the segment's start, the ray's unit camera-space
-// direction and the triangle.
+// Where a ray first meets the tessellated scene (specular_chain's last segment): its distance
+// in camera units from the segment's start, the ray's unit camera-space direction and the
+// triangle (the chain's end carries the world point).
 struct SceneHit {
-    at: vec3<f32>,
     distance: f32,
     dir: vec3<f32>,
     triangle: u32,

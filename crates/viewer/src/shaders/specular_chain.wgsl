@@ -50,7 +50,7 @@ fn specular_chain(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> ChainEnd {
     var weight = vec3<f32>(1.0);
     var ended = -1.0;
     var start = p_camera;
-    var last = SceneHit(vec3<f32>(0.0), -1.0, dir, 0u);
+    var last = SceneHit(-1.0, dir, 0u);
     for (var step = 0u; step < SPECULAR_CHAIN_STEPS; step++) {
         let hit = bvh_nearest(frame.scene_occluders, origin, dir, 0.0, 3.0e38);
         if !(hit.t < 3.0e38) {
@@ -61,7 +61,7 @@ fn specular_chain(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> ChainEnd {
         let mirror = chain_mirror(hit.triangle);
         if mirror.w < 0.0 {
             start = origin;
-            last = SceneHit(vec3<f32>(0.0), hit.t, dir, hit.triangle);
+            last = SceneHit(hit.t, dir, hit.triangle);
             origin = x;
             ended = 1.0;
             break;
@@ -76,6 +76,5 @@ fn specular_chain(p_camera: vec3<f32>, p: vec3<f32>, l: vec3<f32>) -> ChainEnd {
     }
     let point = (frame.world_from_camera_point * vec4<f32>(origin, 1.0)).xyz;
     let direction = normalize((frame.world_from_camera * vec4<f32>(dir, 0.0)).xyz);
-    last.at = point;
     return ChainEnd(point, ended, direction, weight, start, last);
 }
