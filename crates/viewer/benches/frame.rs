@@ -433,7 +433,7 @@ fn cpu_frame_time(c: &mut Criterion) {
 /// Frames the sphere moves before it stops in `fullscreen-lit-stop-worst-near-field`.
 const STOP_MOVES: u32 = 3;
 /// Frames timed after it stops: the backdrop's settling frames (`SHADOW_BOUNCE_BANDS` at 512^2),
-/// the sphere's (7 for the bench's sphere, `SETTLE_SPHERE_PIXELS` of its bounds a frame) and
+/// the sphere's (7 or 8 for the bench's sphere, `SETTLE_SPHERE_PIXELS` of its bounds a frame) and
 /// the first kept ones.
 const STOP_FRAMES: usize = viewer::compositor::SHADOW_BOUNCE_BANDS as usize + 10;
 
