@@ -81,9 +81,9 @@ pub struct Args {
     #[arg(long)]
     pub full_resolution_while_moving: bool,
     /// Draw the first frame at rest after a move exactly, all of it. By default the frames at
-    /// rest draw the exact bounce light and shadows' second bounce a few bands at a time (the
-    /// frame is exact at most 16 frames after the sphere stops) instead of one multi-second
-    /// frame.
+    /// rest draw the exact bounce light and shadows' second bounce a few bands at a time (at
+    /// most 16 frames), then the cursor sphere's exact shading a few of its rows at a time,
+    /// instead of one multi-second frame.
     #[arg(long)]
     pub settle_in_one_frame: bool,
     /// Draw every frame, also a frame at rest whose inputs are the last exact frame's. By

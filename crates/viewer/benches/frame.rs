@@ -14,6 +14,8 @@
 //! `--no-near-field` and by default). A frame at rest with the last exact frame's inputs is kept
 //! (`CompositorSettings::keep_frame_at_rest`), which the plain frames turn off (the baseline
 //! draws every frame) and `fullscreen-lit-rest-drawn-near-field` too (the first frame at rest).
+//! `fullscreen-lit-stop-worst-near-field` is the dearest frame after the sphere stops, as
+//! `hybrid-view` draws them (settling, `compositor/settle.rs`); `FRAME_STOP_TIMES=1` prints each.
 //!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md);
 //! `FRAME_PASS_TIMES=lit-moving cargo bench -p viewer --bench frame -- frame-cpu/` also prints
@@ -381,8 +383,59 @@ fn cpu_frame_time(c: &mut Criterion) {
     {
         print_pass_times(&mut compositor, "lit-rest-drawn-near-field", false, &mut frame);
     }
+    // The frames after the sphere stops, as `hybrid-view` draws them by default (amortised while
+    // moving, settling at rest, the frame kept once exact), with the scene's triangles and
+    // materials bound: each iteration moves the sphere for `STOP_MOVES` frames, untimed, then
+    // times every frame at rest until `STOP_FRAMES` frames have passed, and counts the dearest.
+    let settings = CompositorSettings {
+        amortise_while_moving: true,
+        settle_at_rest: true,
+        keep_frame_at_rest: true,
+        ..CompositorSettings::default()
+    };
+    let mut compositor = Compositor::new(&gpu, &near, settings).expect("compositor");
+    compositor.render(&sphere_at(0)).expect("render");
+    compositor.wait_idle().expect("wait");
+    let print = std::env::var("FRAME_STOP_TIMES").is_ok();
+    let mut frame = 0;
+    group.bench_function("fullscreen-lit-stop-worst-near-field/512", |b| {
+        b.iter_custom(|iters| {
+            let mut worst_sum = Duration::ZERO;
+            for _ in 0..iters {
+                for _ in 0..STOP_MOVES {
+                    frame += 1;
+                    compositor.render(&sphere_at(frame)).expect("render");
+                    compositor.wait_idle().expect("wait");
+                }
+                let mut times = Vec::with_capacity(STOP_FRAMES);
+                for _ in 0..STOP_FRAMES {
+                    let (cpu, wall) = (viewer::compositor::process_cpu_time(), Instant::now());
+                    compositor.render(&sphere_at(frame)).expect("render");
+                    compositor.wait_idle().expect("wait");
+                    times.push(match (cpu, viewer::compositor::process_cpu_time()) {
+                        (Some(before), Some(after)) => after.saturating_sub(before),
+                        _ => wall.elapsed(),
+                    });
+                }
+                if print {
+                    let ms: Vec<String> =
+                        times.iter().map(|t| format!("{:.1}", t.as_secs_f64() * 1e3)).collect();
+                    println!("frames after the stop, CPU ms: {}", ms.join(" "));
+                }
+                worst_sum += times.into_iter().max().unwrap_or_default();
+            }
+            worst_sum
+        })
+    });
     group.finish();
 }
+
+/// Frames the sphere moves before it stops in `fullscreen-lit-stop-worst-near-field`.
+const STOP_MOVES: u32 = 3;
+/// Frames timed after it stops: the backdrop's settling frames (`SHADOW_BOUNCE_BANDS` at 512^2),
+/// the sphere's (7 or 8 for the bench's sphere, `SETTLE_SPHERE_PIXELS` of its bounds a frame) and
+/// the first kept ones.
+const STOP_FRAMES: usize = viewer::compositor::SHADOW_BOUNCE_BANDS as usize + 10;
 
 /// With `FRAME_PASS_TIMES` naming it (`lit-moving`, `lit-rest-near-field`, ...; a comma-separated
 /// list), a CPU-timed lit frame's passes over 8 more frames

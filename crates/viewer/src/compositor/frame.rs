@@ -109,13 +109,26 @@ impl Compositor {
         // The first frames at rest after a move draw the exact bounce light and second bounce a
         // few bands at a time (settle.rs), when there are any to draw.
         let settle = &self.reduced.settle;
-        settle.begin_frame(moving, reduce && self.settings.settle_at_rest);
+        settle.begin_frame(moving, reduce && self.settings.settle_at_rest, cursor_map);
         let settling =
             (keep_shadowed && !at_rest && (bounce_rect.is_some() || uniform.shadow_bounce[0] == 1))
                 .then(|| settle.step((self.width, self.height)))
                 .flatten();
         // A settling frame after the first keeps the backdrop after the exact shadows (settle.rs).
         let shadows_kept = settling.is_some_and(|step| !step.first);
+        // The cursor sphere's exact shading settles after the backdrop (settle.rs): from the
+        // last moving frame's radiance map while the backdrop settles, then a band of its rows
+        // exactly a frame at rest.
+        let sphere_settling = sphere && keep_shadowed && settle.sphere_settling();
+        let sphere_step = if sphere_settling && at_rest {
+            let [x, y, z, r] = uniform.sphere.map(f64::from);
+            // Off screen, the sphere has no rows: the first step is the last.
+            let bounds = self.box_scissor(glam::DVec3::new(x, y, z), r * 1.001);
+            settle.sphere_step(bounds.unwrap_or_default())
+        } else {
+            None
+        };
+        let sphere_from_map = sphere_settling && !sphere_step.is_some_and(|step| step.last);
         if shadows_reduced.is_some() {
             written.tone[2] = 1.0;
         }
@@ -251,7 +264,7 @@ impl Compositor {
             let settled = settling.is_none_or(|step| settle.finish(step));
             if self.shadow_bounce_settled(&uniform) && !moving && settled {
                 self.shadowed_from.renew(&uniform, &rest_key);
-                exact = true;
+                exact = !sphere_settling;
             } else {
                 self.shadowed_from.forget();
             }
@@ -259,16 +272,28 @@ impl Compositor {
         if at_rest {
             lap(&mut encoder, "copy of the backdrop kept at rest");
         }
-        if keep_shadowed {
+        if let Some(step) = sphere_step {
+            self.record_live_settling(&mut encoder, &draws, step);
+            lap(&mut encoder, "live objects");
+            if !settle.sphere_finish(step) {
+                exact = false;
+            }
+        } else if keep_shadowed {
             let mut pass = self.begin_frame_pass(&mut encoder, target, false);
-            let sphere_pipeline =
-                if cursor_map { &self.sphere_mapped_pipeline } else { &self.sphere_pipeline };
+            let sphere_pipeline = if cursor_map || sphere_from_map {
+                &self.sphere_mapped_pipeline
+            } else {
+                &self.sphere_pipeline
+            };
             self.draw_live(&mut pass, (&self.mesh_pipeline, sphere_pipeline), &draws, sphere);
             drop(pass);
             lap(&mut encoder, "live objects");
+            if sphere_from_map {
+                exact = false;
+            }
         }
         if let Some((_, bounds)) = antialiased {
-            self.record_antialiased(&mut encoder, bounds, &draws, (sphere, cursor_map));
+            self.record_antialiased(&mut encoder, bounds, &draws, (sphere, cursor_map || sphere_from_map));
             lap(&mut encoder, "antialiased edges");
         }
         self.encode.record(&mut encoder, &self.frame_view);

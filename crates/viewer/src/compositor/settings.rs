@@ -126,8 +126,9 @@ pub struct CompositorSettings {
     /// With `amortise_while_moving` and `reduce_while_moving`, the first frames at rest after a
     /// move draw the exact bounce light and second bounce a few bands of the frame at a time
     /// (`compositor/settle.rs`: exact, bit for bit, at most `SHADOW_BOUNCE_BANDS` frames after
-    /// the move) instead of all in the first; `false` (the default) draws the first frame at
-    /// rest exactly.
+    /// the move) instead of all in the first, and then the cursor sphere's exact shading a band
+    /// of its rows a frame (`SETTLE_SPHERE_PIXELS`; until then it is the last moving frame's,
+    /// from its radiance map); `false` (the default) draws the first frame at rest exactly.
     pub settle_at_rest: bool,
     /// With `amortise_while_moving`, a moving frame shades the cursor sphere once per texel of
     /// a map of its radiance over its half facing the eye and its fragments read it
