@@ -179,29 +179,26 @@ pub(super) fn intersect([ax, ay, aw, ah]: [u32; 4], [bx, by, bw, bh]: [u32; 4]) 
 impl Compositor {
     /// The texture the settling frames keep the backdrop in (made when first needed).
     fn settle_kept(&self) -> wgpu::Texture {
-        let mut kept = self.reduced.settle.kept.borrow_mut();
-        kept.get_or_insert_with(|| {
-            self.gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("settling backdrop"),
-                size: wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: self.linear_format,
-                usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        })
-        .clone()
+        self.frame_sized_copy(&self.reduced.settle.kept, "settling backdrop")
     }
 
     /// The texture the frames at rest keep the cursor sphere's exact rows in (made when first
     /// needed).
     fn sphere_kept(&self) -> wgpu::Texture {
-        let mut kept = self.reduced.settle.sphere_kept.borrow_mut();
+        self.frame_sized_copy(&self.reduced.settle.sphere_kept, "settling sphere rows")
+    }
+
+    /// The frame-sized texture of the linear format held in `slot`, which frames copy into and
+    /// out of (made when first needed).
+    fn frame_sized_copy(
+        &self,
+        slot: &std::cell::RefCell<Option<wgpu::Texture>>,
+        label: &str,
+    ) -> wgpu::Texture {
+        let mut kept = slot.borrow_mut();
         kept.get_or_insert_with(|| {
             self.gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("settling sphere rows"),
+                label: Some(label),
                 size: wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
                 mip_level_count: 1,
                 sample_count: 1,
