@@ -41,25 +41,13 @@ impl World {
             s.mesh.map(|m| (&blas.meshes[m as usize], blas.meshes[m as usize].triangles[tri.index as usize]));
         let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
         let ns_blas = match mesh {
-            Some((MeshShading { normals: Some(normals), .. }, v)) => {
-                let n = normals[v[0] as usize] * bw[0]
-                    + normals[v[1] as usize] * bw[1]
-                    + normals[v[2] as usize] * bw[2];
-                (n.length_squared() > 0.0 && n.is_finite()).then(|| n.as_dvec3())
-            }
+            Some((MeshShading { normals: Some(normals), .. }, v)) => vertex_normal(normals, v, bw),
             _ => None,
         };
         let (mut st, mut st_per_length) = (Vec2::ZERO, 0.0f64);
         if wants_st {
-            let area = 0.5 * ng_blas.length();
-            (st, st_per_length) = match mesh {
-                Some((MeshShading { st: Some(sts), .. }, v)) => {
-                    let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
-                    let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
-                    (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
-                }
-                _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
-            };
+            let sts = mesh.and_then(|(m, v)| m.st.as_deref().map(|sts| (sts, v)));
+            (st, st_per_length) = triangle_st(sts, bw, ng_blas);
         }
         let ng_unit = ng_blas.normalize_or_zero().as_vec3();
         let ns = match ns_blas {
@@ -110,25 +98,13 @@ impl World {
                         .as_ref()
                         .and_then(|d| d.normal(tri.index, bw, ray.time))
                         .map(|n| n.as_dvec3()),
-                    (Some(normals), Some(v)) => {
-                        let n = normals[v[0] as usize] * bw[0]
-                            + normals[v[1] as usize] * bw[1]
-                            + normals[v[2] as usize] * bw[2];
-                        (n.length_squared() > 0.0 && n.is_finite()).then(|| n.as_dvec3())
-                    }
+                    (Some(normals), Some(v)) => vertex_normal(normals, v, bw),
                     _ => None,
                 };
                 n_outward_blas = None;
                 if wants_st {
-                    let area = 0.5 * ng.length();
-                    (st, st_per_length) = match (mesh.and_then(|m| m.st.as_ref()), vidx) {
-                        (Some(sts), Some(v)) => {
-                            let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
-                            let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
-                            (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
-                        }
-                        _ => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
-                    };
+                    let sts = mesh.and_then(|m| m.st.as_deref()).zip(vidx);
+                    (st, st_per_length) = triangle_st(sts, bw, ng);
                 }
                 dpdu_blas = (tp[1] - tp[0]).as_dvec3();
             }
@@ -261,6 +237,31 @@ impl World {
             emitter,
             time: ray.time,
         }
+    }
+}
+
+/// A mesh triangle's shading normal at barycentric weights `bw` from its vertices' normals
+/// (indices `v`), `None` where they cancel or are not finite (the geometric normal serves).
+#[inline(always)]
+fn vertex_normal(normals: &[Vec3], v: [u32; 3], bw: [f32; 3]) -> Option<DVec3> {
+    let n = normals[v[0] as usize] * bw[0] + normals[v[1] as usize] * bw[1] + normals[v[2] as usize] * bw[2];
+    (n.length_squared() > 0.0 && n.is_finite()).then(|| n.as_dvec3())
+}
+
+/// A triangle's texture coordinates at barycentric weights `bw` and texture-space units per
+/// BLAS-space unit around them (isotropic): from its vertices' `st` (with their indices) where
+/// the mesh has them, else the barycentrics themselves; `ng` is the unnormalised geometric
+/// normal, twice the triangle's area.
+#[inline(always)]
+fn triangle_st(sts: Option<(&[Vec2], [u32; 3])>, bw: [f32; 3], ng: DVec3) -> (Vec2, f64) {
+    let area = 0.5 * ng.length();
+    match sts {
+        Some((sts, v)) => {
+            let [a, b, c] = [0, 1, 2].map(|k| sts[v[k] as usize]);
+            let st_area = 0.5 * f64::from((b - a).perp_dot(c - a).abs());
+            (a * bw[0] + b * bw[1] + c * bw[2], (st_area / area).sqrt())
+        }
+        None => (Vec2::new(bw[1], bw[2]), (0.5 / area).sqrt()),
     }
 }
 
