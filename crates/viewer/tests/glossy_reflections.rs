@@ -481,3 +481,46 @@ fn a_metal_wall_reflects_the_shadow_a_close_sphere_casts_where_the_eye_does_not_
     eprintln!("relative squared error {relative} per pixel");
     assert!(relative <= 0.5, "relative squared error {relative} per pixel");
 }
+
+/// The first test's sphere moving (`amortise_while_moving`, as `hybrid-view` draws it): the
+/// moving frame traces the lobes at one pixel of each block of 4x4 and spreads them along the
+/// floor (`reduced_gather.wgsl` fs_glossy_gather, fs_glossy_spread), and its floor must still
+/// show the sphere within the first test's bounds; the frame at rest after it is drawn at full
+/// resolution again and equals a fresh compositor's frame bit for bit.
+#[test]
+fn a_moving_sphere_shows_in_the_metal_floor_from_lobes_traced_at_one_pixel_in_sixteen() {
+    let (w, h) = (512u32, 512u32);
+    let l = 0.9f32;
+    let mut s = flat_cornell(LEVEL, vec![]);
+    let (layers, lobes) = metal_floor(&s, (w, h), vec![]);
+    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
+    s.set_probes(uniform_probe([l; 3]));
+    let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let at =
+        |centre: DVec3| LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
+    let settings = CompositorSettings {
+        mode: CompositeMode::Fullscreen,
+        amortise_while_moving: true,
+        ..Default::default()
+    };
+    let gpu = gpu();
+    let mut c = Compositor::new(&gpu, &s, settings).unwrap();
+    c.render(&at(centre - DVec3::new(0.05, 0.0, 0.0))).unwrap();
+    c.set_pass_timing(true);
+    c.render(&at(centre)).unwrap();
+    c.set_pass_timing(false);
+    let (times, _) = c.pass_times();
+    let reduced = times.iter().find(|t| t.pass == "spheres in glossy lobes: samples (moving)");
+    assert!(reduced.is_some_and(|t| t.frames == 1), "the moving frame traced the lobes at every pixel");
+    let moving = c.read_back_linear().unwrap().rgba;
+    let mask = c.read_back().unwrap().mask;
+    assert_floor_shows_the_sphere(&lobes, &mask, &moving, w, (centre, radius), l);
+    c.render(&at(centre)).unwrap();
+    let resting = c.read_back_linear().unwrap().rgba;
+    let mut fresh = Compositor::new(&gpu, &s, settings).unwrap();
+    fresh.render(&at(centre)).unwrap();
+    let exact = fresh.read_back_linear().unwrap().rgba;
+    assert!(moving != exact, "the moving frame was drawn exactly");
+    assert!(resting == exact, "the frame at rest differs from a fresh compositor's");
+}

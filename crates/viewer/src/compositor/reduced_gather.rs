@@ -203,11 +203,16 @@ impl ReducedGather {
     pub(super) fn moving(&self) -> bool {
         self.moving.get()
     }
+
+    /// The grid of samples, for a reduced pass recorded elsewhere (the glossy lobes: specular.rs).
+    pub(super) fn grid(&self) -> &DrawnAndRead {
+        &self.grid
+    }
 }
 
 /// The grid texels whose samples the pixels of `[x, y, w, h]` read at `stride`, within a grid
 /// of `grid` texels, `[x, y, w, h]` (possibly empty).
-fn grid_rect([x, y, w, h]: [u32; 4], stride: u32, grid: (u32, u32)) -> [u32; 4] {
+pub(super) fn grid_rect([x, y, w, h]: [u32; 4], stride: u32, grid: (u32, u32)) -> [u32; 4] {
     let (x0, y0) = ((x / stride).saturating_sub(1), (y / stride).saturating_sub(1));
     let x1 = ((x + w) / stride + 2).min(grid.0);
     let y1 = ((y + h) / stride + 2).min(grid.1);
@@ -340,6 +345,7 @@ mod tests {
             format!("const REDUCED_LOSS_STRIDE: i32 = {LOSS_STRIDE};"),
             format!("const REDUCED_SHADOW_STRIDE: i32 = {SHADOW_STRIDE};"),
             format!("const REDUCED_SHADOW_LIGHTS: u32 = {SHADOW_LIGHTS}u;"),
+            format!("const REDUCED_GLOSSY_STRIDE: i32 = {};", super::super::specular::GLOSSY_STRIDE),
         ] {
             assert!(wgsl.lines().any(|l| l == line), "reduced_gather.wgsl lacks `{line}`");
         }

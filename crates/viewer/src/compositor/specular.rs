@@ -2,7 +2,10 @@
 //! Fresnel reflection) and glossy lobes (metal, plastic; `shaders/specular.wgsl`): one
 //! full-screen draw per sphere and kind, scissored to the pixels the sidecar gives a
 //! reflectance or a glossy lobe, replacing the reflected light where the mirror direction (or
-//! one of the lobe's directions) meets the sphere first.
+//! one of the lobe's directions) meets the sphere first. While live objects move, the glossy
+//! lobes are traced at one pixel of each block and spread (`reduced_gather.wgsl`
+//! `fs_glossy_gather`, `fs_glossy_spread`): tracing them costs most of a moving frame in a scene
+//! with glossy surfaces.
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
@@ -16,6 +19,11 @@ pub(super) struct SpecularReflections {
     /// The spheres seen in the scene's glossy lobes, one draw per sphere adding its share to
     /// the backdrop after shadows as the previous draws left it.
     glossy_pipeline: wgpu::RenderPipeline,
+    /// While live objects move: each sphere's change in the glossy lobes at one pixel of each
+    /// block of [`GLOSSY_STRIDE`]^2, into the reduced grid (binding 22), and its spreading over
+    /// the frame.
+    glossy_gather: wgpu::RenderPipeline,
+    glossy_spread: wgpu::RenderPipeline,
     /// The frame's rectangle of pixels with a specular reflection as the pass last left it
     /// (`None` when no pixel has one), and the uniforms it was drawn from: a still frame copies
     /// it back instead of drawing the pass again.
@@ -47,7 +55,15 @@ impl SpecularReflections {
             "fs_reflection",
         );
         let glossy_pipeline =
-            overlay.pipeline(device, "spheres in glossy reflections", with_mesh, vertex, "fs_glossy");
+            overlay.pipeline(device, "spheres in glossy reflections", with_mesh, vertex.clone(), "fs_glossy");
+        let glossy_spread = overlay.pipeline(
+            device,
+            "spheres in glossy reflections, spread",
+            with_mesh,
+            vertex.clone(),
+            "fs_glossy_spread",
+        );
+        let glossy_gather = grid_pipeline(device, overlay, with_mesh, vertex);
         let cache = rect.map(|[_, _, width, height]| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("spheres in specular reflections, last drawn"),
@@ -60,8 +76,52 @@ impl SpecularReflections {
                 view_formats: &[],
             })
         });
-        SpecularReflections { pipeline, glossy_pipeline, cache, drawn_from: super::DrawnFrom::default() }
+        SpecularReflections {
+            pipeline,
+            glossy_pipeline,
+            glossy_gather,
+            glossy_spread,
+            cache,
+            drawn_from: super::DrawnFrom::default(),
+        }
     }
+}
+
+/// Pixels along each side of a block whose centre traces the glossy lobes while live objects
+/// move (`reduced_gather.wgsl` REDUCED_GLOSSY_STRIDE): the layered shadows' stride, whose
+/// spreading weights it reads. In the room at 512x384 the lobes cost 8.5 s of CPU a moving
+/// frame on lavapipe and 80 ms on an H100 at full resolution (docs/viewer-frame-time.md).
+pub const GLOSSY_STRIDE: u32 = super::reduced_gather::SHADOW_STRIDE;
+
+/// `fs_glossy_gather`'s pipeline: the spheres' full-screen draw (`vertex`, their material in
+/// group 1 of `with_mesh`) into the reduced grid, in the frame's linear format, unblended.
+fn grid_pipeline(
+    device: &wgpu::Device,
+    overlay: &Overlay<'_>,
+    with_mesh: &wgpu::PipelineLayout,
+    vertex: wgpu::VertexState<'_>,
+) -> wgpu::RenderPipeline {
+    let targets = [Some(wgpu::ColorTargetState {
+        format: overlay.linear_format,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
+    })];
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("spheres in glossy reflections, reduced"),
+        layout: Some(with_mesh),
+        vertex,
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: overlay.module,
+            entry_point: Some("fs_glossy_gather"),
+            compilation_options: Default::default(),
+            targets: &targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 impl Compositor {
@@ -118,7 +178,9 @@ impl Compositor {
             // Each sphere's glossy draw adds its share to what the draws before it left (copied
             // into the backdrop after shadows, which the next draw reads): the frame's colour
             // target cannot be blended in every format.
-            if self.layers.glossy.is_some() {
+            if self.layers.glossy.is_some() && self.reduced.moving() {
+                self.record_glossy_reduced(encoder, uniform, [x, y, w, h], spheres, &bind_row);
+            } else if self.layers.glossy.is_some() {
                 for row in 0..spheres {
                     {
                         let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
@@ -135,5 +197,57 @@ impl Compositor {
             encoder.copy_texture_to_texture(cache.as_image_copy(), frame_rect, size);
             self.copy_to_shadowed(encoder, [x, y, w, h]);
         }
+    }
+
+    /// The glossy draws of a moving frame within `rect` (the pixels with a lobe): each sphere's
+    /// change gathered on the reduced grid at one pixel of each block of [`GLOSSY_STRIDE`]^2
+    /// (`bind_row` binds a sphere's material), then spread over the frame and the rectangle
+    /// copied into the backdrop after shadows. The frame's uniform marks it as moving, so the
+    /// frame at rest after it draws the lobes again at full resolution.
+    fn record_glossy_reduced(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        rect: [u32; 4],
+        spheres: u32,
+        bind_row: &dyn Fn(&mut wgpu::RenderPass<'_>, u32),
+    ) {
+        self.record_spread_weights(encoder, uniform);
+        let grid = self.reduced.grid();
+        let size = (self.width.div_ceil(GLOSSY_STRIDE), self.height.div_ceil(GLOSSY_STRIDE));
+        let [gx, gy, gw, gh] = super::reduced_gather::grid_rect(rect, GLOSSY_STRIDE, size);
+        if gw == 0 || gh == 0 {
+            return;
+        }
+        for row in 0..spheres {
+            {
+                // Each draw after the first adds to what the draws before it left (read from the
+                // grid's copy, binding 22).
+                let load =
+                    if row == 0 { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) } else { wgpu::LoadOp::Load };
+                let mut pass = super::colour_pass(encoder, "glossy lobes, reduced", &grid.drawn_view, load);
+                pass.set_pipeline(&self.specular.glossy_gather);
+                pass.set_bind_group(0, &self.frame_bind_group, &[]);
+                bind_row(&mut pass, row);
+                pass.set_scissor_rect(gx, gy, gw, gh);
+                pass.draw(0..3, row..row + 1);
+            }
+            grid.copy_drawn_to_read(encoder);
+        }
+        self.pass_timing.lap(
+            &self.gpu.device,
+            &self.gpu.queue,
+            encoder,
+            "spheres in glossy lobes: samples (moving)",
+        );
+        {
+            let [x, y, w, h] = rect;
+            let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+            pass.set_scissor_rect(x, y, w, h);
+            pass.set_pipeline(&self.specular.glossy_spread);
+            bind_row(&mut pass, 0);
+            pass.draw(0..3, 0..1);
+        }
+        self.copy_to_shadowed(encoder, rect);
     }
 }

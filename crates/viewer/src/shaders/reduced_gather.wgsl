@@ -16,6 +16,9 @@ const REDUCED_BOUNCE_STRIDE: i32 = 8;
 const REDUCED_LOSS_STRIDE: i32 = 32;
 // The layered shadows' (compositor/reduced_gather.rs SHADOW_STRIDE).
 const REDUCED_SHADOW_STRIDE: i32 = 4;
+// The live spheres seen in glossy lobes (GLOSSY_STRIDE), spread with the layered shadows'
+// weights, whose stride it is.
+const REDUCED_GLOSSY_STRIDE: i32 = 4;
 // A sample lies on the receiver's surface when their normals are within about 25 degrees and
 // the sample is within this share of its distance from the receiver off the receiver's plane.
 const REDUCED_SAME_NORMAL: f32 = 0.9;
@@ -298,4 +301,42 @@ fn fs_shadow_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     }
     let before = textureLoad(backdrop_colour, pixel, 0);
     return vec4<f32>(max(before.rgb - removed, vec3<f32>(0.0)), before.a);
+}
+
+// One sample of what the live spheres change in the glossy lobe of the pixel its grid texel
+// stands for (specular.wgsl glossy_change, per unit Ks): drawn once per sphere, each draw adding
+// its sphere's change to the draws' before it (read from the grid's copy), as fs_glossy's draws
+// add theirs at full resolution; alpha 1 where a draw changed the sample.
+@fragment
+fn fs_glossy_gather(in: ReflectionOut) -> @location(0) vec4<f32> {
+    let texel = vec2<i32>(in.position.xy);
+    let pixel = reduced_sample_pixel(texel, REDUCED_GLOSSY_STRIDE);
+    var before = vec4<f32>(0.0);
+    if in.row > 0u {
+        before = textureLoad(reduced_gather, texel, 0);
+    }
+    let change = glossy_change(pixel, in.row);
+    return vec4<f32>(before.rgb + change.rgb, max(before.a, change.w));
+}
+
+// fs_glossy with the spheres' change spread from the grid (the layered shadows' weights: the
+// four nearest samples on the pixel's own surface) and scaled by the pixel's own Ks; pixels
+// without a lobe, or whose samples changed nothing, are discarded and keep their value.
+@fragment
+fn fs_glossy_spread(in: ReflectionOut) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(in.position.xy);
+    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+        discard;
+    }
+    let ks = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
+    let weights = reduced_weights_at(pixel, REDUCED_SPREAD_SHADOWS);
+    if all(ks <= vec3<f32>(0.0)) || all(weights == vec4<f32>(0.0)) {
+        discard;
+    }
+    let change = spread(pixel, weights, REDUCED_GLOSSY_STRIDE);
+    if change.a <= 0.0 {
+        discard;
+    }
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + change.rgb * (ks / f32(GLOSSY_TRACED)), vec3<f32>(0.0)), before.a);
 }

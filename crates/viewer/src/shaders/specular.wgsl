@@ -222,21 +222,35 @@ fn first_sphere(p: vec3<f32>, l: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(in.position.xy);
-    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+    let change = glossy_change(pixel, in.row);
+    if change.w == 0.0 {
         discard;
+    }
+    let ks = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
+    let before = textureLoad(backdrop_shadowed, pixel, 0);
+    return vec4<f32>(max(before.rgb + change.rgb * (ks / f32(GLOSSY_TRACED)), vec3<f32>(0.0)), before.a);
+}
+
+// What draw `row`'s sphere changes in the glossy lobe of `pixel` (fs_glossy), per unit Ks and
+// times GLOSSY_TRACED, in rgb; w is 0 where it changes nothing (no lobe there, or the lobe
+// meets neither the sphere nor the live objects' shadows), else 1. At full resolution
+// (fs_glossy) and, while moving, at one pixel of each block (fs_glossy_gather).
+fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
+    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+        return vec4<f32>(0.0);
     }
     let ks = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
     let exponent = textureLoad(light_layers, pixel, i32(frame.reflection.w) + 1, 0).r;
     let centre = surface_point(pixel);
     let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
     if all(ks <= vec3<f32>(0.0)) || !(exponent >= 1.0) || centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
-        discard;
+        return vec4<f32>(0.0);
     }
     let p = centre.xyz;
     let n = normalize(n_raw);
     let view = view_direction_to(p);
     let v = -view;
-    let sphere = frame.shadow_spheres[in.row];
+    let sphere = frame.shadow_spheres[row];
     let tb = lobe_tangents(n);
     let t = tb[0];
     let b = tb[1];
@@ -250,7 +264,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     // Which share of the lobe meets this draw's sphere first, and in how many directions; and
     // the shadows seen in the rest of the lobe (first draw).
     let far = bitcast<f32>(frame.bounce.z);
-    let shadows_seen = in.row == 0u && frame.bounce.x == 1u;
+    let shadows_seen = row == 0u && frame.bounce.x == 1u;
     var albedo = 0.0;
     var met = 0.0;
     var met_count = 0u;
@@ -270,7 +284,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
         }
         albedo += d.w;
         let first = first_sphere(p, d.xyz);
-        if u32(first.x) == in.row {
+        if u32(first.x) == row {
             met += d.w;
             met_count += 1u;
             met_mask[i / 32u] |= 1u << (i % 32u);
@@ -299,7 +313,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
         }
     }
     if met_count == 0u && all(shadowed == vec3<f32>(0.0)) && all(hidden_taken == vec3<f32>(0.0)) {
-        discard;
+        return vec4<f32>(0.0);
     }
     // The lobe's mean incoming radiance: what a direction hides, or sends from a surface the eye
     // does not see, where no march finds it.
@@ -307,7 +321,7 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED) + diffuse_albedo, vec3<f32>(1e-6));
     var change = shadowed - mean * hidden_taken;
     if met_count > 0u {
-        let material = live_sphere_material(in.row);
+        let material = live_sphere_material(row);
         let stride = (met_count + GLOSSY_SHADED - 1u) / GLOSSY_SHADED;
         // The directions to shade are chosen first and shaded in a loop without `continue`:
         // on lavapipe, a loop that skipped directions with `continue` around the call to
@@ -334,16 +348,14 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
             if scene_lets_light(p, n, d.xyz, first.y, 0.0) {
                 let q = p + first.y * d.xyz;
                 let m = normalize(q - sphere.xyz);
-                loss_map_row = loss_map_row_at(in.row, sphere.xyz, m);
+                loss_map_row = loss_map_row_at(row, sphere.xyz, m);
                 let seen = shade(material, q, m, d.xyz) * frame.tone.x;
                 shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
             }
         }
         change += met * shaded / max(shaded_weight, 1e-30);
     }
-    change *= ks / f32(GLOSSY_TRACED);
-    let before = textureLoad(backdrop_shadowed, pixel, 0);
-    return vec4<f32>(max(before.rgb + change, vec3<f32>(0.0)), before.a);
+    return vec4<f32>(change, 1.0);
 }
 
 // The radiance (image units, without what emitters emit: their light hidden is their light
