@@ -166,7 +166,7 @@ fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters:
         let ray = paths.ray[i];
         match world.intersect(&ray) {
             Some(hit) => {
-                paths.si[i] = world.interaction(&ray, &hit);
+                world.write_interaction(&ray, &hit, &mut paths.si[i]);
                 // An opaque surface stops the ray with weight one (the scalar path's product).
                 paths.beta[i] *= Vec3::ONE;
                 true
@@ -219,10 +219,9 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, l
             }
         }
         *l += beta * surface_terms(world, si, material);
-        let bsdf = material.bsdf_inlined(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
-        let ends = bsdf.is_black() || depth >= settings.max_depth;
-        paths.bsdf[i] = bsdf;
-        !ends
+        let bsdf = &mut paths.bsdf[i];
+        material.write_bsdf(bsdf, si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
+        !(bsdf.is_black() || depth >= settings.max_depth)
     });
 }
 

@@ -20,6 +20,21 @@ impl World {
         self.interaction_general(ray, hit)
     }
 
+    /// [`World::interaction`] written into `out`, which it replaces whole: where the record
+    /// is stored (the wavefront's) it is built there. Returned by value, the flat case's
+    /// record shared its return slot with the general case's out-of-line call, so it was built
+    /// on the stack and copied in with `memcpy`.
+    #[inline]
+    pub fn write_interaction(&self, ray: &Ray, hit: &Hit, out: &mut SurfaceInteraction) {
+        if self.flat
+            && let HitDetail::Triangle(i, b) = hit.detail
+        {
+            *out = self.interaction_flat(ray, hit.t, i, b);
+        } else {
+            *out = self.interaction_general(ray, hit);
+        }
+    }
+
     /// [`World::interaction`] in a flat world (`flat.rs`): one BLAS of triangles alone, placed
     /// as it is, so no deformation, placement or solid to look at. The same `f32` and `f64`
     /// operations as [`World::interaction_general`] in the same order, so the same surface
