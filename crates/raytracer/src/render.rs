@@ -687,8 +687,15 @@ fn render_tile(
     let mut samples = Vec::with_capacity(sw * (sy1 - sy0) as usize * spp);
     let mut counters = RayCounters::default();
     // The wavefront's camera rays with their samplers and the index of their sample, in three
-    // lists so that the batches borrow the samplers instead of copying them out.
-    let (mut slots, mut cameras, mut samplers) = (Vec::new(), Vec::new(), Vec::new());
+    // lists so that the batches borrow the samplers instead of copying them out; each as large
+    // as the tile's samples from the start (grown by doubling, their copies were 0.5% of a
+    // Cornell box render).
+    let wavefront_samples = if frame.wavefront.is_some() { samples.capacity() } else { 0 };
+    let (mut slots, mut cameras, mut samplers) = (
+        Vec::with_capacity(wavefront_samples),
+        Vec::with_capacity(wavefront_samples),
+        Vec::with_capacity(wavefront_samples),
+    );
     for py in sy0..sy1 {
         for px in sx0..sx1 {
             if !needed(px, py) {
