@@ -727,7 +727,8 @@ impl World {
                         | (if reversed { super::REVERSED } else { 0 })
                 })
                 .collect();
-            world.flat_normals = triangles.iter().map(|t| super::interaction::triangle_unit_normal(t.p)).collect();
+            world.flat_normals =
+                triangles.iter().map(|t| super::interaction::triangle_unit_normal(t.p)).collect();
         }
         Ok(world)
     }
