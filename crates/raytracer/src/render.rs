@@ -688,7 +688,7 @@ fn render_tile(
     let mut counters = RayCounters::default();
     // The wavefront's camera rays with their samplers and the index of their sample, in three
     // lists so that the batches borrow the samplers instead of copying them out; each as large
-    // as the tile's samples from the start (grown by doubling, their copies were 0.5% of a
+    // as the tile's samples from the start (grown by doubling, their copies were 0.7% of a
     // Cornell box render).
     let wavefront_samples = if frame.wavefront.is_some() { samples.capacity() } else { 0 };
     let (mut slots, mut cameras, mut samplers) = (
