@@ -295,8 +295,9 @@ impl Material {
         self.bsdf_inlined(wo, ng, ns, n_outward, dpdu, st, st_width)
     }
 
-    /// [`Material::bsdf`], inlined where it is hot (the path tracer's loop): out of line, the
-    /// BSDF (about 200 bytes) was built in the callee's frame and copied out with `memcpy`.
+    /// [`Material::bsdf`], inlined where it is hot (the scalar path tracer's loop): out of
+    /// line, the BSDF (about 200 bytes) was built in the callee's frame and copied out with
+    /// `memcpy`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub fn bsdf_inlined(
@@ -309,19 +310,40 @@ impl Material {
         st: Vec2,
         st_width: f32,
     ) -> Bsdf {
+        let mut bsdf = Bsdf::new(Frame::from_z(Vec3::Z), Vec3::Z);
+        self.write_bsdf(&mut bsdf, wo, ng, ns, n_outward, dpdu, st, st_width);
+        bsdf
+    }
+
+    /// [`Material::bsdf`] written into `out`, which it replaces whole: where the BSDF is
+    /// stored (the wavefront's records) it is built there, with no copy from a temporary.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn write_bsdf(
+        &self,
+        out: &mut Bsdf,
+        wo: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        n_outward: Vec3,
+        dpdu: Vec3,
+        st: Vec2,
+        st_width: f32,
+    ) {
         let cs = self.color_at(st, st_width);
         if let Surface::Glass { kr, kt, eta } = self.surface {
             // The frame's +z is the outward normal: the lobe knows which side is inside.
             let flip = ng.dot(n_outward) < 0.0;
             let (ng_o, ns_o) = if flip { (-ng, -ns) } else { (ng, ns) };
-            let mut bsdf = Bsdf::new(Frame::from_z_and_tangent(ns_o, dpdu), ng_o);
-            bsdf.add(Lobe::Dielectric { eta, r: cs * kr.max(0.0), t: cs * kt.max(0.0) });
-            return bsdf;
+            *out = Bsdf::new(Frame::from_z_and_tangent(ns_o, dpdu), ng_o);
+            out.add(Lobe::Dielectric { eta, r: cs * kr.max(0.0), t: cs * kt.max(0.0) });
+            return;
         }
         // Opaque shaders are two-sided: face the normals toward the viewer (RenderMan's
         // faceforward).
         let (ng, ns) = if wo.dot(ng) < 0.0 { (-ng, -ns) } else { (ng, ns) };
-        let mut bsdf = Bsdf::new(Frame::from_z_and_tangent(ns, dpdu), ng);
+        *out = Bsdf::new(Frame::from_z_and_tangent(ns, dpdu), ng);
+        let bsdf = out;
         let exponent = |roughness: f32| (1.0 / roughness).clamp(1.0, 10_000.0);
         match self.surface {
             Surface::Constant | Surface::DefaultSurface { .. } | Surface::Glass { .. } => {}
@@ -349,7 +371,6 @@ impl Material {
                 bsdf.add(Lobe::SpecularReflection { r: (cs * kr.max(0.0)).min(Vec3::ONE) })
             }
         }
-        bsdf
     }
 }
 

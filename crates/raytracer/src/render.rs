@@ -686,8 +686,16 @@ fn render_tile(
     let spp = spp as usize;
     let mut samples = Vec::with_capacity(sw * (sy1 - sy0) as usize * spp);
     let mut counters = RayCounters::default();
-    // The wavefront's camera rays with their samplers and the index of their sample.
-    let mut batch: Vec<(usize, Ray, crate::sampler::Sampler)> = Vec::new();
+    // The wavefront's camera rays with their samplers and the index of their sample, in three
+    // lists so that the batches borrow the samplers instead of copying them out; each as large
+    // as the tile's samples from the start (grown by doubling, their copies were 0.7% of a
+    // Cornell box render).
+    let wavefront_samples = if frame.wavefront.is_some() { samples.capacity() } else { 0 };
+    let (mut slots, mut cameras, mut samplers) = (
+        Vec::with_capacity(wavefront_samples),
+        Vec::with_capacity(wavefront_samples),
+        Vec::with_capacity(wavefront_samples),
+    );
     for py in sy0..sy1 {
         for px in sx0..sx1 {
             if !needed(px, py) {
@@ -712,7 +720,9 @@ fn render_tile(
                 let time = if world.motion_blur { sampler.uniform() } else { 0.0 };
                 let r = match rays.lens_ray_at(DVec2::new(x, y), lens_u, time) {
                     Some((ray, _)) if frame.wavefront.is_some() => {
-                        batch.push((samples.len(), ray, sampler));
+                        slots.push(samples.len());
+                        cameras.push(ray);
+                        samplers.push(sampler);
                         Default::default()
                     }
                     Some((ray, _)) => {
@@ -725,15 +735,12 @@ fn render_tile(
         }
     }
     if let Some(settings) = frame.wavefront {
-        let mut pending = batch.into_iter();
-        loop {
-            let (slots, cameras): (Vec<usize>, Vec<_>) =
-                pending.by_ref().take(crate::wavefront::BATCH).map(|(k, ray, s)| (k, (ray, s))).unzip();
-            if slots.is_empty() {
-                break;
-            }
-            let radiance = crate::wavefront::render_batch(world, settings, cameras, &mut counters);
-            for (k, r) in slots.into_iter().zip(radiance) {
+        let batch = crate::wavefront::BATCH;
+        for ((slots, cameras), samplers) in
+            slots.chunks(batch).zip(cameras.chunks(batch)).zip(samplers.chunks_mut(batch))
+        {
+            let radiance = crate::wavefront::render_batch(world, settings, cameras, samplers, &mut counters);
+            for (&k, r) in slots.iter().zip(radiance) {
                 let r = world.over_background(r);
                 (samples[k].rgb, samples[k].alpha) = (r.rgb, r.alpha);
             }

@@ -75,10 +75,11 @@ pub fn supports(world: &World, kind: &IntegratorKind) -> Result<PathSettings, &'
 /// A path's previous vertex, for the MIS weight of an emitter its BSDF sample hits.
 type PreviousVertex = Option<(DVec3, f32, AttributesId)>;
 
-/// The state of a batch's paths, one entry per path.
-struct Paths {
+/// The state of a batch's paths, one entry per path. The samplers are the caller's: moved
+/// in, each (about 130 bytes) was copied with `memcpy` twice per camera sample.
+struct Paths<'s> {
     ray: Vec<Ray>,
-    sampler: Vec<Sampler>,
+    sampler: &'s mut [Sampler],
     beta: Vec<Vec3>,
     l: Vec<Vec3>,
     alpha: Vec<f32>,
@@ -116,19 +117,20 @@ fn no_surface() -> SurfaceInteraction {
 }
 
 /// Renders a batch of camera rays, each with its sampler (the state after the camera's
-/// dimensions): the radiance and coverage of each, as [`crate::integrators::PathTracer`]
-/// returns them.
+/// dimensions; `rays` and `samplers` are as long as each other): the radiance and coverage of
+/// each, as [`crate::integrators::PathTracer`] returns them.
 pub fn render_batch(
     world: &World,
     settings: PathSettings,
-    cameras: Vec<(Ray, Sampler)>,
+    rays: &[Ray],
+    samplers: &mut [Sampler],
     counters: &mut RayCounters,
 ) -> Vec<Radiance> {
-    let n = cameras.len();
-    let (ray, sampler): (Vec<Ray>, Vec<Sampler>) = cameras.into_iter().unzip();
+    let n = rays.len();
+    assert_eq!(samplers.len(), n, "one sampler per camera ray");
     let mut paths = Paths {
-        ray,
-        sampler,
+        ray: rays.to_vec(),
+        sampler: samplers,
         beta: vec![Vec3::ONE; n],
         l: vec![Vec3::ZERO; n],
         alpha: vec![0.0; n],
@@ -154,7 +156,7 @@ pub fn render_batch(
 
 /// Stage 1: each live path's closest hit and its surface interaction; paths that leave the
 /// scene take what the environment gives them and end.
-fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters: &mut RayCounters) {
+fn closest_hits(world: &World, paths: &mut Paths<'_>, live: &mut Vec<u32>, counters: &mut RayCounters) {
     live.retain(|&i| {
         let i = i as usize;
         let depth = paths.depth[i];
@@ -166,7 +168,7 @@ fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters:
         let ray = paths.ray[i];
         match world.intersect(&ray) {
             Some(hit) => {
-                paths.si[i] = world.interaction(&ray, &hit);
+                world.write_interaction(&ray, &hit, &mut paths.si[i]);
                 // An opaque surface stops the ray with weight one (the scalar path's product).
                 paths.beta[i] *= Vec3::ONE;
                 true
@@ -190,7 +192,7 @@ fn closest_hits(world: &World, paths: &mut Paths, live: &mut Vec<u32>, counters:
 /// Stage 2: coverage, the emission of a light hit (weighted for MIS against the previous
 /// vertex's light sample), the surface's own terms, and its BSDF; paths whose BSDF is black or
 /// whose depth is at the limit end.
-fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, live: &mut Vec<u32>) {
+fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
     live.retain(|&i| {
         let i = i as usize;
         let si = &paths.si[i];
@@ -219,10 +221,9 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, l
             }
         }
         *l += beta * surface_terms(world, si, material);
-        let bsdf = material.bsdf_inlined(si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
-        let ends = bsdf.is_black() || depth >= settings.max_depth;
-        paths.bsdf[i] = bsdf;
-        !ends
+        let bsdf = &mut paths.bsdf[i];
+        material.write_bsdf(bsdf, si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
+        !(bsdf.is_black() || depth >= settings.max_depth)
     });
 }
 
@@ -233,7 +234,7 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths, l
 fn light_samples(
     v3: Option<X86_64V3>,
     world: &World,
-    paths: &mut Paths,
+    paths: &mut Paths<'_>,
     live: &[u32],
     counters: &mut RayCounters,
 ) {
@@ -334,7 +335,7 @@ fn light_samples(
 /// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
 /// Russian roulette. The numbers are drawn path by path in the scalar integrator's order; the
 /// directions of one-lobe Lambert BSDFs are sampled eight at a time where the CPU has AVX2.
-fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths, live: &mut Vec<u32>) {
+fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
     let numbers: Vec<(f32, glam::Vec2)> = live
         .iter()
         .map(|&i| {
@@ -386,7 +387,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths,
 
 /// A path's throughput, next ray and Russian roulette after its BSDF sample `bs`: false when
 /// the path ends.
-fn continue_path(settings: PathSettings, paths: &mut Paths, i: usize, bs: Option<BsdfSample>) -> bool {
+fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Option<BsdfSample>) -> bool {
     let Some(bs) = bs else { return false };
     let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
     let cos = bs.wi.dot(bsdf.frame.z).abs();

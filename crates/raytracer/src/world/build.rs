@@ -705,6 +705,7 @@ impl World {
             x86_64_v3: crate::accel::X86_64V3::detect(),
             flat: false,
             flat_sides: Vec::new(),
+            flat_normals: Vec::new(),
         };
         world.flat = world.is_flat();
         // The x86-64-v3 queries test triangles stored as rows (`shapes/triangle_rows.rs`). A
@@ -726,6 +727,8 @@ impl World {
                         | (if reversed { super::REVERSED } else { 0 })
                 })
                 .collect();
+            world.flat_normals =
+                triangles.iter().map(|t| super::interaction::triangle_unit_normal(t.p)).collect();
         }
         Ok(world)
     }

@@ -20,6 +20,21 @@ impl World {
         self.interaction_general(ray, hit)
     }
 
+    /// [`World::interaction`] written into `out`, which it replaces whole: where the record
+    /// is stored (the wavefront's) it is built there. Returned by value, the flat case's
+    /// record shared its return slot with the general case's out-of-line call, so it was built
+    /// on the stack and copied in with `memcpy`.
+    #[inline]
+    pub fn write_interaction(&self, ray: &Ray, hit: &Hit, out: &mut SurfaceInteraction) {
+        if self.flat
+            && let HitDetail::Triangle(i, b) = hit.detail
+        {
+            *out = self.interaction_flat(ray, hit.t, i, b);
+        } else {
+            *out = self.interaction_general(ray, hit);
+        }
+    }
+
     /// [`World::interaction`] in a flat world (`flat.rs`): one BLAS of triangles alone, placed
     /// as it is, so no deformation, placement or solid to look at. The same `f32` and `f64`
     /// operations as [`World::interaction_general`] in the same order, so the same surface
@@ -36,7 +51,6 @@ impl World {
         let wants_st = self.material(attributes).reads_texture_coordinates();
         let tp = tri.p;
         let (p64, err64) = barycentric_point(b, tp[0], tp[1], tp[2]);
-        let ng_blas = (tp[1] - tp[0]).cross(tp[2] - tp[0]).as_dvec3();
         let mesh =
             s.mesh.map(|m| (&blas.meshes[m as usize], blas.meshes[m as usize].triangles[tri.index as usize]));
         let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
@@ -47,9 +61,9 @@ impl World {
         let (mut st, mut st_per_length) = (Vec2::ZERO, 0.0f64);
         if wants_st {
             let sts = mesh.and_then(|(m, v)| m.st.as_deref().map(|sts| (sts, v)));
-            (st, st_per_length) = triangle_st(sts, bw, ng_blas);
+            (st, st_per_length) = triangle_st(sts, bw, triangle_normal(tp));
         }
-        let ng_unit = ng_blas.normalize_or_zero().as_vec3();
+        let ng_unit = self.flat_normals[i as usize];
         let ns = match ns_blas {
             Some(n) => n.normalize_or_zero().as_vec3(),
             None => ng_unit,
@@ -86,8 +100,7 @@ impl World {
                 let (p, err) = barycentric_point(b, tp[0], tp[1], tp[2]);
                 p_blas = p;
                 err_blas = err;
-                let ng = (tp[1] - tp[0]).cross(tp[2] - tp[0]).as_dvec3();
-                ng_blas = ng;
+                ng_blas = triangle_normal(tp);
                 let s = &blas.shapes[tri.shape as usize];
                 let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
                 let vidx = mesh.map(|m| m.triangles[tri.index as usize]);
@@ -104,7 +117,7 @@ impl World {
                 n_outward_blas = None;
                 if wants_st {
                     let sts = mesh.and_then(|m| m.st.as_deref()).zip(vidx);
-                    (st, st_per_length) = triangle_st(sts, bw, ng);
+                    (st, st_per_length) = triangle_st(sts, bw, ng_blas);
                 }
                 dpdu_blas = (tp[1] - tp[0]).as_dvec3();
             }
@@ -238,6 +251,18 @@ impl World {
             time: ray.time,
         }
     }
+}
+
+/// A triangle's geometric normal (unnormalised: twice its area) from its vertices.
+#[inline(always)]
+fn triangle_normal(tp: [Vec3; 3]) -> DVec3 {
+    (tp[1] - tp[0]).cross(tp[2] - tp[0]).as_dvec3()
+}
+
+/// A triangle's unit geometric normal as [`World::interaction`] computes it (zero for a
+/// degenerate triangle): [`World::flat_normals`] holds it per triangle of a flat world.
+pub(super) fn triangle_unit_normal(tp: [Vec3; 3]) -> Vec3 {
+    triangle_normal(tp).normalize_or_zero().as_vec3()
 }
 
 /// A mesh triangle's shading normal at barycentric weights `bw` from its vertices' normals

@@ -296,6 +296,10 @@ pub struct World {
     /// The flat BLAS's triangles' sidedness in slot order, [`World::sidedness`] of each as
     /// [`ONE_SIDED`] and [`REVERSED`] bits, read on every hit (empty when the world is not flat).
     flat_sides: Vec<u8>,
+    /// The flat BLAS's triangles' unit geometric normals in slot order, as the surface
+    /// interaction computes them from the vertices (an `f64` cross product and normalisation
+    /// per hit before); empty when the world is not flat.
+    flat_normals: Vec<Vec3>,
 }
 
 /// [`World::flat_sides`]: the triangle's surface is one-sided.
