@@ -81,9 +81,10 @@ pub struct Args {
     #[arg(long)]
     pub full_resolution_while_moving: bool,
     /// Draw the first frame at rest after a move exactly, all of it. By default the frames at
-    /// rest draw the exact bounce light and shadows' second bounce a few bands at a time (at
-    /// most 16 frames), then the cursor sphere's exact shading a few of its rows at a time,
-    /// instead of one multi-second frame.
+    /// rest draw the exact layered shadows a band of rows at a time, then the exact bounce light
+    /// and shadows' second bounce a few rows at a time (about 70 frames at 512^2, each at most
+    /// about twice a plain frame), then the cursor sphere's exact shading a few of its rows at a
+    /// time, instead of one multi-second frame.
     #[arg(long)]
     pub settle_in_one_frame: bool,
     /// Draw every frame, also a frame at rest whose inputs are the last exact frame's. By

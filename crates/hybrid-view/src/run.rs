@@ -449,9 +449,10 @@ fn print_stats(
             l = viewer::compositor::MOVING_LOSS_STRIDE,
             rest = if s.settle_at_rest {
                 format!(
-                    "at rest the exact bounce light and second bounce drawn over up to {} frames, \
-                     {} pixels a frame at most (--settle-in-one-frame: exact from the second frame at rest)",
-                    viewer::compositor::SHADOW_BOUNCE_BANDS,
+                    "at rest the exact layered shadows drawn over several frames, {} pixels a \
+                     frame at most, then the exact bounce light and second bounce, {} pixels a \
+                     frame at most (--settle-in-one-frame: exact from the second frame at rest)",
+                    viewer::compositor::SETTLE_SHADOW_PIXELS,
                     viewer::compositor::SETTLE_PIXELS
                 )
             } else {

@@ -432,10 +432,15 @@ fn cpu_frame_time(c: &mut Criterion) {
 
 /// Frames the sphere moves before it stops in `fullscreen-lit-stop-worst-near-field`.
 const STOP_MOVES: u32 = 3;
-/// Frames timed after it stops: the backdrop's settling frames (`SHADOW_BOUNCE_BANDS` at 512^2),
-/// the sphere's (7 or 8 for the bench's sphere, `SETTLE_SPHERE_PIXELS` of its bounds a frame) and
-/// the first kept ones.
-const STOP_FRAMES: usize = viewer::compositor::SHADOW_BOUNCE_BANDS as usize + 10;
+/// Frames timed after it stops: the backdrop's settling frames at 512^2 (the layered shadows',
+/// `SETTLE_SHADOW_PIXELS` of their scissor a frame, 4 at most; the maps'; the rows',
+/// `SETTLE_PIXELS` a frame), the sphere's (7 or 8 for the bench's sphere,
+/// `SETTLE_SPHERE_PIXELS` of its bounds a frame) and the first kept ones.
+const STOP_FRAMES: usize = {
+    let frame = 512 * 512;
+    let shadows = frame / viewer::compositor::SETTLE_SHADOW_PIXELS as usize;
+    shadows + 1 + frame / viewer::compositor::SETTLE_PIXELS as usize + 10
+};
 
 /// With `FRAME_PASS_TIMES` naming it (`lit-moving`, `lit-rest-near-field`, ...; a comma-separated
 /// list), a CPU-timed lit frame's passes over 8 more frames

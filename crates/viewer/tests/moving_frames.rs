@@ -381,13 +381,19 @@ fn a_point_light_s_shadows_stay_exact_while_moving() {
     assert!(c.read_back_linear().unwrap().rgba == exact_here, "the moving frame's hard shadows differ");
 }
 
-/// With `settle_at_rest`, the frames at rest after a move draw the exact bounce light and second
-/// bounce a band at a time (`compositor/settle.rs`; one band of `SHADOW_BOUNCE_BANDS` a frame at
-/// 512^2), then the sphere's exact shading a band of its rows at a time: every frame while it
-/// settles stays within the moving frame's error bound (relMSE 1e-6 over the pixels the sphere
-/// changes; the rows not yet exact are as the moving frame drew them), the first is not yet the
-/// exact one, and from a frame after the `SHADOW_BOUNCE_BANDS`-th at rest on every frame is, bit
-/// for bit, the frame a fresh compositor draws.
+/// The settling frames that draw the backdrop's rows exactly at 512^2 (`compositor/settle.rs`).
+fn settling_rows_steps() -> usize {
+    512usize.div_ceil((viewer::compositor::SETTLE_PIXELS / 512).max(1) as usize)
+}
+
+/// With `settle_at_rest`, the frames at rest after a move draw the exact layered shadows a band
+/// of their rows at a time, then the maps, then the exact bounce light and second bounce a band
+/// of the frame's rows at a time (`compositor/settle.rs`; `SETTLE_PIXELS` a frame), then the
+/// sphere's exact shading a band of its rows at a time: every frame while it settles stays
+/// within the moving frame's error bound (relMSE 1e-6 over the pixels the sphere changes; the
+/// rows not yet exact are as the moving frame drew them), the first is not yet the exact one, and
+/// from a frame after the backdrop's rows' steps on every frame is, bit for bit, the frame a
+/// fresh compositor draws.
 #[test]
 fn the_frames_at_rest_settle_band_by_band_into_the_exact_frame() {
     let settling =
@@ -395,13 +401,17 @@ fn the_frames_at_rest_settle_band_by_band_into_the_exact_frame() {
     let exact_there =
         fresh_with(CompositorSettings { amortise_while_moving: false, ..settling }, &matte_sphere(THERE));
     let changed = |k: usize| exact_there[4 * k..4 * k + 3] != [LEVEL; 3];
-    let bands = viewer::compositor::SHADOW_BOUNCE_BANDS as usize;
+    let bands = settling_rows_steps();
     let mut c = Compositor::new(&gpu(), &scene(), settling).unwrap();
     c.render(&matte_sphere(HERE)).unwrap();
     c.render(&matte_sphere(THERE)).unwrap();
     let (mut errors, mut first_exact) = (Vec::new(), None);
-    // The sphere's rows settle after the bands, a few a frame: fewer than 16 frames here.
-    for frame in 1..=bands + 16 {
+    // The layered shadows take a few frames before the rows, and the sphere's rows settle after
+    // them, a few a frame: fewer than 32 frames in all here.
+    for frame in 1..=bands + 32 {
+        if first_exact.is_some_and(|exact| frame > exact + 1) {
+            break;
+        }
         c.render(&matte_sphere(THERE)).unwrap();
         let image = c.read_back_linear().unwrap().rgba;
         let (error, pixels) = rel_mse(&image, &exact_there, changed);
@@ -451,9 +461,12 @@ fn the_cursor_sphere_settles_row_band_by_row_band_into_its_exact_shading() {
     c.render(&plastic_sphere(HERE)).unwrap();
     let (moving_error, pixels) = rel_mse(&c.read_back_linear().unwrap().rgba, &exact_here, near_sphere);
     assert!(pixels > 1_000 && moving_error > 0.0, "the moving frame is exact ({pixels} pixels)");
-    let bands = viewer::compositor::SHADOW_BOUNCE_BANDS as usize;
+    let bands = settling_rows_steps();
     let (mut errors, mut first_exact) = (Vec::new(), None);
-    for frame in 1..=bands + 16 {
+    for frame in 1..=bands + 32 {
+        if first_exact.is_some_and(|exact| frame > exact + 1) {
+            break;
+        }
         c.render(&plastic_sphere(HERE)).unwrap();
         let image = c.read_back_linear().unwrap().rgba;
         let error = rel_mse(&image, &exact_here, near_sphere).0;
@@ -470,7 +483,8 @@ fn the_cursor_sphere_settles_row_band_by_row_band_into_its_exact_shading() {
     }
     eprintln!("the moving frame's relMSE near the sphere {moving_error:.3e}, the frames at rest: {errors:?}");
     let first_exact = first_exact.expect("the frames at rest never became the exact frame");
-    // The backdrop settles in the first `bands` frames; the sphere's rows take two frames or more.
+    // The backdrop settles in more than `bands` frames (its rows after the shadows and the maps);
+    // the sphere's rows take two frames or more.
     assert!(first_exact > bands + 1, "the sphere settled in one frame (frames at rest: {errors:?})");
 }
 

@@ -3,6 +3,7 @@
 
 use super::lighting::{FrameUniform, GpuMaterial, MeshUniform, mat4_f32};
 use super::pass_timing::PassTime;
+use super::settle::{SettlePart, SettleStep};
 use super::{CompositeMode, Compositor, loss_map, reduced_gather};
 use crate::error::ViewerError;
 use crate::live::LiveObjects;
@@ -106,16 +107,25 @@ impl Compositor {
         .then(|| self.shadow_scissor_all(&uniform))
         .flatten();
         self.reduced.shadows_reduced.set(shadows_reduced.is_some());
-        // The first frames at rest after a move draw the exact bounce light and second bounce a
-        // few bands at a time (settle.rs), when there are any to draw.
+        // The first frames at rest after a move draw the exact layered shadows, bounce light and
+        // second bounce a part at a time (settle.rs), when there are any to draw.
         let settle = &self.reduced.settle;
         settle.begin_frame(moving, reduce && self.settings.settle_at_rest, cursor_map);
+        let shadow_scissor = if uniform.counts[1] == 1 { self.shadow_scissor_all(&uniform) } else { None };
         let settling =
             (keep_shadowed && !at_rest && (bounce_rect.is_some() || uniform.shadow_bounce[0] == 1))
-                .then(|| settle.step((self.width, self.height)))
+                .then(|| settle.step((self.width, self.height), shadow_scissor))
                 .flatten();
-        // A settling frame after the first keeps the backdrop after the exact shadows (settle.rs).
-        let shadows_kept = settling.is_some_and(|step| !step.first);
+        // A settling frame draws the layered shadows in its step's rows alone, if any: the kept
+        // backdrop holds them elsewhere (settle.rs).
+        let shadow_rows = match settling.map(|step| step.part) {
+            Some(SettlePart::Shadows(rows)) => Some(Some(rows)),
+            Some(_) => None,
+            None => Some(None),
+        };
+        // Only a step of the rows draws the bounce light and the loss; the others show the last
+        // moving frame's backdrop.
+        let settling_without_rows = settling.is_some_and(|step| step.rows().is_none());
         // The cursor sphere's exact shading settles after the backdrop (settle.rs): from the
         // last moving frame's radiance map while the backdrop settles, then a band of its rows
         // exactly a frame at rest.
@@ -183,8 +193,12 @@ impl Compositor {
         {
             let mut pass = self.begin_frame_pass(&mut encoder, target, true);
             self.record_backdrop(&mut pass);
-            if !at_rest && !timing.on && shadows_reduced.is_none() && !shadows_kept {
-                self.record_layered_shadows(&mut pass, &uniform);
+            if let Some(rows) = shadow_rows
+                && !at_rest
+                && !timing.on
+                && shadows_reduced.is_none()
+            {
+                self.record_layered_shadows(&mut pass, &uniform, rows);
             }
             if live_drawn && !keep_shadowed && !timing.on {
                 self.record_live(&mut pass, &draws, sphere);
@@ -194,8 +208,13 @@ impl Compositor {
         if let Some(rect) = shadows_reduced {
             self.record_shadows_reduced(&mut encoder, rect);
             lap(&mut encoder, "layered shadows");
-        } else if timing.on && !at_rest && !shadows_kept {
-            self.record_layered_shadows(&mut self.begin_frame_pass(&mut encoder, target, false), &uniform);
+        } else if let Some(rows) = shadow_rows
+            && timing.on
+            && !at_rest
+        {
+            let mut pass = self.begin_frame_pass(&mut encoder, target, false);
+            self.record_layered_shadows(&mut pass, &uniform, rows);
+            drop(pass);
             lap(&mut encoder, "layered shadows");
         }
         if timing.on && live_drawn && !keep_shadowed {
@@ -210,12 +229,19 @@ impl Compositor {
                 target_texture.as_image_copy(),
                 frame_extent,
             );
+        } else if let Some(step) = settling
+            && matches!(step.part, SettlePart::Shadows(_))
+        {
+            // A step of the layered shadows keeps its rows and shows the last moving frame's
+            // backdrop: the maps and clusters read the exact shadows everywhere.
+            self.begin_settling(&mut encoder, step);
+            self.show_settling(&mut encoder, step);
+            settle.finish(step, self.height);
+            self.shadowed_from.forget();
+            lap(&mut encoder, "settling: the last moving frame's backdrop");
         } else if keep_shadowed {
-            let whole = [0, 0, self.width, self.height];
-            match settling {
-                Some(step) if step.first => self.copy_kept(&mut encoder, whole, true),
-                Some(_) => self.copy_kept(&mut encoder, whole, false),
-                None => {}
+            if let Some(step) = settling {
+                self.begin_settling(&mut encoder, step);
             }
             encoder.copy_texture_to_texture(
                 target_texture.as_image_copy(),
@@ -250,18 +276,25 @@ impl Compositor {
                 lap(&mut encoder, "bounce light");
             }
             // The spheres seen in mirrors and glass, after the bounce light they may reflect.
-            self.record_reflections(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
-            lap(&mut encoder, "spheres in reflections");
-            self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
-            lap(&mut encoder, "spheres seen through glass");
-            self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes, settling.map(|s| s.bands));
-            lap(&mut encoder, "second bounce: what each pixel loses");
-            self.record_shadow_bounce(&mut encoder, &uniform);
-            lap(&mut encoder, "second bounce: removed");
+            if !settling_without_rows {
+                self.record_reflections(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
+                lap(&mut encoder, "spheres in reflections");
+                self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
+                lap(&mut encoder, "spheres seen through glass");
+                let rows = settling.and_then(SettleStep::rows);
+                self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes, rows);
+                lap(&mut encoder, "second bounce: what each pixel loses");
+                self.record_shadow_bounce(&mut encoder, &uniform);
+                lap(&mut encoder, "second bounce: removed");
+            }
+            if let Some(step) = settling {
+                self.show_settling(&mut encoder, step);
+                lap(&mut encoder, "settling: the rows finished and the last moving frame's");
+            }
             // A frame whose second bounce is partly from earlier inputs (amortised), or a moving
             // frame (its bounce light from reduced resolution), is no copy to keep.
-            // A settling frame is exact once its last bands are drawn.
-            let settled = settling.is_none_or(|step| settle.finish(step));
+            // A settling frame is exact once its last rows are drawn.
+            let settled = settling.is_none_or(|step| settle.finish(step, self.height));
             if self.shadow_bounce_settled(&uniform) && !moving && settled {
                 self.shadowed_from.renew(&uniform, &rest_key);
                 exact = !sphere_settling;
@@ -382,10 +415,20 @@ impl Compositor {
         }
     }
 
-    /// The live objects' shadows on the backdrop.
-    fn record_layered_shadows(&self, pass: &mut wgpu::RenderPass<'_>, uniform: &FrameUniform) {
+    /// The live objects' shadows on the backdrop, within `rows` (`[x, y, w, h]`) if given.
+    fn record_layered_shadows(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        uniform: &FrameUniform,
+        rows: Option<[u32; 4]>,
+    ) {
+        let scissor = self.shadow_scissor_all(uniform);
+        let scissor = match rows {
+            Some(rows) => scissor.and_then(|all| super::settle::intersect(all, rows)),
+            None => scissor,
+        };
         if uniform.counts[1] == 1
-            && let Some([x, y, w, h]) = self.shadow_scissor_all(uniform)
+            && let Some([x, y, w, h]) = scissor
         {
             pass.set_scissor_rect(x, y, w, h);
             pass.set_pipeline(&self.shadow_pipeline);

@@ -124,11 +124,14 @@ pub struct CompositorSettings {
     /// `SHADOW_BOUNCE_BANDS - 1` frames old). Either way the second frame at rest is exact.
     pub reduce_while_moving: bool,
     /// With `amortise_while_moving` and `reduce_while_moving`, the first frames at rest after a
-    /// move draw the exact bounce light and second bounce a few bands of the frame at a time
-    /// (`compositor/settle.rs`: exact, bit for bit, at most `SHADOW_BOUNCE_BANDS` frames after
-    /// the move) instead of all in the first, and then the cursor sphere's exact shading a band
-    /// of its rows a frame (`SETTLE_SPHERE_PIXELS`; until then it is the last moving frame's,
-    /// from its radiance map); `false` (the default) draws the first frame at rest exactly.
+    /// move draw the exact layered shadows a band of their rows at a time
+    /// (`SETTLE_SHADOW_PIXELS` a frame), then the maps, then the exact bounce light and second
+    /// bounce a band of the frame's rows at a time (`SETTLE_PIXELS` a frame;
+    /// `compositor/settle.rs`: exact, bit for bit, once the last rows are drawn, the rows not
+    /// yet drawn shown as the last moving frame drew them) instead of all in the first, and then
+    /// the cursor sphere's exact shading a band of its rows a frame (`SETTLE_SPHERE_PIXELS`;
+    /// until then it is the last moving frame's, from its radiance map); `false` (the default)
+    /// draws the first frame at rest exactly.
     pub settle_at_rest: bool,
     /// With `amortise_while_moving`, a moving frame shades the cursor sphere once per texel of
     /// a map of its radiance over its half facing the eye and its fragments read it

@@ -1,20 +1,23 @@
 //! The first frames at rest after a move, with `CompositorSettings::settle_at_rest`: the exact
-//! frame's costliest full-resolution passes drawn over a few frames instead of in one.
+//! frame's costliest full-resolution passes drawn over several frames instead of in one, each
+//! frame's work bounded.
 //!
-//! A moving frame gathers the bounce light and the second bounce's loss at reduced resolution
-//! (`reduced_gather.rs`). The frame that first repeats its predecessor's inputs must draw them
-//! exactly, and at full resolution the loss alone is most of a multi-second frame on a software
-//! rasteriser (256 clusters a pixel over the whole frame): a hitch each time the user stops. So
-//! a settling frame draws both exactly in a few of the [`TAKEN_BANDS`] horizontal bands of the
-//! frame (as many as [`SETTLE_PIXELS`] pixels allow, one at least), in order from the top, and
-//! keeps the rest as the moving frame drew it: the loss its reduced gather left (for these very
-//! inputs), the bounce light gathered again at reduced resolution on the rows not yet exact. The
-//! backdrop after the exact shadows and the exact bounce light of the bands drawn so far is kept
-//! between the settling frames (`kept`), so each band is drawn once; the shadows, the maps and
-//! the clusters are drawn exactly, in full, by the first settling frame. Every pass reads only
-//! its own pixel of what the bands change, so when the last band is drawn the frame is, bit for
-//! bit, the exact one, at most `TAKEN_BANDS` frames after the sphere stops; the frames after it
-//! copy it as any frame at rest does.
+//! A moving frame gathers the layered shadows, the bounce light and the second bounce's loss at
+//! reduced resolution (`reduced_gather.rs`). The frame that first repeats its predecessor's
+//! inputs must draw them exactly, and on a software rasteriser that is a multi-second frame (256
+//! clusters a pixel for the loss over the whole frame, hundreds of shadow rays a pixel for the
+//! layered shadows): a hitch each time the user stops. So the frames at rest settle in steps
+//! ([`SettleStep`]), in order: the exact layered shadows a band of their scissor's rows at a
+//! time ([`SETTLE_SHADOW_PIXELS`] a frame); then the maps and the clusters, which read the
+//! backdrop after shadows everywhere, from the exact shadows; then the exact bounce light, loss
+//! and its removal a band of the frame's rows at a time ([`SETTLE_PIXELS`] a frame), from the
+//! top. The backdrop after the exact shadows is kept between the frames (`kept`), and in the
+//! rows done the finished backdrop replaces it, so each band is drawn once. Every frame shows the
+//! rows done and, below them, the backdrop the last moving frame drew for these very inputs
+//! (`moving_backdrop`): no frame is further from the exact one than the moving frame was. The
+//! bounce light, loss and removal read only their own pixel of what the bands change, so when the
+//! last band is drawn the frame is, bit for bit, the exact one; the frames after it copy it as any
+//! frame at rest does.
 //!
 //! The cursor sphere's exact shading (with the scene's triangles bound, hundreds of shadow rays a
 //! fragment toward each area light) settles the same way. While the backdrop settles, the sphere
@@ -27,20 +30,21 @@
 //! (and its edges exactly) is, bit for bit, the exact frame.
 
 use super::Compositor;
-use super::shadow_bounce::{TAKEN_BANDS, band_rect};
 use std::cell::{Cell, RefCell};
 
-/// The pixels a settling frame draws exactly, at most (one band at least): one band of 16 at
-/// 512^2 (on lavapipe the loss costs about 26 us of CPU a pixel, so about 0.4 s a band there).
-pub const SETTLE_PIXELS: u32 = 1 << 14;
+/// The pixels a settling frame draws the bounce light, the loss and its removal in exactly, at
+/// most (one row at least): 8 rows at 512^2 (on lavapipe the loss costs 40 to 70 us of CPU a
+/// pixel at a load of 5, so 0.15 to 0.3 s a frame; 64 frames for the whole frame).
+pub const SETTLE_PIXELS: u32 = 1 << 12;
+
+/// The pixels of the layered shadows' scissor a settling frame draws them in exactly, at most
+/// (one row at least): a quarter of the frame at 512^2 (about 0.5 s in full on lavapipe).
+pub const SETTLE_SHADOW_PIXELS: u32 = 1 << 16;
 
 /// The pixels of the cursor sphere's bounds a frame at rest shades exactly while the sphere
 /// settles, at most (one row at least): at 512^2 on lavapipe a band of the bench's sphere then
 /// costs about a sixth of its exact shading.
 pub const SETTLE_SPHERE_PIXELS: u32 = 1 << 11;
-
-/// Every band.
-const ALL: u32 = (1 << TAKEN_BANDS) - 1;
 
 /// Where the frames since the last move stand.
 #[derive(Debug, Default)]
@@ -50,10 +54,20 @@ pub(super) struct Settle {
     /// Whether the frames since the last move are settling: from the first frame at rest after a
     /// move until its exact frame is complete.
     active: Cell<bool>,
-    /// Bit k: band k was drawn exactly since the move.
-    done: Cell<u32>,
-    /// The backdrop after the exact shadows, and after the exact bounce light in the bands done.
+    /// Whether a settling frame was drawn since the move (the first copies the last moving
+    /// frame's backdrop into `moving_backdrop`).
+    started: Cell<bool>,
+    /// Rows of the layered shadows' scissor drawn exactly since the move, from its top.
+    shadow_rows_done: Cell<u32>,
+    /// Whether the maps and clusters were drawn from the exact shadows since the move.
+    maps_done: Cell<bool>,
+    /// Rows of the frame whose backdrop is finished (exact) since the move, from the top.
+    rows_done: Cell<u32>,
+    /// The backdrop after the exact shadows, and in the rows done the finished backdrop.
     kept: RefCell<Option<wgpu::Texture>>,
+    /// The backdrop the last moving frame drew (before its live objects), shown below the rows
+    /// done.
+    moving_backdrop: RefCell<Option<wgpu::Texture>>,
     /// Whether the cursor sphere's radiance map holds the sphere of the frame being drawn: the
     /// last moving frame drew it, and the frames at rest since have its inputs.
     sphere_map_current: Cell<bool>,
@@ -64,12 +78,33 @@ pub(super) struct Settle {
     sphere_kept: RefCell<Option<wgpu::Texture>>,
 }
 
-/// What one settling frame draws: `bands` (bit k: band k) exactly, the first one also the
-/// shadows, maps and clusters.
+/// What one settling frame draws.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct SettleStep {
+    /// The first settling frame since the move.
     pub(super) first: bool,
-    pub(super) bands: u32,
+    pub(super) part: SettlePart,
+}
+
+/// The part of the exact frame a settling frame draws.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum SettlePart {
+    /// The layered shadows exactly within `[x, y, w, h]` (rows of their scissor).
+    Shadows([u32; 4]),
+    /// The maps and the clusters, from the exact shadows.
+    Maps,
+    /// The bounce light, the loss and its removal exactly in the frame's rows `[top, count]`.
+    Rows([u32; 2]),
+}
+
+impl SettleStep {
+    /// The frame's rows `[top, count]` this step finishes (none before the rows' steps).
+    pub(super) fn rows(self) -> Option<[u32; 2]> {
+        match self.part {
+            SettlePart::Rows(rows) => Some(rows),
+            _ => None,
+        }
+    }
 }
 
 impl Settle {
@@ -79,12 +114,14 @@ impl Settle {
     pub(super) fn begin_frame(&self, moving: bool, enabled: bool, cursor_map: bool) {
         if moving {
             self.active.set(false);
-            self.done.set(0);
             self.sphere_map_current.set(cursor_map);
             self.sphere_rows_done.set(None);
         } else if self.was_moving.get() && enabled {
             self.active.set(true);
-            self.done.set(0);
+            self.started.set(false);
+            self.shadow_rows_done.set(0);
+            self.maps_done.set(false);
+            self.rows_done.set(0);
             self.sphere_rows_done.set(self.sphere_map_current.get().then_some(0));
         }
         self.was_moving.set(moving);
@@ -114,36 +151,51 @@ impl Settle {
         step.last
     }
 
-    /// The step this frame draws, `None` when it is not settling, for a frame of `size`.
-    pub(super) fn step(&self, size: (u32, u32)) -> Option<SettleStep> {
+    /// The step this frame draws, `None` when it is not settling, for a frame of `size` whose
+    /// layered shadows are drawn within `shadow_scissor` (`None`: none are).
+    pub(super) fn step(
+        &self,
+        (width, height): (u32, u32),
+        shadow_scissor: Option<[u32; 4]>,
+    ) -> Option<SettleStep> {
         if !self.active.get() {
             return None;
         }
-        let done = self.done.get();
-        Some(SettleStep { first: done == 0, bands: next_bands(done, bands_per_frame(size)) })
+        let first = !self.started.get();
+        let shadows_left = shadow_scissor.filter(|[_, _, _, h]| self.shadow_rows_done.get() < *h);
+        let part = if let Some([x, y, w, h]) = shadows_left {
+            let done = self.shadow_rows_done.get();
+            let rows = (SETTLE_SHADOW_PIXELS / w.max(1)).max(1).min(h - done);
+            SettlePart::Shadows([x, y + done, w, rows])
+        } else if !self.maps_done.get() {
+            SettlePart::Maps
+        } else {
+            let done = self.rows_done.get().min(height);
+            SettlePart::Rows([done, (SETTLE_PIXELS / width.max(1)).max(1).min(height - done)])
+        };
+        Some(SettleStep { first, part })
     }
 
-    /// Records `step` as drawn; whether the frame is now exact.
-    pub(super) fn finish(&self, step: SettleStep) -> bool {
-        self.done.set(self.done.get() | step.bands);
-        let complete = self.done.get() == ALL;
+    /// Records `step` as drawn in a frame `height` rows high; whether the frame is now exact.
+    pub(super) fn finish(&self, step: SettleStep, height: u32) -> bool {
+        self.started.set(true);
+        match step.part {
+            SettlePart::Shadows([_, _, _, rows]) => {
+                self.shadow_rows_done.set(self.shadow_rows_done.get() + rows)
+            }
+            SettlePart::Maps => self.maps_done.set(true),
+            SettlePart::Rows([top, rows]) => self.rows_done.set(top + rows),
+        }
+        let complete = self.rows_done.get() >= height && self.maps_done.get();
         if complete {
             self.active.set(false);
         }
         complete
     }
 
-    /// The rows of the frame not drawn exactly after `step`: from the top of the first band
-    /// left to the bottom, `[x, y, w, h]` (empty when none is left).
-    pub(super) fn rows_left(&self, step: SettleStep, (width, height): (u32, u32)) -> [u32; 4] {
-        let left = ALL & !(self.done.get() | step.bands);
-        match (0..TAKEN_BANDS).find(|k| left & (1 << k) != 0) {
-            Some(k) => {
-                let top = band_rect(k, (width, height))[1];
-                [0, top, width, height - top]
-            }
-            None => [0, height, width, 0],
-        }
+    /// The frame's rows whose backdrop is finished once `step` is drawn, from the top.
+    pub(super) fn rows_finished(&self, step: SettleStep) -> u32 {
+        step.rows().map_or(self.rows_done.get(), |[top, rows]| top + rows)
     }
 }
 
@@ -157,18 +209,6 @@ pub(super) struct SphereStep {
     pub(super) last: bool,
 }
 
-/// Bands a settling frame draws for a frame of `size`: as many as [`SETTLE_PIXELS`] allow, one
-/// at least.
-fn bands_per_frame((width, height): (u32, u32)) -> u32 {
-    let band = (u64::from(width) * u64::from(height)).div_ceil(u64::from(TAKEN_BANDS)).max(1);
-    (u64::from(SETTLE_PIXELS) / band).clamp(1, u64::from(TAKEN_BANDS)) as u32
-}
-
-/// The first `count` bands not in `done`, from the top.
-fn next_bands(done: u32, count: u32) -> u32 {
-    (0..TAKEN_BANDS).filter(|k| done & (1 << k) == 0).take(count as usize).fold(0, |m, k| m | 1 << k)
-}
-
 /// The intersection of two rectangles, `None` when empty.
 pub(super) fn intersect([ax, ay, aw, ah]: [u32; 4], [bx, by, bw, bh]: [u32; 4]) -> Option<[u32; 4]> {
     let (x0, y0) = (ax.max(bx), ay.max(by));
@@ -180,6 +220,12 @@ impl Compositor {
     /// The texture the settling frames keep the backdrop in (made when first needed).
     fn settle_kept(&self) -> wgpu::Texture {
         self.frame_sized_copy(&self.reduced.settle.kept, "settling backdrop")
+    }
+
+    /// The texture the settling frames keep the last moving frame's backdrop in (made when
+    /// first needed).
+    fn moving_backdrop(&self) -> wgpu::Texture {
+        self.frame_sized_copy(&self.reduced.settle.moving_backdrop, "last moving frame's backdrop")
     }
 
     /// The texture the frames at rest keep the cursor sphere's exact rows in (made when first
@@ -254,80 +300,130 @@ impl Compositor {
         }
     }
 
-    /// Copies `[x, y, w, h]` of the frame into the kept backdrop (`into_kept`) or back.
-    pub(super) fn copy_kept(
+    /// Copies the frame's rows `[top, count]` from `from` into `to`.
+    fn copy_rows(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        [x, y, w, h]: [u32; 4],
-        into_kept: bool,
+        from: &wgpu::Texture,
+        to: &wgpu::Texture,
+        [top, count]: [u32; 2],
     ) {
-        let kept = self.settle_kept();
-        let (from, to) =
-            if into_kept { (&self.linear_texture, &kept) } else { (&kept, &self.linear_texture) };
-        let origin = wgpu::Origin3d { x, y, z: 0 };
+        if count == 0 {
+            return;
+        }
+        let origin = wgpu::Origin3d { x: 0, y: top, z: 0 };
         encoder.copy_texture_to_texture(
             wgpu::TexelCopyTextureInfo { origin, ..from.as_image_copy() },
             wgpu::TexelCopyTextureInfo { origin, ..to.as_image_copy() },
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            wgpu::Extent3d { width: self.width, height: count, depth_or_array_layers: 1 },
         );
     }
 
+    /// Begins a settling frame's backdrop after its own exact shadows: the first settling frame
+    /// keeps the last moving frame's backdrop (still in the backdrop after shadows) and the
+    /// frame's backdrop; a step of the layered shadows keeps the rows it drew, the others put
+    /// the kept backdrop (the exact shadows, finished in the rows done) in the frame.
+    pub(super) fn begin_settling(&self, encoder: &mut wgpu::CommandEncoder, step: SettleStep) {
+        let kept = self.settle_kept();
+        if step.first {
+            self.copy_rows(encoder, &self.shadowed_texture, &self.moving_backdrop(), [0, self.height]);
+            // The backdrop outside the shadows' scissor, and its shadows in this step's rows.
+            self.copy_rows(encoder, &self.linear_texture, &kept, [0, self.height]);
+        }
+        match step.part {
+            SettlePart::Shadows([_, top, _, rows]) => {
+                self.copy_rows(encoder, &self.linear_texture, &kept, [top, rows])
+            }
+            _ => self.copy_rows(encoder, &kept, &self.linear_texture, [0, self.height]),
+        }
+    }
+
     /// The bounce light of a settling frame within `rect` (`Compositor::bounce_scissor`): exact
-    /// in the rows of `step`'s bands (kept), gathered at reduced resolution in the rows left.
+    /// in the rows `step` finishes, none elsewhere (the frame shows the last moving frame's
+    /// there, [`Compositor::show_settling`]).
     pub(super) fn record_bounce_settling(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         rect: [u32; 4],
         step: SettleStep,
     ) {
-        let size = (self.width, self.height);
-        for k in (0..TAKEN_BANDS).filter(|k| step.bands & (1 << k) != 0) {
-            if let Some(rows) = intersect(rect, band_rect(k, size)) {
-                self.record_bounce(encoder, rows);
-                self.copy_kept(encoder, rows, true);
-            }
+        if let Some([top, count]) = step.rows()
+            && let Some(rows) = intersect(rect, [0, top, self.width, count])
+        {
+            self.record_bounce(encoder, rows);
         }
-        if let Some(rows) = intersect(rect, self.reduced.settle.rows_left(step, size)) {
-            self.record_bounce_reduced(encoder, rows);
+    }
+
+    /// What a settling frame shows of the backdrop, after its passes: the rows `step` finishes
+    /// kept, then the rows finished so far from the kept backdrop and those below from the last
+    /// moving frame's, copied into the backdrop after shadows too (which the live objects'
+    /// shading and edges read).
+    pub(super) fn show_settling(&self, encoder: &mut wgpu::CommandEncoder, step: SettleStep) {
+        let kept = self.settle_kept();
+        if let Some(rows) = step.rows() {
+            self.copy_rows(encoder, &self.linear_texture, &kept, rows);
         }
+        let done = self.reduced.settle.rows_finished(step).min(self.height);
+        self.copy_rows(encoder, &kept, &self.linear_texture, [0, done]);
+        self.copy_rows(encoder, &self.moving_backdrop(), &self.linear_texture, [done, self.height - done]);
+        self.copy_rows(encoder, &self.linear_texture, &self.shadowed_texture, [0, self.height]);
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{ALL, SETTLE_SPHERE_PIXELS, Settle, TAKEN_BANDS, bands_per_frame, intersect, next_bands};
+    use super::{SETTLE_PIXELS, SETTLE_SHADOW_PIXELS, SETTLE_SPHERE_PIXELS, Settle, SettlePart, intersect};
 
-    /// A settling frame draws one band at least and no more than the budget allows, and the
-    /// bands are drawn in order from the top, each once.
+    /// Settling draws the layered shadows a band of their scissor's rows a frame, then the maps,
+    /// then the frame's rows from the top, each once and within the budgets, and the frame is
+    /// exact after the last rows; it starts only after a move, with settling on.
     #[test]
-    fn settling_draws_each_band_once_in_order() {
-        assert_eq!(bands_per_frame((512, 512)), 1);
-        assert_eq!(bands_per_frame((2048, 2048)), 1);
-        assert_eq!(bands_per_frame((256, 256)), 4);
-        assert_eq!(bands_per_frame((1, 1)), TAKEN_BANDS);
-        assert_eq!(next_bands(0, 2), 0b11);
-        assert_eq!(next_bands(0b1011, 2), 0b1_0100);
-        assert_eq!(next_bands(ALL, 3), 0);
+    fn settling_draws_each_part_once_in_order() {
         let settle = Settle::default();
         settle.begin_frame(false, true, false);
-        assert!(settle.step((512, 512)).is_none(), "the first frame of all does not settle");
+        assert!(settle.step((512, 512), None).is_none(), "the first frame of all does not settle");
         settle.begin_frame(true, true, false);
-        assert!(settle.step((512, 512)).is_none(), "a moving frame does not settle");
+        assert!(settle.step((512, 512), None).is_none(), "a moving frame does not settle");
         settle.begin_frame(false, true, false);
-        let mut drawn = 0;
-        for k in 0..TAKEN_BANDS {
-            let step = settle.step((512, 512)).expect("settling");
-            assert_eq!((step.first, step.bands), (k == 0, 1 << k), "frame {k} at rest");
-            assert_eq!(settle.rows_left(step, (512, 512))[1], (k + 1) * 32);
-            drawn |= step.bands;
-            assert_eq!(settle.finish(step), k + 1 == TAKEN_BANDS);
+        let scissor = Some([10, 100, 300, 400]);
+        let mut parts = Vec::new();
+        loop {
+            let step = settle.step((512, 512), scissor).expect("settling");
+            assert_eq!(step.first, parts.is_empty());
+            parts.push(step.part);
+            let finished = settle.rows_finished(step);
+            let exact = settle.finish(step, 512);
+            assert_eq!(exact, finished == 512);
             settle.begin_frame(false, true, false);
+            if exact {
+                break;
+            }
+            assert!(parts.len() < 1000, "settling never ends");
         }
-        assert_eq!(drawn, ALL);
-        assert!(settle.step((512, 512)).is_none(), "settled frames draw nothing more");
+        let shadow_rows = SETTLE_SHADOW_PIXELS / 300;
+        assert_eq!(parts[0], SettlePart::Shadows([10, 100, 300, shadow_rows]));
+        assert_eq!(parts[1], SettlePart::Shadows([10, 100 + shadow_rows, 300, 400 - shadow_rows]));
+        assert_eq!(parts[2], SettlePart::Maps);
+        let rows = SETTLE_PIXELS / 512;
+        assert_eq!(parts.len(), 3 + (512 / rows) as usize);
+        for (k, part) in parts[3..].iter().enumerate() {
+            assert_eq!(*part, SettlePart::Rows([k as u32 * rows, rows]), "rows' step {k}");
+        }
+        assert!(settle.step((512, 512), scissor).is_none(), "settled frames draw nothing more");
+        // Without layered shadows the maps come first; a row wider than the budget is a step.
+        settle.begin_frame(true, true, false);
+        settle.begin_frame(false, true, false);
+        let maps = settle.step((8192, 3), None).expect("settling");
+        assert_eq!(maps.part, SettlePart::Maps);
+        assert!(!settle.finish(maps, 3));
+        for top in 0..3 {
+            let step = settle.step((8192, 3), None).expect("settling");
+            assert_eq!((step.first, step.part), (false, SettlePart::Rows([top, 1])));
+            assert_eq!(settle.finish(step, 3), top == 2);
+        }
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, false, false);
-        assert!(settle.step((512, 512)).is_none(), "settling is off");
+        assert!(settle.step((512, 512), None).is_none(), "settling is off");
     }
 
     /// The cursor sphere settles only after a move whose last frame drew its radiance map, a

@@ -49,10 +49,26 @@ struct TakenBands {
 impl TakenBands {
     const ALL: u32 = (1 << TAKEN_BANDS) - 1;
 
-    /// The bands to draw this frame (bit k: band k), no others than `limit` (a settling frame's,
-    /// settle.rs), and records them as drawn. `changed`: the inputs differ from those the bands
-    /// were drawn from.
-    fn to_draw(&self, changed: bool, amortise: bool, limit: u32) -> u32 {
+    /// Records the bands within the frame's first `rows` rows as drawn (a settling frame's rows
+    /// are drawn from the top, settle.rs), for a frame of `size`. `changed`: as for
+    /// [`TakenBands::to_draw`].
+    fn drawn_down_to(&self, changed: bool, rows: u32, size: (u32, u32)) {
+        if changed {
+            self.current.set(0);
+        }
+        let within = (0..TAKEN_BANDS).filter(|&k| {
+            let [_, top, _, height] = band_rect(k, size);
+            top + height <= rows
+        });
+        self.current.set(within.fold(self.current.get(), |m, k| m | 1 << k));
+        if self.current.get() == Self::ALL {
+            self.complete_once.set(true);
+        }
+    }
+
+    /// The bands to draw this frame (bit k: band k), and records them as drawn. `changed`: the
+    /// inputs differ from those the bands were drawn from.
+    fn to_draw(&self, changed: bool, amortise: bool) -> u32 {
         if changed {
             self.current.set(0);
         }
@@ -61,7 +77,7 @@ impl TakenBands {
             self.next.set((k + 1) % TAKEN_BANDS);
             1 << k
         } else {
-            Self::ALL & !self.current.get() & limit
+            Self::ALL & !self.current.get()
         };
         self.current.set(self.current.get() | wanted);
         if self.current.get() == Self::ALL {
@@ -242,7 +258,8 @@ impl Compositor {
 
     /// Draws what each pixel loses where it is not already drawn from the same `uniform` and
     /// mesh uniforms (`mesh_bytes`): the whole frame, or while they change one band of it (see
-    /// the module's notes), or in a settling frame (settle.rs) the bands of `settling` alone.
+    /// the module's notes), or in a settling frame (settle.rs) its rows `settling` (`[top, count]`)
+    /// alone.
     /// Reads the backdrop after shadows: runs after the bounce light added to it, whose clusters
     /// ([`Compositor::record_shadow_bounce_clusters`]) ran before.
     pub(super) fn record_shadow_bounce_taken(
@@ -250,7 +267,7 @@ impl Compositor {
         encoder: &mut wgpu::CommandEncoder,
         uniform: &FrameUniform,
         mesh_bytes: &[u8],
-        settling: Option<u32>,
+        settling: Option<[u32; 2]>,
     ) {
         let bounce = &self.shadow_bounce;
         if uniform.shadow_bounce[0] != 1 {
@@ -264,17 +281,22 @@ impl Compositor {
             self.record_loss_reduced(encoder, &bounce.textures.taken);
             return;
         }
-        let limit = settling.unwrap_or(TakenBands::ALL);
-        let bands = bounce.bands.to_draw(changed, self.settings.amortise_while_moving, limit);
-        if bands == 0 {
+        let size = (self.width, self.height);
+        let rects: Vec<[u32; 4]> = if let Some([top, count]) = settling {
+            bounce.bands.drawn_down_to(changed, top + count, size);
+            vec![[0, top, self.width, count]]
+        } else {
+            let bands = bounce.bands.to_draw(changed, self.settings.amortise_while_moving);
+            (0..TAKEN_BANDS)
+                .filter(|k| bands & (1 << k) != 0)
+                .map(|k| band_rect(k, size))
+                .filter(|r| r[3] > 0)
+                .collect()
+        };
+        if rects.iter().all(|r| r[3] == 0) {
             return;
         }
         let taken = &bounce.textures.taken;
-        let rects: Vec<[u32; 4]> = (0..TAKEN_BANDS)
-            .filter(|k| bands & (1 << k) != 0)
-            .map(|k| band_rect(k, (self.width, self.height)))
-            .filter(|r| r[3] > 0)
-            .collect();
         {
             let mut pass = super::colour_pass(
                 encoder,
@@ -407,31 +429,32 @@ mod tests {
     #[test]
     fn bands_are_drawn_in_turn_while_moving_and_completed_at_rest() {
         let bands = TakenBands::default();
-        assert_eq!(
-            bands.to_draw(true, true, TakenBands::ALL),
-            TakenBands::ALL,
-            "the first frame draws every band"
-        );
-        assert_eq!(
-            bands.to_draw(false, true, TakenBands::ALL),
-            0,
-            "a still frame after a whole drawing draws nothing"
-        );
+        assert_eq!(bands.to_draw(true, true), TakenBands::ALL, "the first frame draws every band");
+        assert_eq!(bands.to_draw(false, true), 0, "a still frame after a whole drawing draws nothing");
         for k in 0..TAKEN_BANDS + 2 {
-            assert_eq!(bands.to_draw(true, true, TakenBands::ALL), 1 << (k % TAKEN_BANDS), "move {k}");
+            assert_eq!(bands.to_draw(true, true), 1 << (k % TAKEN_BANDS), "move {k}");
         }
         let last = 1 << ((TAKEN_BANDS + 1) % TAKEN_BANDS);
-        assert_eq!(
-            bands.to_draw(false, true, TakenBands::ALL),
-            TakenBands::ALL & !last,
-            "at rest the rest is drawn"
-        );
-        assert_eq!(bands.to_draw(false, true, TakenBands::ALL), 0);
-        assert_eq!(
-            bands.to_draw(true, false, TakenBands::ALL),
-            TakenBands::ALL,
-            "exact frames draw every band"
-        );
+        assert_eq!(bands.to_draw(false, true), TakenBands::ALL & !last, "at rest the rest is drawn");
+        assert_eq!(bands.to_draw(false, true), 0);
+        assert_eq!(bands.to_draw(true, false), TakenBands::ALL, "exact frames draw every band");
+    }
+
+    /// A settling frame's rows, drawn from the top, count a band as drawn once all of its rows
+    /// are, and all of them once the last row is.
+    #[test]
+    fn settling_rows_complete_the_bands_they_cover() {
+        let bands = TakenBands::default();
+        bands.drawn_down_to(true, 40, (512, 512));
+        assert_eq!(bands.current.get(), 0b1, "rows 0..40 cover band 0 (rows 0..32) alone");
+        bands.drawn_down_to(false, 64, (512, 512));
+        assert_eq!(bands.current.get(), 0b11);
+        assert!(!bands.complete_once.get());
+        bands.drawn_down_to(false, 512, (512, 512));
+        assert_eq!(bands.current.get(), TakenBands::ALL);
+        assert!(bands.complete_once.get());
+        bands.drawn_down_to(true, 8, (512, 512));
+        assert_eq!(bands.current.get(), 0, "new inputs: no band is drawn from them");
     }
 
     /// The bands cover every row once, for heights that do and do not divide evenly.
