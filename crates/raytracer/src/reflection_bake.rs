@@ -39,6 +39,15 @@ impl Default for ReflectionLimits {
     }
 }
 
+/// One probe's row of texels as one task bakes it.
+struct TexelRow {
+    radiance: Vec<[f32; 3]>,
+    distance: Vec<f32>,
+    /// Whether each texel's first surface is a mirror or glass.
+    specular: Vec<bool>,
+    counters: RayCounters,
+}
+
 /// The reflection probes over `world`'s bounds (world space), or `None` for an empty or
 /// unbounded scene. Deterministic for a seed, whatever the thread count: every ray has its own
 /// sampler, keyed by probe, texel and ray.
@@ -53,7 +62,7 @@ pub fn bake_reflections(
     let side = REFLECTION_TEXELS;
     let rays = limits.rays_per_texel.clamp(1, 1024);
     // One task per probe and texel row: even work for two threads or twenty.
-    let rows: Vec<(Vec<[f32; 3]>, Vec<f32>, Vec<bool>, RayCounters)> = (0..n * side)
+    let rows: Vec<TexelRow> = (0..n * side)
         .into_par_iter()
         .map(|task| {
             let (probe, j) = (task / side, task % side);
@@ -92,18 +101,18 @@ pub fn bake_reflections(
                     world.material(world.interaction(&ray, &h).attributes).blocks_shadows()
                 }));
             }
-            (radiance, distance, specular, counters)
+            TexelRow { radiance, distance, specular, counters }
         })
         .collect();
     let mut counters = RayCounters::default();
     let mut base = Vec::with_capacity(n * side * side);
     let mut distance = Vec::with_capacity(n * side * side);
     let mut specular = Vec::with_capacity(n * side * side);
-    for (r, d, s, c) in rows {
-        counters.add(&c);
-        base.extend(r);
-        distance.extend(d);
-        specular.extend(s);
+    for row in rows {
+        counters.add(&row.counters);
+        base.extend(row.radiance);
+        distance.extend(row.distance);
+        specular.extend(row.specular);
     }
     // None marked: the sidecar's form for a scene without mirrors or glass in the probes' view.
     if !specular.contains(&true) {
