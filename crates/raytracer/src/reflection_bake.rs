@@ -2,8 +2,9 @@
 //! a coarse grid of probes at the cell centres of the scene's bounds, each an octahedral map of
 //! the radiance the integrator returns through every texel (jittered rays, averaged) less the
 //! area lights' emission seen directly (a viewer adds the lights' glossy reflection itself), the
-//! distance to the first surface through each texel's centre, and the map prefiltered into the
-//! roughness levels `sidecar::reflection_levels` defines.
+//! distance to the first surface through each texel's centre (and whether that surface is a
+//! mirror or glass, whose radiance there is an image that changes with the viewpoint), and the
+//! map prefiltered into the roughness levels `sidecar::reflection_levels` defines.
 
 use crate::integrators::{Integrator, RayCounters};
 use crate::probe_bake::{emitter_seen, grid_layout};
@@ -38,6 +39,15 @@ impl Default for ReflectionLimits {
     }
 }
 
+/// One probe's row of texels as one task bakes it.
+struct TexelRow {
+    radiance: Vec<[f32; 3]>,
+    distance: Vec<f32>,
+    /// Whether each texel's first surface is a mirror or glass.
+    specular: Vec<bool>,
+    counters: RayCounters,
+}
+
 /// The reflection probes over `world`'s bounds (world space), or `None` for an empty or
 /// unbounded scene. Deterministic for a seed, whatever the thread count: every ray has its own
 /// sampler, keyed by probe, texel and ray.
@@ -52,7 +62,7 @@ pub fn bake_reflections(
     let side = REFLECTION_TEXELS;
     let rays = limits.rays_per_texel.clamp(1, 1024);
     // One task per probe and texel row: even work for two threads or twenty.
-    let rows: Vec<(Vec<[f32; 3]>, Vec<f32>, RayCounters)> = (0..n * side)
+    let rows: Vec<TexelRow> = (0..n * side)
         .into_par_iter()
         .map(|task| {
             let (probe, j) = (task / side, task % side);
@@ -60,6 +70,7 @@ pub fn bake_reflections(
             let mut counters = RayCounters::default();
             let mut radiance = Vec::with_capacity(side);
             let mut distance = Vec::with_capacity(side);
+            let mut specular = Vec::with_capacity(side);
             for i in 0..side {
                 let texel = j * side + i;
                 let mut sum = Vec3::ZERO;
@@ -81,19 +92,31 @@ pub fn bake_reflections(
                 let centre =
                     octahedral_direction([(i as f32 + 0.5) / side as f32, (j as f32 + 0.5) / side as f32]);
                 counters.shadow += 1;
-                let hit = world.intersect(&Ray::new(p, Vec3::from_array(centre)));
+                let ray = Ray::new(p, Vec3::from_array(centre));
+                let hit = world.intersect(&ray);
                 distance.push(hit.map_or(layout.miss_distance, |h| h.t.min(layout.miss_distance)));
+                // Mirror and glass: the materials whose light reaches a point only along
+                // specular paths.
+                specular.push(hit.is_some_and(|h| {
+                    world.material(world.interaction(&ray, &h).attributes).blocks_shadows()
+                }));
             }
-            (radiance, distance, counters)
+            TexelRow { radiance, distance, specular, counters }
         })
         .collect();
     let mut counters = RayCounters::default();
     let mut base = Vec::with_capacity(n * side * side);
     let mut distance = Vec::with_capacity(n * side * side);
-    for (r, d, c) in rows {
-        counters.add(&c);
-        base.extend(r);
-        distance.extend(d);
+    let mut specular = Vec::with_capacity(n * side * side);
+    for row in rows {
+        counters.add(&row.counters);
+        base.extend(row.radiance);
+        distance.extend(row.distance);
+        specular.extend(row.specular);
+    }
+    // None marked: the sidecar's form for a scene without mirrors or glass in the probes' view.
+    if !specular.contains(&true) {
+        specular.clear();
     }
     let levels: Vec<Vec<Vec<[f32; 3]>>> = base.par_chunks(side * side).map(reflection_levels).collect();
     let radiance = (0..REFLECTION_LEVELS)
@@ -106,6 +129,7 @@ pub fn bake_reflections(
         counts: layout.counts,
         radiance,
         distance,
+        specular,
     };
     Some((probes, counters))
 }

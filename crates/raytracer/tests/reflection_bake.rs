@@ -121,3 +121,33 @@ fn an_emitter_seen_directly_is_left_out() {
     let centre = probes.probe_index([2, 2, 2]);
     assert!((probes.distance_toward(centre, [1.0, 0.0, 0.0]) - 7.0 / 6.0).abs() < 1e-3);
 }
+
+/// The texels whose first surface is a mirror or glass are marked (their radiance is an image
+/// that changes with the viewpoint): with the +x wall a mirror, exactly the centre probe's
+/// texels whose centre ray meets that wall first; with the wall glass, likewise; with the wall
+/// self-luminous and matte, none (the marks left empty, as a sidecar from before them reads).
+#[test]
+fn texels_that_see_a_mirror_or_glass_are_marked() {
+    assert!(run(2).reflections.unwrap().specular.is_empty());
+    for wall in ["Surface \"mirror\"", "Surface \"glass\" \"float eta\" [1.5]"] {
+        let probes = run_with(wall, 2).reflections.unwrap();
+        let n = REFLECTION_TEXELS * REFLECTION_TEXELS;
+        assert_eq!(probes.specular.len(), probes.distance.len(), "{wall}");
+        let centre = probes.probe_index([2, 2, 2]);
+        let at = -1.0f32 / 6.0;
+        let mut marked = 0;
+        for t in 0..n {
+            let d = octahedral_texel_center(REFLECTION_TEXELS, t);
+            let face = |a: usize| if d[a] == 0.0 { f32::INFINITY } else { (d[a].signum() - at) / d[a] };
+            let (to_x, to_other) = (face(0), face(1).min(face(2)));
+            // A centre ray along the box's edge may meet either face.
+            if (to_x - to_other).abs() < 1e-3 * to_x {
+                continue;
+            }
+            let on_wall = d[0] > 0.0 && to_x < to_other;
+            assert_eq!(probes.specular[centre * n + t], on_wall, "{wall}: texel {t} {d:?}");
+            marked += usize::from(on_wall);
+        }
+        assert!(marked > n / 20, "{wall}: {marked} texels marked");
+    }
+}

@@ -208,6 +208,11 @@ pub struct ReflectionProbes {
     /// Per probe, `REFLECTION_TEXELS^2` texels: the distance from the probe to the first
     /// surface through the texel's centre (`2 * |bounds diagonal|` where the ray leaves).
     pub distance: Vec<f32>,
+    /// Per probe, `REFLECTION_TEXELS^2` texels as `distance`: whether that first surface
+    /// sends light only along specular paths (a mirror or glass), so the texel's radiance is
+    /// an image that changes with the viewpoint, not the surface's own; empty where no texel's
+    /// is (a file without the `specular` layer reads so: docs/sidecar.md).
+    pub specular: Vec<bool>,
 }
 
 impl ReflectionProbes {
@@ -271,11 +276,22 @@ impl ReflectionProbes {
     /// Distance from probe `probe` to the first surface toward unit direction `dir` (the
     /// level-0 texel it falls in).
     pub fn distance_toward(&self, probe: usize, dir: [f32; 3]) -> f32 {
+        self.distance[Self::texel_toward(probe, dir)]
+    }
+
+    /// Whether the first surface toward unit direction `dir` from probe `probe` is specular
+    /// (the texel [`ReflectionProbes::distance_toward`] reads; false where `specular` is empty).
+    pub fn specular_toward(&self, probe: usize, dir: [f32; 3]) -> bool {
+        !self.specular.is_empty() && self.specular[Self::texel_toward(probe, dir)]
+    }
+
+    /// The index of probe `probe`'s level-0 texel that unit direction `dir` falls in.
+    fn texel_toward(probe: usize, dir: [f32; 3]) -> usize {
         let n = REFLECTION_TEXELS;
         let [u, v] = octahedral_uv(dir);
         let i = ((u * n as f32) as usize).min(n - 1);
         let j = ((v * n as f32) as usize).min(n - 1);
-        self.distance[probe * n * n + j * n + i]
+        probe * n * n + j * n + i
     }
 
     /// Glossy reflection at world point `p` for the unit reflected direction `r`: the 8 probes
@@ -320,6 +336,10 @@ impl ReflectionProbes {
     /// finds it by its distance map ([`ReflectionProbes::hit_toward`]); every probe around `p`
     /// is read toward those points at each direction's level, and the probes are weighted as in
     /// [`ReflectionProbes::radiance`]. Times [`blinn_albedo`] it is the lobe's reflection.
+    /// A direction whose point is on a specular surface (`specular`, that probe's texel) is read
+    /// in the direction itself, as a distant scene's: a probe holds, toward a mirror or glass,
+    /// the image its own place sees, and moved to `p` by the parallax it shows another (a glass
+    /// ball's lens image, docs/viewer-specular.md).
     pub fn glossy_radiance(&self, p: [f32; 3], n: [f32; 3], v: [f32; 3], exponent: f32) -> [f32; 3] {
         let lobe = glossy_lobe_directions(n, v, exponent);
         let lobe_total: f32 = lobe.iter().map(|d| d.weight).sum();
@@ -336,14 +356,23 @@ impl ReflectionProbes {
             return [0.0; 3];
         };
         let hits: Vec<[f32; 3]> = lobe.iter().map(|d| self.hit_toward(nearest, p, d.direction)).collect();
+        let nearest_origin = self.probe_position(nearest);
+        let on_specular: Vec<bool> = hits
+            .iter()
+            .map(|hit| {
+                let to_hit: [f32; 3] = std::array::from_fn(|a| hit[a] - nearest_origin[a]);
+                let len = dot(to_hit, to_hit).sqrt();
+                len > 0.0 && self.specular_toward(self.probe_index(nearest), to_hit.map(|x| x / len))
+            })
+            .collect();
         let (mut sum, mut total) = ([0.0f32; 3], 0.0f32);
         for &(cell, w) in &corners {
             let probe = self.probe_index(cell);
             let origin = self.probe_position(cell);
-            for (d, hit) in lobe.iter().zip(&hits) {
+            for ((d, hit), &specular) in lobe.iter().zip(&hits).zip(&on_specular) {
                 let to_hit: [f32; 3] = std::array::from_fn(|a| hit[a] - origin[a]);
                 let len = dot(to_hit, to_hit).sqrt();
-                let dir = if len > 0.0 { to_hit.map(|x| x / len) } else { d.direction };
+                let dir = if len > 0.0 && !specular { to_hit.map(|x| x / len) } else { d.direction };
                 let l = self.sample_level(probe, dir, d.level);
                 for c in 0..3 {
                     sum[c] += w * d.weight * l[c];
@@ -668,6 +697,7 @@ mod tests {
             counts: [1, 1, 1],
             radiance: reflection_levels(&base),
             distance,
+            specular: Vec::new(),
         }
     }
 
@@ -697,6 +727,7 @@ mod tests {
             counts: [2, 1, 1],
             radiance,
             distance,
+            specular: Vec::new(),
         };
         let up = [0.0, 1.0, 0.0];
         assert!(probes.sees([0, 0, 0], [0.4, 0.0, 0.0]) && !probes.sees([1, 0, 0], [0.4, 0.0, 0.0]));

@@ -1,7 +1,8 @@
 //! The reflection probes file (`*.reflections.exr`): one layer per mip level, `radiance.K`
 //! (one row per probe, `reflection_level_texels(K)^2` pixels per row, channels `R`, `G`, `B`),
-//! and `distance` (one row per probe, `REFLECTION_TEXELS^2` pixels, channel `Z`), with the grid
-//! and the level layout in the header (docs/sidecar.md).
+//! `distance` (one row per probe, `REFLECTION_TEXELS^2` pixels, channel `Z`) and, where some
+//! texel's first surface is a mirror or glass, `specular` (the same size, channel `S`, 1 there,
+//! else 0), with the grid and the level layout in the header (docs/sidecar.md).
 
 use crate::error::{SidecarError, SidecarErrorKind};
 use crate::layers_io::{ReadLimits, fingerprint_attribute, read_all_layers, read_header};
@@ -39,11 +40,16 @@ fn roughness_text() -> String {
     (0..REFLECTION_LEVELS).map(|k| reflection_level_roughness(k).to_string()).collect::<Vec<_>>().join(" ")
 }
 
-/// The (layer, size) pairs of a file of `n` probes: every level, then `distance`.
+/// The optional layer marking the texels whose first surface is specular.
+const SPECULAR_LAYER: &str = "specular";
+
+/// The (layer, size) pairs of a file of `n` probes: every level, then `distance`, then the
+/// optional `specular`.
 fn layer_sizes(n: usize) -> Vec<(String, (usize, usize))> {
     let mut out: Vec<_> =
         (0..REFLECTION_LEVELS).map(|k| (radiance_layer(k), (reflection_level_texels(k).pow(2), n))).collect();
     out.push(("distance".into(), (REFLECTION_TEXELS * REFLECTION_TEXELS, n)));
+    out.push((SPECULAR_LAYER.into(), (REFLECTION_TEXELS * REFLECTION_TEXELS, n)));
     out
 }
 
@@ -56,13 +62,15 @@ pub fn write_reflections(probes: &ReflectionProbes, path: &Path) -> Result<(), S
     let inconsistent = n == 0
         || probes.radiance.len() != REFLECTION_LEVELS
         || probes.radiance.iter().zip(&sizes).any(|(level, (_, (w, h)))| level.len() != w * h)
-        || probes.distance.len() != n * REFLECTION_TEXELS * REFLECTION_TEXELS;
+        || probes.distance.len() != n * REFLECTION_TEXELS * REFLECTION_TEXELS
+        || !(probes.specular.is_empty() || probes.specular.len() == probes.distance.len());
     if inconsistent {
         return Err(fail(SidecarErrorKind::Inconsistent {
             detail: format!(
-                "{n} probes, levels of {:?} texels, {} distances",
+                "{n} probes, levels of {:?} texels, {} distances, {} specular marks",
                 probes.radiance.iter().map(Vec::len).collect::<Vec<_>>(),
-                probes.distance.len()
+                probes.distance.len(),
+                probes.specular.len()
             ),
         }));
     }
@@ -104,6 +112,17 @@ pub fn write_reflections(probes: &ReflectionProbes, path: &Path) -> Result<(), S
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(vec![distance])),
     ));
+    // Only where some texel is marked: files of scenes without mirrors or glass stay as they
+    // were, and readers from before the layer read them.
+    if probes.specular.contains(&true) {
+        let marks = probes.specular.iter().map(|&s| if s { 1.0 } else { 0.0 }).collect();
+        layers.push(Layer::new(
+            sizes[REFLECTION_LEVELS + 1].1,
+            attributes(SPECULAR_LAYER),
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("S", FlatSamples::F32(marks))])),
+        ));
+    }
     let width = REFLECTION_TEXELS * REFLECTION_TEXELS;
     let image = Image::from_layers(
         ImageAttributes::new(IntegerBounds::from_dimensions((width, n))),
@@ -201,7 +220,11 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ReflectionProbes, Si
         }
         for c in &layer.channel_data.list {
             let full = format!("{name}.{}", c.name);
-            let allowed = if name == "distance" { c.name.eq("Z") } else { RGB.iter().any(|s| c.name.eq(s)) };
+            let allowed = match name.as_str() {
+                "distance" => c.name.eq("Z"),
+                SPECULAR_LAYER => c.name.eq("S"),
+                _ => RGB.iter().any(|s| c.name.eq(s)),
+            };
             if !allowed {
                 return Err(SidecarErrorKind::UnexpectedChannel { name: full });
             }
@@ -221,5 +244,19 @@ fn read_inner(path: &Path, expected: Option<u64>) -> Result<ReflectionProbes, Si
         radiance.push(level);
     }
     let distance = take("distance.Z".into())?;
-    Ok(ReflectionProbes { depth_fingerprint: fingerprint, origin, spacing, counts, radiance, distance })
+    // Absent (a bake from before the layer, or no mirror or glass in view of any probe): no
+    // texel is marked, and a viewer parallax-corrects every direction as before.
+    let specular = match channels.remove(&format!("{SPECULAR_LAYER}.S")) {
+        Some(marks) => marks.into_iter().map(|m| m > 0.5).collect(),
+        None => Vec::new(),
+    };
+    Ok(ReflectionProbes {
+        depth_fingerprint: fingerprint,
+        origin,
+        spacing,
+        counts,
+        radiance,
+        distance,
+        specular,
+    })
 }

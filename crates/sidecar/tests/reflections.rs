@@ -23,6 +23,7 @@ fn probes() -> ReflectionProbes {
             })
             .collect(),
         distance: (0..n * REFLECTION_TEXELS * REFLECTION_TEXELS).map(|t| 0.5 + t as f32 * 1e-2).collect(),
+        specular: Vec::new(),
     }
 }
 
@@ -193,4 +194,40 @@ fn bad_reflection_files_are_refused() {
     // Garbage is an EXR error naming the file.
     std::fs::write(&path, b"not an exr").unwrap();
     assert!(matches!(refusal(&path), SidecarErrorKind::Exr { .. } | SidecarErrorKind::Io(_)));
+}
+
+/// The `specular` marks round-trip as their own layer, written only where some texel is
+/// marked: probes without marks make the file they made before the layer existed (no such
+/// layer), which reads back without marks.
+#[test]
+fn specular_marks_round_trip_and_are_absent_where_none_is_set() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = dir.path().join("out.reflections.exr");
+    let layer_names = |path: &Path| -> Vec<String> {
+        let image =
+            read().no_deep_data().largest_resolution_level().all_channels().all_layers().all_attributes();
+        let image = image.from_file(path).unwrap();
+        image.layer_data.iter().map(|l| l.attributes.layer_name.as_ref().unwrap().to_string()).collect()
+    };
+    let unmarked = probes();
+    write_reflections(&unmarked, &path).unwrap();
+    assert!(!layer_names(&path).contains(&"specular".to_string()));
+    assert_eq!(read_reflections(&path, None).unwrap(), Some(unmarked.clone()));
+    let mut marked = unmarked.clone();
+    marked.specular = (0..marked.distance.len()).map(|t| t % 7 == 3).collect();
+    write_reflections(&marked, &path).unwrap();
+    assert!(layer_names(&path).contains(&"specular".to_string()));
+    let read_back = read_reflections(&path, None).unwrap().unwrap();
+    assert_eq!(read_back, marked);
+    let n = REFLECTION_TEXELS * REFLECTION_TEXELS;
+    let texel = n + 3 * REFLECTION_TEXELS + 5;
+    let dir_of = sidecar::octahedral_texel_center(REFLECTION_TEXELS, texel - n);
+    assert_eq!(read_back.specular_toward(1, dir_of), texel % 7 == 3);
+    // Marks of the wrong length are refused.
+    let mut bad = marked.clone();
+    bad.specular.pop();
+    assert!(matches!(
+        write_reflections(&bad, &path).unwrap_err().kind,
+        SidecarErrorKind::Inconsistent { .. }
+    ));
 }

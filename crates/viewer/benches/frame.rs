@@ -100,6 +100,7 @@ fn bind_room_scene(scene: &mut ViewerScene, materials: bool) {
             counts: [1, 1, 1],
             radiance,
             distance: vec![1.0; texels * texels],
+            specular: Vec::new(),
         })
         .expect("reflection probe");
     let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);

@@ -28,6 +28,7 @@ fn probes(xs: &[f32], distance: f32, field: impl Fn([f32; 3]) -> [f32; 3]) -> si
         counts: [xs.len() as u32, 1, 1],
         radiance: levels.iter().map(|level| level.repeat(xs.len())).collect(),
         distance: vec![distance; n * n * xs.len()],
+        specular: Vec::new(),
     }
 }
 
@@ -61,19 +62,6 @@ fn render(scene: &ViewerScene, material: Material) -> (Vec<f32>, Vec<u8>) {
 /// on the sphere (`None` for a miss).
 fn hit(scene: &ViewerScene, k: usize) -> Option<(DVec3, DVec3, DVec3)> {
     sphere_hit(scene, k, CENTRE, RADIUS)
-}
-
-/// As [`hit`], on the sphere of `centre` and `radius`.
-fn sphere_hit(scene: &ViewerScene, k: usize, centre: DVec3, radius: f64) -> Option<(DVec3, DVec3, DVec3)> {
-    let camera = scene.camera();
-    let (w, _) = scene.size();
-    let world_from_camera = camera.camera_from_world().inverse();
-    let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
-    let origin = world_from_camera.transform_point3(ray.origin);
-    let direction = world_from_camera.transform_vector3(ray.direction).normalize();
-    let t = ray_sphere(origin, direction, centre, radius)?;
-    let p = origin + t * direction;
-    Some((p, (p - centre).normalize(), -direction))
 }
 
 /// Pixels inside the sphere whose normal faces the eye by more than `min_cos` (away from the
@@ -134,37 +122,6 @@ fn the_shader_s_lookup_matches_the_reference() {
         }
         assert!(worst <= 0.02, "roughness {roughness}: worst relative difference {worst}");
     }
-}
-
-/// The ray tracer's glossy reflection of a field, `integral of f(v, l) cos(theta_l) L(l) dl`,
-/// in f64 over a 256 x 256 midpoint grid of the lobe's half vectors (the integrand made smooth
-/// by the lobe's own importance sampling, as `sidecar::blinn_albedo` integrates it).
-fn lobe_integral(n: DVec3, v: DVec3, exponent: f64, field: impl Fn(DVec3) -> [f64; 3]) -> [f64; 3] {
-    const STEPS: usize = 256;
-    let cos_o = n.dot(v).max(1e-3);
-    let t = n.any_orthonormal_vector();
-    let b = n.cross(t);
-    let mut sum = [0.0f64; 3];
-    for i in 0..STEPS {
-        let cos_h = ((i as f64 + 0.5) / STEPS as f64).powf(1.0 / (exponent + 1.0));
-        let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
-        for j in 0..STEPS {
-            let phi = std::f64::consts::TAU * (j as f64 + 0.5) / STEPS as f64;
-            let h = t * (sin_h * phi.cos()) + b * (sin_h * phi.sin()) + n * cos_h;
-            let o_dot_h = v.dot(h);
-            let l = 2.0 * o_dot_h * h - v;
-            let cos_l = n.dot(l);
-            if o_dot_h <= 0.0 || cos_l <= 0.0 {
-                continue;
-            }
-            let g = (2.0 * cos_h * cos_o / o_dot_h).min(2.0 * cos_h * cos_l / o_dot_h).min(1.0);
-            let radiance = field(l);
-            for c in 0..3 {
-                sum[c] += (exponent + 2.0) / (exponent + 1.0) * g * o_dot_h / cos_o * radiance[c];
-            }
-        }
-    }
-    sum.map(|x| x / (STEPS * STEPS) as f64)
 }
 
 /// A wide lobe (RenderMan's default roughness 0.1) seen at a grazing angle leans toward the
@@ -370,6 +327,7 @@ fn floor_probe(direct: &dyn Fn(DVec3) -> f64) -> sidecar::ReflectionProbes {
         counts: [1, 1, 1],
         radiance: sidecar::reflection_levels(&base),
         distance,
+        specular: Vec::new(),
     }
 }
 
@@ -800,31 +758,12 @@ fn box_faces() -> Vec<[DVec3; 3]> {
 }
 
 /// Two reflection probes, at x = -0.5 and 0.5 (y -0.2, z 0), that saw `radiance(origin, d)`
-/// (radiance and the distance to the first surface) through each texel.
+/// (radiance and the distance to the first surface) through each texel, none marked specular.
 fn probes_of(radiance: impl Fn(DVec3, DVec3) -> (f64, f64)) -> sidecar::ReflectionProbes {
-    let n = sidecar::REFLECTION_TEXELS;
-    let (mut levels, mut distance) = (vec![Vec::new(); sidecar::REFLECTION_LEVELS], Vec::new());
-    for x in [-0.5, 0.5] {
-        let origin = DVec3::new(x, -0.2, 0.0);
-        let mut base = Vec::new();
-        for t in 0..n * n {
-            let d = DVec3::from(sidecar::octahedral_texel_center(n, t).map(f64::from)).normalize();
-            let (l, s) = radiance(origin, d);
-            base.push([l as f32; 3]);
-            distance.push(s as f32);
-        }
-        for (all, level) in levels.iter_mut().zip(sidecar::reflection_levels(&base)) {
-            all.extend(level);
-        }
-    }
-    sidecar::ReflectionProbes {
-        depth_fingerprint: 0,
-        origin: [-0.5, -0.2, 0.0],
-        spacing: [1.0; 3],
-        counts: [2, 1, 1],
-        radiance: levels,
-        distance,
-    }
+    two_probes_of(|origin, d| {
+        let (l, s) = radiance(origin, d);
+        (l, s, false)
+    })
 }
 
 /// The relative error (summed absolute difference over summed radiance) of a glossy sphere's

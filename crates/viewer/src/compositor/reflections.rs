@@ -1,7 +1,9 @@
 //! The reflection probes on the GPU: each probe's prefiltered radiance as one layer of a
 //! half-float texture array with the probes' roughness levels as mip levels (sampled linearly
 //! within and between levels, as `sidecar::ReflectionProbes::sample` does), and its distance
-//! map as one layer of a float texture array (read texel by texel for the parallax correction).
+//! map as one layer of a two-channel float texture array (read texel by texel for the parallax
+//! correction), the second channel 1 where the texel's first surface is specular (the sidecar's
+//! `specular` marks; 0 everywhere for probes without them).
 
 use crate::gpu::Gpu;
 use sidecar::{REFLECTION_LEVELS, REFLECTION_TEXELS, ReflectionProbes, reflection_level_texels};
@@ -38,7 +40,7 @@ pub(super) fn upload(gpu: &Gpu, probes: Option<&ReflectionProbes>) -> GpuReflect
         })
     };
     let radiance = texture("reflection radiance", wgpu::TextureFormat::Rgba16Float, levels);
-    let distance = texture("reflection distance", wgpu::TextureFormat::R32Float, 1);
+    let distance = texture("reflection distance", wgpu::TextureFormat::Rg32Float, 1);
     let write = |texture: &wgpu::Texture, level: u32, texels: u32, bytes: &[u8], bytes_per_texel: u32| {
         gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
@@ -66,11 +68,14 @@ pub(super) fn upload(gpu: &Gpu, probes: Option<&ReflectionProbes>) -> GpuReflect
                 let side = reflection_level_texels(level) as u32;
                 write(&radiance, level as u32, side, bytemuck::cast_slice(&data), 8);
             }
-            write(&distance, 0, side, bytemuck::cast_slice(&p.distance), 4);
+            let marked = |t: usize| p.specular.get(t).is_some_and(|&s| s);
+            let texels: Vec<[f32; 2]> =
+                p.distance.iter().enumerate().map(|(t, &d)| [d, if marked(t) { 1.0 } else { 0.0 }]).collect();
+            write(&distance, 0, side, bytemuck::cast_slice(&texels), 8);
         }
         None => {
             write(&radiance, 0, 1, bytemuck::cast_slice(&[0u16; 4]), 8);
-            write(&distance, 0, 1, bytemuck::cast_slice(&[0f32]), 4);
+            write(&distance, 0, 1, bytemuck::cast_slice(&[0f32; 2]), 8);
         }
     }
     let array = |t: &wgpu::Texture| {

@@ -87,6 +87,20 @@ fn probe_distance_toward(probe: u32, dir: vec3<f32>) -> f32 {
     return textureLoad(reflection_distance, texel, probe, 0).r;
 }
 
+// Whether the first surface toward world point `x` from the probe of grid cell `cell` is
+// specular (a mirror or glass: the distance map's second channel, the sidecar's `specular`
+// marks, 0 for probes without them).
+fn probe_specular_at(cell: vec3<u32>, x: vec3<f32>) -> bool {
+    let to_x = x - probe_position(cell);
+    let d = length(to_x);
+    if !(d > 0.0) {
+        return false;
+    }
+    let uv = octahedral_uv(to_x / d);
+    let texel = min(vec2<u32>(uv * f32(REFLECTION_TEXELS)), vec2<u32>(REFLECTION_TEXELS - 1u));
+    return textureLoad(reflection_distance, texel, probe_index(cell), 0).g > 0.5;
+}
+
 fn probe_sees(cell: vec3<u32>, p: vec3<f32>) -> bool {
     let to_p = p - probe_position(cell);
     let d = length(to_p);
@@ -328,17 +342,24 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     // glossy scene surface takes that surface's radiance toward the chain's last point from its
     // own material (own_radiance, w 1): the probes saw its highlights and reflections from their
     // own points.
+    // Where the directions are not traced (a mirror's, glass's or metal's pass), one whose point
+    // is on a mirror or glass (the nearest probe's `specular` mark there) is read in its own
+    // direction, as a distant scene's, not toward that point: a probe holds there the image its
+    // own place sees (a glass ball's lens image, 1.5 times what the sphere behind the ball sees
+    // in caustics given0), which the parallax correction would move to p.
     var hits: array<vec3<f32>, GLOSSY_SAMPLES>;
     var traced: array<bool, GLOSSY_SAMPLES>;
     var own_radiance: array<vec4<f32>, GLOSSY_SAMPLES>;
     var chain_weights: array<vec3<f32>, GLOSSY_SAMPLES>;
-    var escaped: array<bool, GLOSSY_SAMPLES>;
+    // Read in its (last) direction, not toward a point: a chain that left the scene, or an
+    // untraced direction toward a mirror or glass.
+    var distant: array<bool, GLOSSY_SAMPLES>;
     let p_camera = camera_point_of(p);
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         traced[i] = false;
         own_radiance[i] = vec4<f32>(0.0);
         chain_weights[i] = vec3<f32>(1.0);
-        escaped[i] = false;
+        distant[i] = false;
         if weights[i] > 0.0 {
             hits[i] = probe_hit(cells[nearest], p, directions[i].xyz);
             if traced_hits {
@@ -351,8 +372,10 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
                 } else if chain.ended > -0.5 {
                     directions[i] = vec4<f32>(chain.direction, directions[i].w);
                     chain_weights[i] = chain.weight;
-                    escaped[i] = true;
+                    distant[i] = true;
                 }
+            } else {
+                distant[i] = probe_specular_at(cells[nearest], hits[i]);
             }
         }
     }
@@ -362,7 +385,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     var kept: array<vec3<f32>, GLOSSY_SAMPLES>;
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         kept[i] = vec3<f32>(1.0);
-        if frame.counts.y == 1u && weights[i] > 0.0 && own_radiance[i].w < 0.5 && !escaped[i] {
+        if frame.counts.y == 1u && weights[i] > 0.0 && own_radiance[i].w < 0.5 && !distant[i] {
             if traced[i] {
                 kept[i] = vec3<f32>(1.0) - live_share_at_point(hits[i]);
             } else {
@@ -410,7 +433,7 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
                 if w > 0.0 {
                     let to_hit = hits[i] - probe_position(cell);
                     let len = length(to_hit);
-                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0 && !escaped[i]);
+                    let dir = select(directions[i].xyz, to_hit / len, len > 0.0 && !distant[i]);
                     radiance += w * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe_index(cell), directions[i].w).rgb;
                     radiance_weight += w;
                 }

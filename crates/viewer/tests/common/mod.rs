@@ -405,3 +405,88 @@ pub fn hidden_share(p: DVec3, samples: &[viewer::AreaSample], blocked: impl Fn(D
     }
     if total > 0.0 { hidden / total } else { 0.0 }
 }
+
+/// The world-space hit point, unit normal and unit direction toward the eye of pixel `k`'s ray
+/// on the sphere of `centre` and `radius` (`None` for a miss).
+pub fn sphere_hit(
+    scene: &ViewerScene,
+    k: usize,
+    centre: DVec3,
+    radius: f64,
+) -> Option<(DVec3, DVec3, DVec3)> {
+    let camera = scene.camera();
+    let (w, _) = scene.size();
+    let world_from_camera = camera.camera_from_world().inverse();
+    let ray = camera.pixel_centre_ray(k as u32 % w, k as u32 / w);
+    let origin = world_from_camera.transform_point3(ray.origin);
+    let direction = world_from_camera.transform_vector3(ray.direction).normalize();
+    let t = ray_sphere(origin, direction, centre, radius)?;
+    let p = origin + t * direction;
+    Some((p, (p - centre).normalize(), -direction))
+}
+
+/// The ray tracer's glossy reflection of a field, `integral of f(v, l) cos(theta_l) L(l) dl`,
+/// in f64 over a 256 x 256 midpoint grid of the lobe's half vectors (the integrand made smooth
+/// by the lobe's own importance sampling, as `sidecar::blinn_albedo` integrates it).
+pub fn lobe_integral(n: DVec3, v: DVec3, exponent: f64, field: impl Fn(DVec3) -> [f64; 3]) -> [f64; 3] {
+    const STEPS: usize = 256;
+    let cos_o = n.dot(v).max(1e-3);
+    let t = n.any_orthonormal_vector();
+    let b = n.cross(t);
+    let mut sum = [0.0f64; 3];
+    for i in 0..STEPS {
+        let cos_h = ((i as f64 + 0.5) / STEPS as f64).powf(1.0 / (exponent + 1.0));
+        let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
+        for j in 0..STEPS {
+            let phi = std::f64::consts::TAU * (j as f64 + 0.5) / STEPS as f64;
+            let h = t * (sin_h * phi.cos()) + b * (sin_h * phi.sin()) + n * cos_h;
+            let o_dot_h = v.dot(h);
+            let l = 2.0 * o_dot_h * h - v;
+            let cos_l = n.dot(l);
+            if o_dot_h <= 0.0 || cos_l <= 0.0 {
+                continue;
+            }
+            let g = (2.0 * cos_h * cos_o / o_dot_h).min(2.0 * cos_h * cos_l / o_dot_h).min(1.0);
+            let radiance = field(l);
+            for c in 0..3 {
+                sum[c] += (exponent + 2.0) / (exponent + 1.0) * g * o_dot_h / cos_o * radiance[c];
+            }
+        }
+    }
+    sum.map(|x| x / (STEPS * STEPS) as f64)
+}
+
+/// Two reflection probes, at x = -0.5 and 0.5 (y -0.2, z 0), that saw `texel(origin, d)`
+/// through each texel: the radiance, the distance to the first surface and whether that
+/// surface is specular (the sidecar's `specular` marks; none kept where no texel is).
+pub fn two_probes_of(texel: impl Fn(DVec3, DVec3) -> (f64, f64, bool)) -> sidecar::ReflectionProbes {
+    let n = sidecar::REFLECTION_TEXELS;
+    let (mut levels, mut distance, mut specular) =
+        (vec![Vec::new(); sidecar::REFLECTION_LEVELS], Vec::new(), Vec::new());
+    for x in [-0.5, 0.5] {
+        let origin = DVec3::new(x, -0.2, 0.0);
+        let mut base = Vec::new();
+        for t in 0..n * n {
+            let d = DVec3::from(sidecar::octahedral_texel_center(n, t).map(f64::from)).normalize();
+            let (l, s, marked) = texel(origin, d);
+            base.push([l as f32; 3]);
+            distance.push(s as f32);
+            specular.push(marked);
+        }
+        for (all, level) in levels.iter_mut().zip(sidecar::reflection_levels(&base)) {
+            all.extend(level);
+        }
+    }
+    if !specular.contains(&true) {
+        specular.clear();
+    }
+    sidecar::ReflectionProbes {
+        depth_fingerprint: 0,
+        origin: [-0.5, -0.2, 0.0],
+        spacing: [1.0; 3],
+        counts: [2, 1, 1],
+        radiance: levels,
+        distance,
+        specular,
+    }
+}
