@@ -160,6 +160,21 @@ fn assert_floor_shows_the_sphere(
     assert!(relative <= 0.1, "relative squared error {relative} per pixel");
 }
 
+/// The first test's scene: the flat Cornell backdrop at 512^2 with the metal floor's black
+/// layers and a uniform probe field of radiance `L_SPHERE`, its floor pixels' lobes, and the
+/// white matte sphere's centre, radius and material.
+fn metal_floor_scene() -> (viewer::ViewerScene, FloorLobes, DVec3, f64, Material) {
+    let mut s = flat_cornell(LEVEL, vec![]);
+    let (layers, lobes) = metal_floor(&s, (512, 512), vec![]);
+    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
+    s.set_probes(uniform_probe([L_SPHERE; 3]));
+    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    (s, lobes, DVec3::new(0.1, -0.55, 0.1), 0.3, material)
+}
+
+/// The radiance of the first test's sphere (the probe field's).
+const L_SPHERE: f32 = 0.9;
+
 /// A white matte sphere of radiance `l` (a uniform probe field) over a metal floor (Blinn lobe
 /// `KS`, `EXPONENT`, no diffuse albedo) of the flat Cornell backdrop whose light layers are
 /// black (so the sphere hides no light and casts no shadow the floor could reflect; one corner
@@ -170,14 +185,8 @@ fn assert_floor_shows_the_sphere(
 /// keeps its value and the test fails.
 #[test]
 fn a_metal_floor_shows_the_blurred_sphere_it_reflects() {
-    let (w, h) = (512u32, 512u32);
-    let l = 0.9f32;
-    let mut s = flat_cornell(LEVEL, vec![]);
-    let (layers, lobes) = metal_floor(&s, (w, h), vec![]);
-    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
-    s.set_probes(uniform_probe([l; 3]));
-    let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
-    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let (w, l) = (512u32, L_SPHERE);
+    let (s, lobes, centre, radius, material) = metal_floor_scene();
     let live = LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
     let settings = CompositorSettings { mode: CompositeMode::Fullscreen, ..Default::default() };
     let mut c = Compositor::new(&gpu(), &s, settings).unwrap();
@@ -489,14 +498,8 @@ fn a_metal_wall_reflects_the_shadow_a_close_sphere_casts_where_the_eye_does_not_
 /// resolution again and equals a fresh compositor's frame bit for bit.
 #[test]
 fn a_moving_sphere_shows_in_the_metal_floor_from_lobes_traced_at_one_pixel_in_sixteen() {
-    let (w, h) = (512u32, 512u32);
-    let l = 0.9f32;
-    let mut s = flat_cornell(LEVEL, vec![]);
-    let (layers, lobes) = metal_floor(&s, (w, h), vec![]);
-    s.set_light_layers(SceneLayers { layers, layer_of_light: vec![], area_samples: vec![] }).unwrap();
-    s.set_probes(uniform_probe([l; 3]));
-    let (centre, radius) = (DVec3::new(0.1, -0.55, 0.1), 0.3);
-    let material = Material { colour: Vec3::ONE, ka: 0.0, kd: 1.0, ks: 0.0, ..Material::default() };
+    let (w, l) = (512u32, L_SPHERE);
+    let (s, lobes, centre, radius, material) = metal_floor_scene();
     let at =
         |centre: DVec3| LiveObjects { sphere: Some(Sphere { centre, radius, material }), meshes: Vec::new() };
     let settings = CompositorSettings {

@@ -791,19 +791,7 @@ fn glossy_sphere_error(
     let rgba = c.read_back_linear().unwrap().rgba;
     let mask = c.read_back().unwrap().mask;
     let exponent = f64::from(sidecar::blinn_exponent(roughness));
-    let (mut error, mut total, mut pixels) = (0.0, 0.0, 0);
-    for k in (0..mask.len()).filter(|&k| mask[k] == 255) {
-        let Some((p, n, v)) = sphere_hit(&scene, k, centre, radius) else { continue };
-        if n.y > -0.2 || n.dot(v) < 0.15 {
-            continue;
-        }
-        let want = lobe_integral(n, v, exponent, |l| [radiance(p, l).0; 3])[0];
-        error += (f64::from(rgba[4 * k]) - want).abs();
-        total += want;
-        pixels += 1;
-    }
-    assert!(pixels > 300 && total > 0.2 * pixels as f64, "{pixels} pixels facing down, total {total}");
-    (error / total, pixels)
+    sphere_lobe_error(&scene, (&rgba, &mask), (centre, radius, exponent), 0.2, |p, l| radiance(p, l).0)
 }
 
 /// What the box's faces other than the floor shine with toward a ray that meets them at

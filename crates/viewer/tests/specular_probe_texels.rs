@@ -56,19 +56,7 @@ fn lower_half_error(probes: sidecar::ReflectionProbes) -> (f64, usize) {
     let rgba = c.read_back_linear().unwrap().rgba;
     let mask = c.read_back().unwrap().mask;
     let exponent = f64::from(sidecar::blinn_exponent(roughness));
-    let (mut error, mut total, mut pixels) = (0.0, 0.0, 0);
-    for k in (0..mask.len()).filter(|&k| mask[k] == 255) {
-        let Some((p, n, v)) = sphere_hit(&scene, k, CENTRE, RADIUS) else { continue };
-        if n.y > -0.2 || n.dot(v) < 0.15 {
-            continue;
-        }
-        let want = lobe_integral(n, v, exponent, |l| [mirror_floor(p, l).0; 3])[0];
-        error += (f64::from(rgba[4 * k]) - want).abs();
-        total += want;
-        pixels += 1;
-    }
-    assert!(pixels > 300 && total > 0.1 * pixels as f64, "{pixels} pixels facing down, total {total}");
-    (error / total, pixels)
+    sphere_lobe_error(&scene, (&rgba, &mask), (CENTRE, RADIUS, exponent), 0.1, |p, l| mirror_floor(p, l).0)
 }
 
 /// A glossy sphere above a mirror floor under a sky split at x = 0, between two probes (x -0.5

@@ -490,3 +490,29 @@ pub fn two_probes_of(texel: impl Fn(DVec3, DVec3) -> (f64, f64, bool)) -> sideca
         specular,
     }
 }
+
+/// A live glossy sphere's summed absolute error over its pixels facing down and toward the eye
+/// in a frame (`rgba`, `mask`) of `scene`, against the f64 integral of `radiance(point, l)` over
+/// the Blinn lobe of `exponent` (red channel), and how many pixels were summed; asserts that
+/// more than 300 were, with a reference of at least `least` per pixel.
+pub fn sphere_lobe_error(
+    scene: &ViewerScene,
+    (rgba, mask): (&[f32], &[u8]),
+    (centre, radius, exponent): (DVec3, f64, f64),
+    least: f64,
+    radiance: impl Fn(DVec3, DVec3) -> f64,
+) -> (f64, usize) {
+    let (mut error, mut total, mut pixels) = (0.0, 0.0, 0);
+    for k in (0..mask.len()).filter(|&k| mask[k] == 255) {
+        let Some((p, n, v)) = sphere_hit(scene, k, centre, radius) else { continue };
+        if n.y > -0.2 || n.dot(v) < 0.15 {
+            continue;
+        }
+        let want = lobe_integral(n, v, exponent, |l| [radiance(p, l); 3])[0];
+        error += (f64::from(rgba[4 * k]) - want).abs();
+        total += want;
+        pixels += 1;
+    }
+    assert!(pixels > 300 && total > least * pixels as f64, "{pixels} pixels facing down, total {total}");
+    (error / total, pixels)
+}
