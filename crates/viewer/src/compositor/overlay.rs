@@ -22,11 +22,24 @@ pub(super) fn offscreen_pipeline(
     (label, fragment): (&str, &str),
     format: wgpu::TextureFormat,
 ) -> wgpu::RenderPipeline {
+    offscreen_pipeline_from(device, layout, fullscreen_vertex(module), (label, fragment), format)
+}
+
+/// [`offscreen_pipeline`] with the vertex stage `vertex` (its module also the fragment's), for a
+/// pass that needs another full-screen vertex entry point (the glossy lobes' per-sphere draws).
+pub(super) fn offscreen_pipeline_from(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    vertex: wgpu::VertexState<'_>,
+    (label, fragment): (&str, &str),
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let module = vertex.module;
     let targets = [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(label),
         layout: Some(layout),
-        vertex: fullscreen_vertex(module),
+        vertex,
         primitive: wgpu::PrimitiveState::default(),
         depth_stencil: None,
         multisample: wgpu::MultisampleState::default(),

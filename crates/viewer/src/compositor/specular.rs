@@ -9,7 +9,7 @@
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
-use super::overlay::Overlay;
+use super::overlay::{Overlay, offscreen_pipeline_from};
 
 /// The pass's pipeline and what it last left in the frame.
 #[derive(Debug)]
@@ -63,7 +63,14 @@ impl SpecularReflections {
             vertex.clone(),
             "fs_glossy_spread",
         );
-        let glossy_gather = grid_pipeline(device, overlay, with_mesh, vertex);
+        // The grid's draw: into the reduced grid, in the frame's linear format.
+        let glossy_gather = offscreen_pipeline_from(
+            device,
+            with_mesh,
+            vertex,
+            ("spheres in glossy reflections, reduced", "fs_glossy_gather"),
+            overlay.linear_format,
+        );
         let cache = rect.map(|[_, _, width, height]| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("spheres in specular reflections, last drawn"),
@@ -92,37 +99,6 @@ impl SpecularReflections {
 /// spreading weights it reads. In the room at 512x384 the lobes cost 8.5 s of CPU a moving
 /// frame on lavapipe and 80 ms on an H100 at full resolution (docs/viewer-frame-time.md).
 pub const GLOSSY_STRIDE: u32 = super::reduced_gather::SHADOW_STRIDE;
-
-/// `fs_glossy_gather`'s pipeline: the spheres' full-screen draw (`vertex`, their material in
-/// group 1 of `with_mesh`) into the reduced grid, in the frame's linear format, unblended.
-fn grid_pipeline(
-    device: &wgpu::Device,
-    overlay: &Overlay<'_>,
-    with_mesh: &wgpu::PipelineLayout,
-    vertex: wgpu::VertexState<'_>,
-) -> wgpu::RenderPipeline {
-    let targets = [Some(wgpu::ColorTargetState {
-        format: overlay.linear_format,
-        blend: None,
-        write_mask: wgpu::ColorWrites::ALL,
-    })];
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("spheres in glossy reflections, reduced"),
-        layout: Some(with_mesh),
-        vertex,
-        primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: None,
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: overlay.module,
-            entry_point: Some("fs_glossy_gather"),
-            compilation_options: Default::default(),
-            targets: &targets,
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
 
 impl Compositor {
     /// Shows the live spheres in the scene's specular reflections (`fs_reflection`): within the
