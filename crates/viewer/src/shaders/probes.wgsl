@@ -81,10 +81,15 @@ fn probe_position(cell: vec3<u32>) -> vec3<f32> {
 }
 
 fn probe_distance_toward(probe: u32, dir: vec3<f32>) -> f32 {
+    return probe_distance_texel(probe, dir).r;
+}
+
+// The distance map's texel of `probe` toward unit `dir`: r the distance, g the `specular` mark.
+fn probe_distance_texel(probe: u32, dir: vec3<f32>) -> vec4<f32> {
     let uv = octahedral_uv(dir);
     let n = f32(REFLECTION_TEXELS);
     let texel = min(vec2<u32>(uv * n), vec2<u32>(REFLECTION_TEXELS - 1u));
-    return textureLoad(reflection_distance, texel, probe, 0).r;
+    return textureLoad(reflection_distance, texel, probe, 0);
 }
 
 // Whether the first surface toward world point `x` from the probe of grid cell `cell` is
@@ -96,9 +101,7 @@ fn probe_specular_at(cell: vec3<u32>, x: vec3<f32>) -> bool {
     if !(d > 0.0) {
         return false;
     }
-    let uv = octahedral_uv(to_x / d);
-    let texel = min(vec2<u32>(uv * f32(REFLECTION_TEXELS)), vec2<u32>(REFLECTION_TEXELS - 1u));
-    return textureLoad(reflection_distance, texel, probe_index(cell), 0).g > 0.5;
+    return probe_distance_texel(probe_index(cell), to_x / d).g > 0.5;
 }
 
 fn probe_sees(cell: vec3<u32>, p: vec3<f32>) -> bool {
