@@ -11,9 +11,11 @@
 //! work), steadier than wall time on a shared machine; and the lit frames at rest and moving
 //! with the room's walls bound as the scene's triangles and a reflection probe, without and with
 //! the walls' materials (`-no-near-field`, `-near-field`: what `hybrid-view` binds with
-//! `--no-near-field` and by default). A frame at rest with the last exact frame's inputs is kept
-//! (`CompositorSettings::keep_frame_at_rest`), which the plain frames turn off (the baseline
-//! draws every frame) and `fullscreen-lit-rest-drawn-near-field` too (the first frame at rest).
+//! `--no-near-field` and by default), and with a glossy floor as well (`-glossy-floor`: the
+//! scene's glossy lobes, which see the sphere, as in `examples/room`). A frame at rest with the
+//! last exact frame's inputs is kept (`CompositorSettings::keep_frame_at_rest`), which the plain
+//! frames turn off (the baseline draws every frame) and `fullscreen-lit-rest-drawn-near-field`
+//! too (the first frame at rest).
 //! `fullscreen-lit-stop-worst-near-field` is the dearest frame after the sphere stops, as
 //! `hybrid-view` draws them (settling, `compositor/settle.rs`); `FRAME_STOP_TIMES=1` prints each.
 //!
@@ -37,6 +39,11 @@ fn room(size: u32) -> ViewerScene {
     room_and_normals(size).0
 }
 
+/// The glossy floor's lobe weight (`Ks`) and Blinn exponent (`1 / roughness`) in the
+/// `-glossy` benches.
+const FLOOR_KS: f32 = 0.3;
+const FLOOR_EXPONENT: f32 = 20.0;
+
 /// The area light's emitting quad, a centimetre below the ceiling, as two triangles.
 const LIGHT_QUAD: [[DVec3; 3]; 2] = {
     let c = [
@@ -50,8 +57,10 @@ const LIGHT_QUAD: [[DVec3; 3]; 2] = {
 
 /// [`room`] with what the illusion's renders come with: light layers (the wall's normal, an
 /// albedo of 0.7, direct light 0.3 and indirect light 0.1 everywhere), the area light's 256
-/// samples and one irradiance probe of uniform radiance 0.2.
-fn lit_room(size: u32) -> ViewerScene {
+/// samples and one irradiance probe of uniform radiance 0.2. With `glossy_floor` the floor is
+/// plastic as well: its pixels get a Blinn lobe ([`FLOOR_KS`], [`FLOOR_EXPONENT`]) in the
+/// layers, which turns on the glossy lobes' passes (the room of `examples/room` has one).
+fn lit_room(size: u32, glossy_floor: bool) -> ViewerScene {
     let (mut scene, normals) = room_and_normals(size);
     let fingerprint = sidecar::depth_fingerprint(scene.depth().values());
     let mut layers =
@@ -63,6 +72,12 @@ fn lit_room(size: u32) -> ViewerScene {
             layers.light[0][k] = [0.3; 3];
             layers.indirect[k] = [0.1; 3];
         }
+    }
+    if glossy_floor {
+        let floor = |n: &Option<DVec3>| n.is_some_and(|n| n.y > 0.5);
+        layers.glossy = normals.iter().map(|n| if floor(n) { [FLOOR_KS; 3] } else { [0.0; 3] }).collect();
+        layers.glossy_exponent =
+            normals.iter().map(|n| if floor(n) { [FLOOR_EXPONENT; 3] } else { [0.0; 3] }).collect();
     }
     let area_samples = vec![viewer::light_layers::area_samples(&LIGHT_QUAD, 256)];
     scene
@@ -88,8 +103,9 @@ fn lit_room(size: u32) -> ViewerScene {
 /// triangles (the scene's shadows on the sphere, which `hybrid-view` always binds) and a
 /// reflection probe at the centre seeing radiance 0.2 a unit away (the sphere's default
 /// material has a glossy lobe); with `materials` the walls are matte of albedo 0.7 as the layers
-/// have them, which turns on the near field and the glossy lobes traced through the scene.
-fn bind_room_scene(scene: &mut ViewerScene, materials: bool) {
+/// have them, which turns on the near field and the glossy lobes traced through the scene; with
+/// `glossy_floor` too the floor is plastic of the same albedo, with the layers' lobe.
+fn bind_room_scene(scene: &mut ViewerScene, materials: bool, glossy_floor: bool) {
     let texels = sidecar::REFLECTION_TEXELS;
     let radiance = sidecar::reflection_levels(&vec![[0.2f32; 3]; texels * texels]);
     scene
@@ -113,12 +129,25 @@ fn bind_room_scene(scene: &mut ViewerScene, materials: bool) {
     ];
     let triangles: Vec<[DVec3; 3]> =
         quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-    let of_triangle = vec![0; triangles.len()];
+    // The floor is the first quad: its two triangles get the second material.
+    let mut of_triangle = vec![0; triangles.len()];
+    of_triangle[..2].fill(1);
     scene.set_occluders(viewer::occluders::SceneOccluders { triangles });
     if materials {
         let wall = viewer::occluders::SceneMaterial { diffuse: Vec3::splat(0.7), ..Default::default() };
-        scene
-            .set_occluder_materials(viewer::occluders::SceneMaterials { materials: vec![wall], of_triangle });
+        let floor = if glossy_floor {
+            viewer::occluders::SceneMaterial {
+                glossy: Vec3::splat(FLOOR_KS),
+                exponent: FLOOR_EXPONENT,
+                ..wall
+            }
+        } else {
+            wall
+        };
+        scene.set_occluder_materials(viewer::occluders::SceneMaterials {
+            materials: vec![wall, floor],
+            of_triangle,
+        });
     }
 }
 
@@ -302,7 +331,7 @@ fn lit_frame_time(c: &mut Criterion) {
         .sampling_mode(SamplingMode::Flat)
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(10));
-    let scene = lit_room(512);
+    let scene = lit_room(512, false);
     for (what, moving, amortise, reduce) in LIT_FRAMES {
         let mut compositor = lit_compositor(&gpu, &scene, amortise, reduce);
         let mut frame = 0;
@@ -340,19 +369,23 @@ fn cpu_frame_time(c: &mut Criterion) {
         compositor.render(&live).expect("render");
         compositor.wait_idle().expect("wait");
     });
-    let scene = lit_room(512);
+    let scene = lit_room(512, false);
     // The lit frames at rest and moving again with the scene's triangles and a reflection probe
     // bound, without and with the triangles' materials (the near field and the traced glossy
-    // lobes off and on, as `hybrid-view --no-near-field` and its default).
-    let (mut triangles, mut near) = (lit_room(512), lit_room(512));
-    bind_room_scene(&mut triangles, false);
-    bind_room_scene(&mut near, true);
+    // lobes off and on, as `hybrid-view --no-near-field` and its default), and with a glossy
+    // floor (the scene's own glossy lobes, which see the sphere).
+    let (mut triangles, mut near, mut glossy) =
+        (lit_room(512, false), lit_room(512, false), lit_room(512, true));
+    bind_room_scene(&mut triangles, false, false);
+    bind_room_scene(&mut near, true, false);
+    bind_room_scene(&mut glossy, true, true);
     let frames = LIT_FRAMES.into_iter().filter(|f| f.0 != "lit-moving-exact");
     let pair = || LIT_FRAMES.into_iter().filter(|f| f.0 == "lit-rest" || f.0 == "lit-moving");
     let runs = frames
         .map(|f| (f, &scene, ""))
         .chain(pair().map(|f| (f, &triangles, "-no-near-field")))
-        .chain(pair().map(|f| (f, &near, "-near-field")));
+        .chain(pair().map(|f| (f, &near, "-near-field")))
+        .chain(pair().map(|f| (f, &glossy, "-glossy-floor")));
     for ((what, moving, amortise, reduce), scene, suffix) in runs {
         let mut compositor = lit_compositor(&gpu, scene, amortise, reduce);
         let mut frame = 0;
