@@ -112,9 +112,10 @@ impl Compositor {
         let settle = &self.reduced.settle;
         settle.begin_frame(moving, reduce && self.settings.settle_at_rest, cursor_map);
         let shadow_scissor = if uniform.counts[1] == 1 { self.shadow_scissor_all(&uniform) } else { None };
+        let reflections = self.reflections_drawn(&uniform);
         let settling =
             (keep_shadowed && !at_rest && (bounce_rect.is_some() || uniform.shadow_bounce[0] == 1))
-                .then(|| settle.step((self.width, self.height), shadow_scissor))
+                .then(|| settle.step((self.width, self.height), shadow_scissor, reflections))
                 .flatten();
         // A settling frame draws the layered shadows in its step's rows alone, if any: the kept
         // backdrop holds them elsewhere (settle.rs).
@@ -123,8 +124,8 @@ impl Compositor {
             Some(_) => None,
             None => Some(None),
         };
-        // Only a step of the rows draws the bounce light and the loss; the others show the last
-        // moving frame's backdrop.
+        // Only a step of the rows draws the loss (and the bounce light, unless steps of its own
+        // drew it before the reflections); the others show the last moving frame's backdrop.
         let settling_without_rows = settling.is_some_and(|step| step.rows().is_none());
         // The cursor sphere's exact shading settles after the backdrop (settle.rs): from the
         // last moving frame's radiance map while the backdrop settles, then a band of its rows
@@ -275,10 +276,17 @@ impl Compositor {
                 }
                 lap(&mut encoder, "bounce light");
             }
-            // The spheres seen in mirrors and glass, after the bounce light they may reflect.
-            if !settling_without_rows {
+            // The spheres seen in mirrors and glass, after the bounce light they may reflect. A
+            // settling frame draws them once, from the exact backdrop (settle.rs), never from the
+            // cache, which may hold a moving frame's reflections.
+            if settling.is_none_or(SettleStep::draws_reflections) {
+                if settling.is_some() {
+                    self.specular.forget();
+                }
                 self.record_reflections(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
                 lap(&mut encoder, "spheres in reflections");
+            }
+            if !settling_without_rows {
                 self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
                 lap(&mut encoder, "spheres seen through glass");
                 let rows = settling.and_then(SettleStep::rows);

@@ -11,9 +11,13 @@
 //! time ([`SETTLE_SHADOW_PIXELS`] a frame); then the maps and the clusters, which read the
 //! backdrop after shadows everywhere, from the exact shadows; then the exact bounce light, loss
 //! and its removal a band of the frame's rows at a time ([`SETTLE_PIXELS`] a frame), from the
-//! top. The backdrop after the exact shadows is kept between the frames (`kept`), and in the
-//! rows done the finished backdrop replaces it, so each band is drawn once. Every frame shows the
-//! rows done and, below them, the backdrop the last moving frame drew for these very inputs
+//! top. In a scene with spheres seen in mirrors or glossy lobes, which read the backdrop after
+//! the exact shadows and bounce light at other pixels than their own, the bounce light settles
+//! first, in bands of rows kept ([`SettlePart::Bounce`]), then one frame draws the reflections
+//! from the kept backdrop ([`SettlePart::Reflections`]), then the loss and its removal settle in
+//! bands of rows. The backdrop after the exact shadows is kept between the frames (`kept`), and in
+//! the rows done the finished backdrop replaces it, so each band is drawn once. Every frame shows
+//! the rows done and, below them, the backdrop the last moving frame drew for these very inputs
 //! (`moving_backdrop`): no frame is further from the exact one than the moving frame was. The
 //! bounce light, loss and removal read only their own pixel of what the bands change, so when the
 //! last band is drawn the frame is, bit for bit, the exact one; the frames after it copy it as any
@@ -61,6 +65,11 @@ pub(super) struct Settle {
     shadow_rows_done: Cell<u32>,
     /// Whether the maps and clusters were drawn from the exact shadows since the move.
     maps_done: Cell<bool>,
+    /// Rows of the frame whose exact bounce light is kept (`kept`) since the move, from the top,
+    /// when the reflections settle on their own ([`SettlePart::Bounce`]).
+    bounce_rows_done: Cell<u32>,
+    /// Whether the spheres in reflections were drawn from the exact backdrop since the move.
+    reflections_done: Cell<bool>,
     /// Rows of the frame whose backdrop is finished (exact) since the move, from the top.
     rows_done: Cell<u32>,
     /// The backdrop after the exact shadows, and in the rows done the finished backdrop.
@@ -84,6 +93,10 @@ pub(super) struct SettleStep {
     /// The first settling frame since the move.
     pub(super) first: bool,
     pub(super) part: SettlePart,
+    /// Whether the spheres in reflections settle on their own ([`SettlePart::Bounce`], then
+    /// [`SettlePart::Reflections`]): then the rows' steps draw neither the bounce light nor the
+    /// reflections, which the kept backdrop holds.
+    pub(super) reflections: bool,
 }
 
 /// The part of the exact frame a settling frame draws.
@@ -93,7 +106,14 @@ pub(super) enum SettlePart {
     Shadows([u32; 4]),
     /// The maps and the clusters, from the exact shadows.
     Maps,
-    /// The bounce light, the loss and its removal exactly in the frame's rows `[top, count]`.
+    /// With reflections: the bounce light exactly in the frame's rows `[top, count]`, kept.
+    Bounce([u32; 2]),
+    /// With reflections: the spheres in mirrors and glossy lobes, drawn from the kept backdrop
+    /// (the exact shadows and bounce light everywhere, which the mirror reads at the surfaces it
+    /// reflects), kept.
+    Reflections,
+    /// The bounce light (without reflections), the loss and its removal exactly in the frame's
+    /// rows `[top, count]`.
     Rows([u32; 2]),
 }
 
@@ -103,6 +123,25 @@ impl SettleStep {
         match self.part {
             SettlePart::Rows(rows) => Some(rows),
             _ => None,
+        }
+    }
+
+    /// The frame's rows `[top, count]` this step draws the exact bounce light in, if any.
+    pub(super) fn bounce_rows(self) -> Option<[u32; 2]> {
+        match self.part {
+            SettlePart::Bounce(rows) => Some(rows),
+            SettlePart::Rows(rows) if !self.reflections => Some(rows),
+            _ => None,
+        }
+    }
+
+    /// Whether this step draws the spheres in reflections (a step of the rows does when they do
+    /// not settle on their own, for a scene without them: nothing).
+    pub(super) fn draws_reflections(self) -> bool {
+        match self.part {
+            SettlePart::Reflections => true,
+            SettlePart::Rows(_) => !self.reflections,
+            _ => false,
         }
     }
 }
@@ -121,6 +160,8 @@ impl Settle {
             self.started.set(false);
             self.shadow_rows_done.set(0);
             self.maps_done.set(false);
+            self.bounce_rows_done.set(0);
+            self.reflections_done.set(false);
             self.rows_done.set(0);
             self.sphere_rows_done.set(self.sphere_map_current.get().then_some(0));
         }
@@ -152,11 +193,15 @@ impl Settle {
     }
 
     /// The step this frame draws, `None` when it is not settling, for a frame of `size` whose
-    /// layered shadows are drawn within `shadow_scissor` (`None`: none are).
+    /// layered shadows are drawn within `shadow_scissor` (`None`: none are) and which shows the
+    /// spheres in reflections (`reflections`: they read the backdrop after the exact shadows and
+    /// bounce light at other pixels, so these settle before them, then the reflections, then the
+    /// loss in the rows).
     pub(super) fn step(
         &self,
         (width, height): (u32, u32),
         shadow_scissor: Option<[u32; 4]>,
+        reflections: bool,
     ) -> Option<SettleStep> {
         if !self.active.get() {
             return None;
@@ -169,11 +214,14 @@ impl Settle {
             SettlePart::Shadows([x, y + done, w, rows])
         } else if !self.maps_done.get() {
             SettlePart::Maps
+        } else if reflections && self.bounce_rows_done.get() < height {
+            SettlePart::Bounce(rows_band(self.bounce_rows_done.get(), (width, height)))
+        } else if reflections && !self.reflections_done.get() {
+            SettlePart::Reflections
         } else {
-            let done = self.rows_done.get().min(height);
-            SettlePart::Rows([done, (SETTLE_PIXELS / width.max(1)).max(1).min(height - done)])
+            SettlePart::Rows(rows_band(self.rows_done.get(), (width, height)))
         };
-        Some(SettleStep { first, part })
+        Some(SettleStep { first, part, reflections })
     }
 
     /// Records `step` as drawn in a frame `height` rows high; whether the frame is now exact.
@@ -184,6 +232,8 @@ impl Settle {
                 self.shadow_rows_done.set(self.shadow_rows_done.get() + rows)
             }
             SettlePart::Maps => self.maps_done.set(true),
+            SettlePart::Bounce([top, rows]) => self.bounce_rows_done.set(top + rows),
+            SettlePart::Reflections => self.reflections_done.set(true),
             SettlePart::Rows([top, rows]) => self.rows_done.set(top + rows),
         }
         let complete = self.rows_done.get() >= height && self.maps_done.get();
@@ -197,6 +247,13 @@ impl Settle {
     pub(super) fn rows_finished(&self, step: SettleStep) -> u32 {
         step.rows().map_or(self.rows_done.get(), |[top, rows]| top + rows)
     }
+}
+
+/// The band of a frame of `size` a step of rows draws when `done` rows are drawn: as many rows
+/// as [`SETTLE_PIXELS`] allow, one at least.
+fn rows_band(done: u32, (width, height): (u32, u32)) -> [u32; 2] {
+    let done = done.min(height);
+    [done, (SETTLE_PIXELS / width.max(1)).max(1).min(height - done)]
 }
 
 /// The frame's rows a frame at rest draws the cursor sphere exactly in while it settles (`band`:
@@ -339,15 +396,15 @@ impl Compositor {
     }
 
     /// The bounce light of a settling frame within `rect` (`Compositor::bounce_scissor`): exact
-    /// in the rows `step` finishes, none elsewhere (the frame shows the last moving frame's
-    /// there, [`Compositor::show_settling`]).
+    /// in the rows `step` draws it in ([`SettleStep::bounce_rows`]), none elsewhere (the frame
+    /// shows the last moving frame's there, [`Compositor::show_settling`]).
     pub(super) fn record_bounce_settling(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         rect: [u32; 4],
         step: SettleStep,
     ) {
-        if let Some([top, count]) = step.rows()
+        if let Some([top, count]) = step.bounce_rows()
             && let Some(rows) = intersect(rect, [0, top, self.width, count])
         {
             self.record_bounce(encoder, rows);
@@ -355,13 +412,18 @@ impl Compositor {
     }
 
     /// What a settling frame shows of the backdrop, after its passes: the rows `step` finishes
-    /// kept, then the rows finished so far from the kept backdrop and those below from the last
+    /// kept (or those it drew the bounce light in, or the whole frame after the reflections),
+    /// then the rows finished so far from the kept backdrop and those below from the last
     /// moving frame's, copied into the backdrop after shadows too (which the live objects'
     /// shading and edges read).
     pub(super) fn show_settling(&self, encoder: &mut wgpu::CommandEncoder, step: SettleStep) {
         let kept = self.settle_kept();
-        if let Some(rows) = step.rows() {
-            self.copy_rows(encoder, &self.linear_texture, &kept, rows);
+        match step.part {
+            SettlePart::Rows(rows) | SettlePart::Bounce(rows) => {
+                self.copy_rows(encoder, &self.linear_texture, &kept, rows)
+            }
+            SettlePart::Reflections => self.copy_rows(encoder, &self.linear_texture, &kept, [0, self.height]),
+            _ => {}
         }
         let done = self.reduced.settle.rows_finished(step).min(self.height);
         self.copy_rows(encoder, &kept, &self.linear_texture, [0, done]);
@@ -381,14 +443,14 @@ mod tests {
     fn settling_draws_each_part_once_in_order() {
         let settle = Settle::default();
         settle.begin_frame(false, true, false);
-        assert!(settle.step((512, 512), None).is_none(), "the first frame of all does not settle");
+        assert!(settle.step((512, 512), None, false).is_none(), "the first frame of all does not settle");
         settle.begin_frame(true, true, false);
-        assert!(settle.step((512, 512), None).is_none(), "a moving frame does not settle");
+        assert!(settle.step((512, 512), None, false).is_none(), "a moving frame does not settle");
         settle.begin_frame(false, true, false);
         let scissor = Some([10, 100, 300, 400]);
         let mut parts = Vec::new();
         loop {
-            let step = settle.step((512, 512), scissor).expect("settling");
+            let step = settle.step((512, 512), scissor, false).expect("settling");
             assert_eq!(step.first, parts.is_empty());
             parts.push(step.part);
             let finished = settle.rows_finished(step);
@@ -409,21 +471,62 @@ mod tests {
         for (k, part) in parts[3..].iter().enumerate() {
             assert_eq!(*part, SettlePart::Rows([k as u32 * rows, rows]), "rows' step {k}");
         }
-        assert!(settle.step((512, 512), scissor).is_none(), "settled frames draw nothing more");
+        assert!(settle.step((512, 512), scissor, false).is_none(), "settled frames draw nothing more");
         // Without layered shadows the maps come first; a row wider than the budget is a step.
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, true, false);
-        let maps = settle.step((8192, 3), None).expect("settling");
+        let maps = settle.step((8192, 3), None, false).expect("settling");
         assert_eq!(maps.part, SettlePart::Maps);
         assert!(!settle.finish(maps, 3));
         for top in 0..3 {
-            let step = settle.step((8192, 3), None).expect("settling");
+            let step = settle.step((8192, 3), None, false).expect("settling");
             assert_eq!((step.first, step.part), (false, SettlePart::Rows([top, 1])));
             assert_eq!(settle.finish(step, 3), top == 2);
         }
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, false, false);
-        assert!(settle.step((512, 512), None).is_none(), "settling is off");
+        assert!(settle.step((512, 512), None, false).is_none(), "settling is off");
+    }
+
+    /// With reflections, the bounce light settles in bands of rows before the reflections' one
+    /// step, and the rows' steps after it draw neither; without, the rows' steps draw both.
+    #[test]
+    fn with_reflections_the_bounce_light_settles_before_them() {
+        let settle = Settle::default();
+        settle.begin_frame(true, true, false);
+        settle.begin_frame(false, true, false);
+        let mut steps = Vec::new();
+        loop {
+            let step = settle.step((512, 512), None, true).expect("settling");
+            steps.push(step);
+            let exact = settle.finish(step, 512);
+            assert_eq!(exact, step.rows().is_some_and(|[top, rows]| top + rows == 512));
+            if exact {
+                break;
+            }
+            assert!(steps.len() < 1000, "settling never ends");
+        }
+        let bands = (512 / (SETTLE_PIXELS / 512)) as usize;
+        assert_eq!(steps.len(), 2 + 2 * bands);
+        assert_eq!(steps[0].part, SettlePart::Maps);
+        let rows = SETTLE_PIXELS / 512;
+        for k in 0..bands {
+            let (bounce, loss) = (steps[1 + k], steps[2 + bands + k]);
+            assert_eq!(bounce.part, SettlePart::Bounce([k as u32 * rows, rows]));
+            assert_eq!(bounce.bounce_rows(), Some([k as u32 * rows, rows]));
+            assert!(!bounce.draws_reflections() && bounce.rows().is_none());
+            assert_eq!(loss.part, SettlePart::Rows([k as u32 * rows, rows]));
+            assert!(loss.bounce_rows().is_none() && !loss.draws_reflections());
+        }
+        let reflections = steps[1 + bands];
+        assert_eq!(reflections.part, SettlePart::Reflections);
+        assert!(reflections.draws_reflections() && reflections.bounce_rows().is_none());
+        settle.begin_frame(true, true, false);
+        settle.begin_frame(false, true, false);
+        settle.finish(settle.step((512, 512), None, false).expect("maps"), 512);
+        let rows_step = settle.step((512, 512), None, false).expect("rows");
+        assert_eq!(rows_step.bounce_rows(), Some([0, rows]));
+        assert!(rows_step.draws_reflections(), "without reflections the rows' steps draw all");
     }
 
     /// The cursor sphere settles only after a move whose last frame drew its radiance map, a

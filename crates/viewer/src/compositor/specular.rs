@@ -100,7 +100,23 @@ impl SpecularReflections {
 /// frame on lavapipe and 80 ms on an H100 at full resolution (docs/viewer-frame-time.md).
 pub const GLOSSY_STRIDE: u32 = super::reduced_gather::SHADOW_STRIDE;
 
+impl SpecularReflections {
+    /// Forgets what the pass was drawn from: the next frame draws it again.
+    pub(super) fn forget(&self) {
+        self.drawn_from.forget();
+    }
+}
+
 impl Compositor {
+    /// Whether [`Compositor::record_reflections`] draws anything for `uniform`: some pixel has a
+    /// specular reflection or a glossy lobe, and there are spheres to show in them.
+    pub(super) fn reflections_drawn(&self, uniform: &FrameUniform) -> bool {
+        self.layers.specular_rect().is_some()
+            && self.specular.cache.is_some()
+            && uniform.reflection[0] == 1
+            && uniform.layer_info[3] != 0
+    }
+
     /// Shows the live spheres in the scene's specular reflections (`fs_reflection`): within the
     /// pixels that have one, each sphere's draw (its material bound at its mesh slot, `rows`
     /// as for the radiosity maps) replaces the reflected light by the sphere where the mirror
@@ -120,7 +136,7 @@ impl Compositor {
         let (Some([x, y, w, h]), Some(cache)) = (self.layers.specular_rect(), &self.specular.cache) else {
             return;
         };
-        if uniform.reflection[0] != 1 || uniform.layer_info[3] == 0 {
+        if !self.reflections_drawn(uniform) {
             return;
         }
         let frame_rect = wgpu::TexelCopyTextureInfo {

@@ -1,0 +1,188 @@
+//! GPU test of the frames at rest after a move (`CompositorSettings::settle_at_rest`, as
+//! `hybrid-view`'s window draws them) in a scene with a mirror and a glossy floor: the spheres
+//! seen in the mirror and in the glossy lobes read the backdrop after the exact shadows and bounce
+//! light, so the settling frames must not keep reflections drawn from a backdrop that was not yet
+//! exact (`compositor/settle.rs`).
+
+mod common;
+
+use common::*;
+use depth_remap::{Camera, CameraSettings, Clipping, DepthTable, Projection};
+use glam::{DMat4, DVec3, Vec3};
+use viewer::{
+    Backdrop, Compositor, CompositorSettings, LiveObjects, Material, SceneLayers, Sphere, ToneMap,
+    ViewerScene,
+};
+
+const LEVEL: f32 = 0.5;
+/// The frame's side: small, so that the test costs little on a software rasteriser.
+const SIZE: u32 = 128;
+
+/// The Cornell reference camera (`common::cornell_camera`) at `SIZE`^2.
+fn small_cornell_camera() -> Camera {
+    let camera_from_world =
+        DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9));
+    Camera::new(CameraSettings {
+        x_resolution: SIZE,
+        y_resolution: SIZE,
+        projection: Projection::Perspective { fov_degrees: 39.3077 },
+        clipping: Clipping { near: 0.001, far: 100.0 },
+        camera_from_world,
+        ..CameraSettings::default()
+    })
+    .unwrap()
+}
+
+/// The depth of the empty Cornell box (the cube [-1, 1]^3 open toward the eye) along each
+/// pixel's centre ray, in the ray's parameter as `common::floor_point` reads it.
+fn empty_box_depth(camera: &Camera) -> DepthTable {
+    let world_from_camera = camera.world_from_camera();
+    let mut values = Vec::with_capacity((SIZE * SIZE) as usize);
+    for j in 0..SIZE {
+        for i in 0..SIZE {
+            let ray = camera.pixel_centre_ray(i, j);
+            let o = world_from_camera.transform_point3(ray.origin);
+            let d = world_from_camera.transform_point3(ray.origin + ray.direction) - o;
+            let inside = |p: DVec3| p.abs().max_element() <= 1.0 + 1e-9;
+            let hit = [(0, -1.0), (0, 1.0), (1, -1.0), (1, 1.0), (2, -1.0)]
+                .into_iter()
+                .filter(|&(axis, _)| d[axis] != 0.0)
+                .map(|(axis, plane)| (plane - o[axis]) / d[axis])
+                .filter(|&t| t > 0.0 && inside(o + d * t))
+                .fold(f64::INFINITY, f64::min);
+            values.push(hit as f32);
+        }
+    }
+    DepthTable::new(SIZE, SIZE, values).unwrap()
+}
+
+/// The empty Cornell box at `SIZE`^2 over a flat backdrop of `LEVEL`, lit by the Cornell area
+/// light (its layer holds the backdrop, soft shadows), in a uniform probe field: the walls and
+/// ceiling matte (albedo 0.8, so the sphere sends them bounce light and the shadow's second
+/// bounce is taken from them), the floor's left half plastic (albedo 0.5 and a Blinn lobe of Ks
+/// 0.8, exponent 20) and its right half a mirror (reflectance 0.8, all its light reflected).
+fn mirror_and_glossy_box() -> ViewerScene {
+    let camera = small_cornell_camera();
+    let depth = empty_box_depth(&camera);
+    let n = (SIZE * SIZE) as usize;
+    let backdrop = Backdrop::from_linear(SIZE, SIZE, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();
+    let mut s =
+        ViewerScene::with_backdrop(camera, backdrop, depth, vec![cornell_light()], ToneMap::default())
+            .unwrap();
+    let fingerprint = sidecar::depth_fingerprint(s.depth().values());
+    let mut layers =
+        sidecar::LightLayers::new(SIZE, SIZE, fingerprint, vec![sidecar::LightSource::new(0, "arealight")]);
+    let world_from_camera = s.camera().world_from_camera();
+    for j in 0..SIZE {
+        for i in 0..SIZE {
+            let k = (j * SIZE + i) as usize;
+            let Some(r) = s.depth().get(i, j).filter(|r| r.is_finite()) else { continue };
+            let ray = s.camera().pixel_centre_ray(i, j);
+            let p = world_from_camera.transform_point3(ray.origin + ray.direction * f64::from(r));
+            let near = |a: f64, b: f64| (a - b).abs() < 1e-3;
+            layers.normal[k] = match () {
+                _ if near(p.y, 1.0) => [0.0, -1.0, 0.0],
+                _ if near(p.x, -1.0) => [1.0, 0.0, 0.0],
+                _ if near(p.x, 1.0) => [-1.0, 0.0, 0.0],
+                _ if near(p.z, -1.0) => [0.0, 0.0, 1.0],
+                _ => [0.0, 1.0, 0.0],
+            };
+            layers.light[0][k] = [LEVEL; 3];
+            if !near(p.y, -1.0) {
+                layers.albedo[k] = [0.8; 3];
+            } else if p.x < 0.0 {
+                layers.albedo[k] = [0.5; 3];
+                layers.glossy[k] = [0.8; 3];
+                layers.glossy_exponent[k] = [20.0; 3];
+            } else {
+                layers.light[0][k] = [0.0; 3];
+                layers.reflectance[k] = [0.8; 3];
+                layers.reflected[k] = [LEVEL; 3];
+                layers.indirect[k] = [LEVEL; 3];
+            }
+        }
+    }
+    s.set_light_layers(SceneLayers {
+        layers,
+        layer_of_light: vec![Some(0)],
+        area_samples: vec![cornell_emitter_samples()],
+    })
+    .unwrap();
+    s.set_probes(uniform_probe([0.9; 3]));
+    s
+}
+
+/// A white matte sphere over the middle of the floor, seen in the mirror and the glossy half.
+fn sphere_at(centre: DVec3) -> LiveObjects {
+    let material = Material { colour: Vec3::splat(0.8), ks: 0.0, ..Material::default() };
+    LiveObjects { sphere: Some(Sphere { centre, radius: 0.3, material }), meshes: Vec::new() }
+}
+
+/// The pixels of two RGBA frames that differ, the largest difference of a channel, and the
+/// relMSE `(x - r)^2 / (r^2 + 0.01)` of `image` against `reference` over all pixels.
+fn difference(image: &[f32], reference: &[f32]) -> (usize, f32, f64) {
+    let (mut pixels, mut largest, mut sum) = (0, 0.0f32, 0.0);
+    for (a, b) in image.chunks(4).zip(reference.chunks(4)) {
+        if a != b {
+            pixels += 1;
+        }
+        for c in 0..3 {
+            largest = largest.max((a[c] - b[c]).abs());
+            let (x, t) = (f64::from(a[c]), f64::from(b[c]));
+            sum += (x - t) * (x - t) / (t * t + 0.01);
+        }
+    }
+    (pixels, largest, sum / (image.len() / 4 * 3) as f64)
+}
+
+/// After the sphere moved over a mirror and a plastic floor, with `settle_at_rest`, the frames
+/// at rest settle into the frame a fresh compositor draws of the same inputs, bit for bit, within
+/// a bounded number of frames, and stay so; none of them is further from it than the last moving
+/// frame was (relMSE over the frame). Before the settling frames drew the reflections again
+/// from the exact backdrop, they kept the mirror's and the lobes' draws made from the first
+/// settling frame's backdrop, whose bounce light was drawn in its first rows only, and the frame
+/// never became exact.
+#[test]
+fn the_frames_at_rest_settle_into_the_exact_frame_with_mirror_and_glossy_reflections() {
+    let settling =
+        CompositorSettings { amortise_while_moving: true, settle_at_rest: true, ..Default::default() };
+    let scene = mirror_and_glossy_box();
+    let centre = DVec3::new(0.05, -0.6, 0.1);
+    let gpu = gpu();
+    let mut fresh = Compositor::new(&gpu, &scene, settling).unwrap();
+    fresh.render(&sphere_at(centre)).unwrap();
+    let exact = fresh.read_back_linear().unwrap().rgba;
+    let mut c = Compositor::new(&gpu, &scene, settling).unwrap();
+    for step in [3.0, 2.0, 1.0, 0.0] {
+        c.render(&sphere_at(centre + DVec3::new(0.04 * step, 0.0, 0.0))).unwrap();
+    }
+    let moving = c.read_back_linear().unwrap().rgba;
+    let (pixels, _, moving_error) = difference(&moving, &exact);
+    assert!(pixels > 100 && moving_error > 0.0, "the moving frame differs in {pixels} pixels only");
+    let (mut errors, mut first_exact) = (Vec::new(), None);
+    for frame in 1..=64 {
+        if first_exact.is_some_and(|exact| frame > exact + 1) {
+            break;
+        }
+        c.render(&sphere_at(centre)).unwrap();
+        let image = c.read_back_linear().unwrap().rgba;
+        let (pixels, largest, error) = difference(&image, &exact);
+        errors.push(format!("{pixels} px, {largest:.2e}, {error:.2e}"));
+        if pixels == 0 {
+            first_exact.get_or_insert(frame);
+        } else {
+            assert!(first_exact.is_none(), "frame {frame} at rest differs after an exact one: {errors:?}");
+            assert!(
+                error <= moving_error * (1.0 + 1e-6),
+                "frame {frame} at rest: relMSE {error:.3e}, the moving frame's {moving_error:.3e}"
+            );
+        }
+    }
+    eprintln!(
+        "moving frame: relMSE {moving_error:.3e}; frames at rest (differing pixels, largest \
+         difference, relMSE): {errors:?}"
+    );
+    let first_exact = first_exact
+        .unwrap_or_else(|| panic!("the frames at rest never became the exact frame: {:?}", errors.last()));
+    assert!(first_exact > 1, "the first frame at rest was drawn exactly, all of it");
+}
