@@ -16,8 +16,9 @@
 //! last exact frame's inputs is kept (`CompositorSettings::keep_frame_at_rest`), which the plain
 //! frames turn off (the baseline draws every frame) and `fullscreen-lit-rest-drawn-near-field`
 //! too (the first frame at rest).
-//! `fullscreen-lit-stop-worst-near-field` is the dearest frame after the sphere stops, as
-//! `hybrid-view` draws them (settling, `compositor/settle.rs`); `FRAME_STOP_TIMES=1` prints each.
+//! `fullscreen-lit-stop-worst-near-field` (and `-glossy-floor`) is the dearest frame after the
+//! sphere stops, as `hybrid-view` draws them (settling, `compositor/settle.rs`);
+//! `FRAME_STOP_TIMES=1` prints each.
 //!
 //! Run: `cargo bench -p viewer --bench frame` (results in docs/viewer.md and docs/viewer-frame-time.md);
 //! `FRAME_PASS_TIMES=lit-moving cargo bench -p viewer --bench frame -- frame-cpu/` also prints
@@ -419,20 +420,47 @@ fn cpu_frame_time(c: &mut Criterion) {
     }
     // The frames after the sphere stops, as `hybrid-view` draws them by default (amortised while
     // moving, settling at rest, the frame kept once exact), with the scene's triangles and
-    // materials bound: each iteration moves the sphere for `STOP_MOVES` frames, untimed, then
-    // times every frame at rest until `STOP_FRAMES` frames have passed, and counts the dearest.
+    // materials bound, without and with the glossy floor (`bench_stop`).
     let settings = CompositorSettings {
         amortise_while_moving: true,
         settle_at_rest: true,
         keep_frame_at_rest: true,
         ..CompositorSettings::default()
     };
-    let mut compositor = Compositor::new(&gpu, &near, settings).expect("compositor");
+    let print = std::env::var("FRAME_STOP_TIMES").is_ok();
+    for (scene, suffix, stop_frames) in
+        [(&near, "near-field", STOP_FRAMES), (&glossy, "glossy-floor", STOP_FRAMES_REFLECTIONS)]
+    {
+        bench_stop(
+            &mut group,
+            &gpu,
+            scene,
+            settings,
+            &format!("fullscreen-lit-stop-worst-{suffix}/512"),
+            stop_frames,
+            print,
+        );
+    }
+    group.finish();
+}
+
+/// The dearest frame after the sphere stops in `scene` (`fullscreen-lit-stop-worst-*`): each
+/// iteration moves the sphere for `STOP_MOVES` frames, untimed, then times `stop_frames` frames
+/// at rest, and counts the dearest; with `print` every frame's time.
+fn bench_stop(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    gpu: &Gpu,
+    scene: &ViewerScene,
+    settings: CompositorSettings,
+    id: &str,
+    stop_frames: usize,
+    print: bool,
+) {
+    let mut compositor = Compositor::new(gpu, scene, settings).expect("compositor");
     compositor.render(&sphere_at(0)).expect("render");
     compositor.wait_idle().expect("wait");
-    let print = std::env::var("FRAME_STOP_TIMES").is_ok();
     let mut frame = 0;
-    group.bench_function("fullscreen-lit-stop-worst-near-field/512", |b| {
+    group.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut worst_sum = Duration::ZERO;
             for _ in 0..iters {
@@ -441,8 +469,8 @@ fn cpu_frame_time(c: &mut Criterion) {
                     compositor.render(&sphere_at(frame)).expect("render");
                     compositor.wait_idle().expect("wait");
                 }
-                let mut times = Vec::with_capacity(STOP_FRAMES);
-                for _ in 0..STOP_FRAMES {
+                let mut times = Vec::with_capacity(stop_frames);
+                for _ in 0..stop_frames {
                     let (cpu, wall) = (viewer::compositor::process_cpu_time(), Instant::now());
                     compositor.render(&sphere_at(frame)).expect("render");
                     compositor.wait_idle().expect("wait");
@@ -461,7 +489,6 @@ fn cpu_frame_time(c: &mut Criterion) {
             worst_sum
         })
     });
-    group.finish();
 }
 
 /// Frames the sphere moves before it stops in `fullscreen-lit-stop-worst-near-field`.
@@ -475,6 +502,10 @@ const STOP_FRAMES: usize = {
     let shadows = frame / viewer::compositor::SETTLE_SHADOW_PIXELS as usize;
     shadows + 1 + frame / viewer::compositor::SETTLE_PIXELS as usize + 10
 };
+/// [`STOP_FRAMES`] for a scene whose frame shows the sphere in reflections (the glossy floor):
+/// the bounce light's bands, one frame of reflections, then the loss's bands (settle.rs).
+const STOP_FRAMES_REFLECTIONS: usize =
+    STOP_FRAMES + 1 + 512 * 512 / viewer::compositor::SETTLE_PIXELS as usize;
 
 /// With `FRAME_PASS_TIMES` naming it (`lit-moving`, `lit-rest-near-field`, ...; a comma-separated
 /// list), a CPU-timed lit frame's passes over 8 more frames
