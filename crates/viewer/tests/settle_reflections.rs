@@ -7,8 +7,8 @@
 mod common;
 
 use common::*;
-use depth_remap::{Camera, CameraSettings, Clipping, DepthTable, Projection};
-use glam::{DMat4, DVec3, Vec3};
+use depth_remap::{Camera, DepthTable};
+use glam::{DVec3, Vec3};
 use viewer::{
     Backdrop, Compositor, CompositorSettings, LiveObjects, Material, SceneLayers, Sphere, ToneMap,
     ViewerScene,
@@ -17,21 +17,6 @@ use viewer::{
 const LEVEL: f32 = 0.5;
 /// The frame's side: small, so that the test costs little on a software rasteriser.
 const SIZE: u32 = 128;
-
-/// The Cornell reference camera (`common::cornell_camera`) at `SIZE`^2.
-fn small_cornell_camera() -> Camera {
-    let camera_from_world =
-        DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9));
-    Camera::new(CameraSettings {
-        x_resolution: SIZE,
-        y_resolution: SIZE,
-        projection: Projection::Perspective { fov_degrees: 39.3077 },
-        clipping: Clipping { near: 0.001, far: 100.0 },
-        camera_from_world,
-        ..CameraSettings::default()
-    })
-    .unwrap()
-}
 
 /// The depth of the empty Cornell box (the cube [-1, 1]^3 open toward the eye) along each
 /// pixel's centre ray, in the ray's parameter as `common::floor_point` reads it.
@@ -62,7 +47,7 @@ fn empty_box_depth(camera: &Camera) -> DepthTable {
 /// bounce is taken from them), the floor's left half plastic (albedo 0.5 and a Blinn lobe of Ks
 /// 0.8, exponent 20) and its right half a mirror (reflectance 0.8, all its light reflected).
 fn mirror_and_glossy_box() -> ViewerScene {
-    let camera = small_cornell_camera();
+    let camera = cornell_camera_of_size(SIZE);
     let depth = empty_box_depth(&camera);
     let n = (SIZE * SIZE) as usize;
     let backdrop = Backdrop::from_linear(SIZE, SIZE, [LEVEL, LEVEL, LEVEL, 1.0].repeat(n), 1.0).unwrap();

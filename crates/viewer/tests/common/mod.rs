@@ -23,11 +23,16 @@ pub fn shared() -> PathBuf {
 /// The Cornell reference camera (../shared/reference/cornell/cornell.rib): 512x512, fov 39.3077,
 /// `Scale 1 1 -1; Translate 0 0 -3.9`.
 pub fn cornell_camera() -> Camera {
+    cornell_camera_of_size(512)
+}
+
+/// [`cornell_camera`] at `size`^2 pixels, for tests that draw smaller frames.
+pub fn cornell_camera_of_size(size: u32) -> Camera {
     let camera_from_world =
         DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) * DMat4::from_translation(DVec3::new(0.0, 0.0, -3.9));
     Camera::new(CameraSettings {
-        x_resolution: 512,
-        y_resolution: 512,
+        x_resolution: size,
+        y_resolution: size,
         projection: RibProjection::Perspective { fov_degrees: 39.3077 },
         clipping: Clipping { near: 0.001, far: 100.0 },
         camera_from_world,
