@@ -41,7 +41,7 @@ fn room(size: u32) -> ViewerScene {
 }
 
 /// The glossy floor's lobe weight (`Ks`) and Blinn exponent (`1 / roughness`) in the
-/// `-glossy` benches.
+/// `-glossy-floor` benches.
 const FLOOR_KS: f32 = 0.3;
 const FLOOR_EXPONENT: f32 = 20.0;
 
