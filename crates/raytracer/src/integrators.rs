@@ -200,7 +200,7 @@ pub enum DirectStrategy {
 /// toward the sample and `bsdf_pdf` its density there, weighted by the power heuristic when
 /// `mis`. Zero when the shadow ray is blocked. The scalar and the wavefront path integrators
 /// both estimate with it, so their images stay bit-identical.
-#[inline]
+#[inline(always)]
 pub(crate) fn visible_light_estimate(
     world: &World,
     si: &SurfaceInteraction,

@@ -175,7 +175,7 @@ impl Sampler {
     }
 
     /// The next two dimensions.
-    #[inline]
+    #[inline(always)]
     pub fn uniform2(&mut self) -> Vec2 {
         if self.pair >= SOBOL_PAIRS {
             return self.rng.uniform2();
@@ -192,7 +192,7 @@ impl Sampler {
     }
 
     /// The next dimension (half of a pair; the other half serves the next call).
-    #[inline]
+    #[inline(always)]
     pub fn uniform(&mut self) -> f32 {
         if let Some(v) = self.spare.take() {
             return v;

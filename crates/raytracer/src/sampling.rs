@@ -223,7 +223,7 @@ impl Distribution1D {
 
     /// Picks an item with probability proportional to its weight; returns the index, its
     /// probability and `u` remapped to `[0, 1)` within the item.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, u: f32) -> Option<(usize, f32, f32)> {
         if self.total <= 0.0 {
             return None;

@@ -135,6 +135,7 @@ impl Bsdf {
     }
 
     /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped).
+    #[inline]
     pub fn add(&mut self, lobe: Lobe) {
         let weight = lobe.sampling_weight();
         if self.count < self.lobes.len() && weight > 0.0 {

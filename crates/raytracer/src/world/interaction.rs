@@ -24,7 +24,7 @@ impl World {
     /// is stored (the wavefront's) it is built there. Returned by value, the flat case's
     /// record shared its return slot with the general case's out-of-line call, so it was built
     /// on the stack and copied in with `memcpy`.
-    #[inline]
+    #[inline(always)]
     pub fn write_interaction(&self, ray: &Ray, hit: &Hit, out: &mut SurfaceInteraction) {
         if self.flat
             && let HitDetail::Triangle(i, b) = hit.detail
