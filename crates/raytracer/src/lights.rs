@@ -320,6 +320,7 @@ impl Light {
     }
 
     /// A point on an area light chosen with an area density: (point, error, front normal, pdf).
+    /// Always inlined, into [`Light::sample_li_inlined`] among others.
     #[inline(always)]
     fn sample_area(&self, u: Vec2) -> Option<(Vec3, Vec3, Vec3, f32)> {
         let Light::Area { shape, .. } = self else { return None };

@@ -174,7 +174,8 @@ impl Sampler {
         }
     }
 
-    /// The next two dimensions.
+    /// The next two dimensions. Always inlined (so is [`Sampler::uniform`]): the wavefront's
+    /// x86-64-v3 batch then compiles it with its own features.
     #[inline(always)]
     pub fn uniform2(&mut self) -> Vec2 {
         if self.pair >= SOBOL_PAIRS {

@@ -6,6 +6,8 @@
 //! Russian roulette. The state lives in arrays indexed by path. Each path keeps its own
 //! [`Sampler`] and does the scalar integrator's operations in the same order, so every pixel
 //! is bit for bit what [`crate::integrators::PathTracer`] renders (`tests/wavefront.rs`).
+//! Where the CPU has x86-64-v3, a batch runs as a copy compiled for it, its stages and their
+//! hot callees inlined ([`render_batch`]).
 //!
 //! Only some renders qualify ([`supports`]): the path integrator over a flat world whose
 //! materials are all opaque `matte` and whose lights are points, spots, distant lights or
