@@ -199,8 +199,9 @@ pub enum DirectStrategy {
 /// past the scene (one shadow ray), as an estimate: `f` is the BSDF's value times the cosine
 /// toward the sample and `bsdf_pdf` its density there, weighted by the power heuristic when
 /// `mis`. Zero when the shadow ray is blocked. The scalar and the wavefront path integrators
-/// both estimate with it, so their images stay bit-identical.
-#[inline]
+/// both estimate with it, so their images stay bit-identical. Always inlined: the wavefront's
+/// x86-64-v3 batch then compiles it (and the shadow ray's ends) with its own features.
+#[inline(always)]
 pub(crate) fn visible_light_estimate(
     world: &World,
     si: &SurfaceInteraction,

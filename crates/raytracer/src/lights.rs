@@ -228,6 +228,13 @@ impl Light {
 
     /// Samples incident light at `ctx`.
     pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2) -> Option<LightLiSample> {
+        self.sample_li_inlined(ctx, u)
+    }
+
+    /// [`Light::sample_li`], inlined where it is called: the wavefront's x86-64-v3 copy
+    /// compiles it with its own features.
+    #[inline(always)]
+    pub(crate) fn sample_li_inlined(&self, ctx: &LightSampleContext, u: Vec2) -> Option<LightLiSample> {
         match self {
             Light::Point { position, intensity } => {
                 let d = *position - ctx.p;
@@ -313,6 +320,8 @@ impl Light {
     }
 
     /// A point on an area light chosen with an area density: (point, error, front normal, pdf).
+    /// Always inlined, into [`Light::sample_li_inlined`] among others.
+    #[inline(always)]
     fn sample_area(&self, u: Vec2) -> Option<(Vec3, Vec3, Vec3, f32)> {
         let Light::Area { shape, .. } = self else { return None };
         match shape {

@@ -73,8 +73,9 @@ pub fn round_point(p: DVec3, extra_error: DVec3) -> (Vec3, Vec3) {
 
 /// Pushes `p` (with per-component error bound `p_error`) along the geometric normal `n` to the
 /// side `w` points to, far enough that the result is strictly on that side of the true surface,
-/// and rounds each component away from the surface (pbrt-v4 `OffsetRayOrigin`).
-#[inline]
+/// and rounds each component away from the surface (pbrt-v4 `OffsetRayOrigin`). Always inlined:
+/// out of line it was a call per ray end, and baseline code in the wavefront's x86-64-v3 batch.
+#[inline(always)]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let d = n.abs().dot(p_error);
     let mut offset = n * d;

@@ -174,8 +174,9 @@ impl Sampler {
         }
     }
 
-    /// The next two dimensions.
-    #[inline]
+    /// The next two dimensions. Always inlined (so is [`Sampler::uniform`]): the wavefront's
+    /// x86-64-v3 batch then compiles it with its own features.
+    #[inline(always)]
     pub fn uniform2(&mut self) -> Vec2 {
         if self.pair >= SOBOL_PAIRS {
             return self.rng.uniform2();
@@ -192,7 +193,7 @@ impl Sampler {
     }
 
     /// The next dimension (half of a pair; the other half serves the next call).
-    #[inline]
+    #[inline(always)]
     pub fn uniform(&mut self) -> f32 {
         if let Some(v) = self.spare.take() {
             return v;

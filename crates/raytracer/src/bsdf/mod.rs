@@ -134,7 +134,10 @@ impl Bsdf {
         }
     }
 
-    /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped).
+    /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped). Inline:
+    /// the wavefront's x86-64-v3 batch (`wavefront::render_batch`) compiles it with its own
+    /// features rather than calling baseline code.
+    #[inline]
     pub fn add(&mut self, lobe: Lobe) {
         let weight = lobe.sampling_weight();
         if self.count < self.lobes.len() && weight > 0.0 {

@@ -6,6 +6,8 @@
 //! Russian roulette. The state lives in arrays indexed by path. Each path keeps its own
 //! [`Sampler`] and does the scalar integrator's operations in the same order, so every pixel
 //! is bit for bit what [`crate::integrators::PathTracer`] renders (`tests/wavefront.rs`).
+//! Where the CPU has x86-64-v3, a batch runs as a copy compiled for it, its stages and their
+//! hot callees inlined ([`render_batch`]).
 //!
 //! Only some renders qualify ([`supports`]): the path integrator over a flat world whose
 //! materials are all opaque `matte` and whose lights are points, spots, distant lights or
@@ -126,6 +128,43 @@ pub fn render_batch(
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
 ) -> Vec<Radiance> {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(v3) = X86_64V3::detect() {
+        // SAFETY: the token exists only on a CPU with these features.
+        return unsafe { render_batch_v3(v3, world, settings, rays, samplers, counters) };
+    }
+    render_batch_inlined(None, world, settings, rays, samplers, counters)
+}
+
+/// [`render_batch`] compiled for x86-64-v3: the four stages are inlined into it, so their
+/// scalar arithmetic (the surface interaction, the BSDF, the light sample's moves, the MIS
+/// weights) gets the VEX encodings' three operands instead of SSE2's register copies. The
+/// results are the same bits: Rust never fuses a multiply and an add by itself.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn render_batch_v3(
+    v3: X86_64V3,
+    world: &World,
+    settings: PathSettings,
+    rays: &[Ray],
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+) -> Vec<Radiance> {
+    render_batch_inlined(Some(v3), world, settings, rays, samplers, counters)
+}
+
+/// The body of [`render_batch`] and its x86-64-v3 copy. The stages, and the closures they
+/// pass, are inlined into it: a closure is compiled with the features of the function it is
+/// written in, and one left out of line would be a baseline call from the copy.
+#[inline(always)]
+fn render_batch_inlined(
+    v3: Option<X86_64V3>,
+    world: &World,
+    settings: PathSettings,
+    rays: &[Ray],
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+) -> Vec<Radiance> {
     let n = rays.len();
     assert_eq!(samplers.len(), n, "one sampler per camera ray");
     let mut paths = Paths {
@@ -142,95 +181,121 @@ pub fn render_batch(
         bsdf: vec![Bsdf::new(crate::math::Frame::from_z(Vec3::Z), Vec3::Z); n],
     };
     let mut live: Vec<u32> = (0..n as u32).collect();
-    let v3 = X86_64V3::detect();
     while !live.is_empty() {
         closest_hits(world, &mut paths, &mut live, counters);
         emission_and_bsdf(world, settings, &mut paths, &mut live);
         light_samples(v3, world, &mut paths, &live, counters);
         bsdf_samples(v3, settings, &mut paths, &mut live);
     }
-    (0..n)
-        .map(|i| Radiance { rgb: crate::integrators::sanitize(paths.l[i]), alpha: paths.alpha[i] })
-        .collect()
+    let mut radiance = Vec::with_capacity(n);
+    for i in 0..n {
+        radiance.push(Radiance { rgb: crate::integrators::sanitize(paths.l[i]), alpha: paths.alpha[i] });
+    }
+    radiance
+}
+
+/// Keeps the live paths for which `keep` holds, in their order, each asked once (what
+/// `Vec::retain` does; its loop is std's, compiled without the stages' features, and would
+/// call `keep` out of line).
+#[inline(always)]
+fn retain_live(live: &mut Vec<u32>, mut keep: impl FnMut(usize) -> bool) {
+    let mut kept = 0;
+    for k in 0..live.len() {
+        let i = live[k];
+        if keep(i as usize) {
+            live[kept] = i;
+            kept += 1;
+        }
+    }
+    live.truncate(kept);
 }
 
 /// Stage 1: each live path's closest hit and its surface interaction; paths that leave the
 /// scene take what the environment gives them and end.
+#[inline(always)]
 fn closest_hits(world: &World, paths: &mut Paths<'_>, live: &mut Vec<u32>, counters: &mut RayCounters) {
-    live.retain(|&i| {
-        let i = i as usize;
-        let depth = paths.depth[i];
-        if depth == 0 {
-            counters.camera += 1;
-        } else {
-            counters.bounce += 1;
-        }
-        let ray = paths.ray[i];
-        match world.intersect(&ray) {
-            Some(hit) => {
-                world.write_interaction(&ray, &hit, &mut paths.si[i]);
-                // An opaque surface stops the ray with weight one (the scalar path's product).
-                paths.beta[i] *= Vec3::ONE;
-                true
+    retain_live(
+        live,
+        #[inline(always)]
+        |i| {
+            let depth = paths.depth[i];
+            if depth == 0 {
+                counters.camera += 1;
+            } else {
+                counters.bounce += 1;
             }
-            None => {
-                let through = paths.beta[i] * Vec3::ONE;
-                paths.l[i] += escaped_with_mis(
-                    world,
-                    ray.direction,
-                    through,
-                    depth,
-                    paths.specular_bounce[i],
-                    paths.prev[i],
-                );
-                false
+            let ray = paths.ray[i];
+            match world.intersect(&ray) {
+                Some(hit) => {
+                    world.write_interaction(&ray, &hit, &mut paths.si[i]);
+                    // An opaque surface stops the ray with weight one (the scalar path's product).
+                    paths.beta[i] *= Vec3::ONE;
+                    true
+                }
+                None => {
+                    let through = paths.beta[i] * Vec3::ONE;
+                    paths.l[i] += escaped_with_mis(
+                        world,
+                        ray.direction,
+                        through,
+                        depth,
+                        paths.specular_bounce[i],
+                        paths.prev[i],
+                    );
+                    false
+                }
             }
-        }
-    });
+        },
+    );
 }
 
 /// Stage 2: coverage, the emission of a light hit (weighted for MIS against the previous
 /// vertex's light sample), the surface's own terms, and its BSDF; paths whose BSDF is black or
 /// whose depth is at the limit end.
+#[inline(always)]
 fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
-    live.retain(|&i| {
-        let i = i as usize;
-        let si = &paths.si[i];
-        let depth = paths.depth[i];
-        let beta = paths.beta[i];
-        let material = world.material(si.attributes);
-        if depth == 0 {
-            paths.alpha[i] = 1.0;
-        }
-        let l = &mut paths.l[i];
-        if let Some(e) = si.emitter {
-            let light = &world.lights[e as usize];
-            let le = light.emitted(si.ng, si.wo);
-            if le != Vec3::ZERO {
-                match paths.prev[i] {
-                    None => *l += beta * le,
-                    Some(_) if paths.specular_bounce[i] => *l += beta * le,
-                    Some((p_prev, pdf_bsdf, attrs)) => {
-                        let pick = world.light_set(attrs).pmf(e);
-                        if pick > 0.0 {
-                            let light_pdf = pick * light.pdf_li(p_prev, -si.wo, si.p64, si.ng);
-                            *l += beta * le * power_heuristic(pdf_bsdf, light_pdf);
+    retain_live(
+        live,
+        #[inline(always)]
+        |i| {
+            let si = &paths.si[i];
+            let depth = paths.depth[i];
+            let beta = paths.beta[i];
+            let material = world.material(si.attributes);
+            if depth == 0 {
+                paths.alpha[i] = 1.0;
+            }
+            let l = &mut paths.l[i];
+            if let Some(e) = si.emitter {
+                let light = &world.lights[e as usize];
+                let le = light.emitted(si.ng, si.wo);
+                if le != Vec3::ZERO {
+                    match paths.prev[i] {
+                        None => *l += beta * le,
+                        Some(_) if paths.specular_bounce[i] => *l += beta * le,
+                        Some((p_prev, pdf_bsdf, attrs)) => {
+                            let pick = world.light_set(attrs).pmf(e);
+                            if pick > 0.0 {
+                                let light_pdf = pick * light.pdf_li(p_prev, -si.wo, si.p64, si.ng);
+                                *l += beta * le * power_heuristic(pdf_bsdf, light_pdf);
+                            }
                         }
                     }
                 }
             }
-        }
-        *l += beta * surface_terms(world, si, material);
-        let bsdf = &mut paths.bsdf[i];
-        material.write_bsdf(bsdf, si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
-        !(bsdf.is_black() || depth >= settings.max_depth)
-    });
+            *l += beta * surface_terms(world, si, material);
+            let bsdf = &mut paths.bsdf[i];
+            material.write_bsdf(bsdf, si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
+            !(bsdf.is_black() || depth >= settings.max_depth)
+        },
+    );
 }
 
 /// Stage 3: next-event estimation, one light chosen by power with its shadow ray, weighted
 /// for MIS against the BSDF sample that follows ([`crate::integrators::sample_one_light`]
 /// split in three: the light samples; the BSDF's value and density toward them, eight lanes at
 /// a time for one-lobe Lambert BSDFs where the CPU has AVX2; the shadow rays).
+#[inline(always)]
 fn light_samples(
     v3: Option<X86_64V3>,
     world: &World,
@@ -246,27 +311,26 @@ fn light_samples(
     }
     // Whether each path estimates direct light here (its BSDF has a non-specular lobe), and
     // the light and the point on it, path by path in the scalar integrator's order.
-    let (estimates, picked): (Vec<bool>, Vec<Option<Picked>>) = live
-        .iter()
-        .map(|&i| {
-            let i = i as usize;
-            let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
-            if !bsdf.has_non_specular() {
-                return (false, None);
-            }
-            let sampler = &mut paths.sampler[i];
-            let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
-                return (true, None);
-            };
-            let light = &world.lights[light as usize];
-            let picked = light.sample_li(&light_context(si), sampler.uniform2()).map(|ls| Picked {
-                pick,
-                mis: !light.is_delta(),
-                ls,
-            });
-            (true, picked)
-        })
-        .unzip();
+    let mut estimates = Vec::with_capacity(live.len());
+    let mut picked = Vec::with_capacity(live.len());
+    for &i in live {
+        let i = i as usize;
+        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
+        if !bsdf.has_non_specular() {
+            estimates.push(false);
+            picked.push(None);
+            continue;
+        }
+        estimates.push(true);
+        let sampler = &mut paths.sampler[i];
+        let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
+            picked.push(None);
+            continue;
+        };
+        let light = &world.lights[light as usize];
+        let ls = light.sample_li_inlined(&light_context(si), sampler.uniform2());
+        picked.push(ls.map(|ls| Picked { pick, mis: !light.is_delta(), ls }));
+    }
     // `f |cos|` and the BSDF's density toward each light sample.
     let mut values = vec![(Vec3::ZERO, 0.0f32); live.len()];
     let mut group = lanes::LambertEvalGroup::default();
@@ -335,15 +399,14 @@ fn light_samples(
 /// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
 /// Russian roulette. The numbers are drawn path by path in the scalar integrator's order; the
 /// directions of one-lobe Lambert BSDFs are sampled eight at a time where the CPU has AVX2.
+#[inline(always)]
 fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
-    let numbers: Vec<(f32, glam::Vec2)> = live
-        .iter()
-        .map(|&i| {
-            let sampler = &mut paths.sampler[i as usize];
-            let u_lobe = sampler.uniform();
-            (u_lobe, sampler.uniform2())
-        })
-        .collect();
+    let mut numbers: Vec<(f32, glam::Vec2)> = Vec::with_capacity(live.len());
+    for &i in live.iter() {
+        let sampler = &mut paths.sampler[i as usize];
+        let u_lobe = sampler.uniform();
+        numbers.push((u_lobe, sampler.uniform2()));
+    }
     let mut samples: Vec<Option<BsdfSample>> = vec![None; live.len()];
     let mut group = lanes::LambertGroup::default();
     let mut members = [0usize; lanes::LANES];
@@ -387,6 +450,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
 
 /// A path's throughput, next ray and Russian roulette after its BSDF sample `bs`: false when
 /// the path ends.
+#[inline(always)]
 fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Option<BsdfSample>) -> bool {
     let Some(bs) = bs else { return false };
     let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
@@ -401,7 +465,7 @@ fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Op
         paths.eta_scale[i] *= bs.eta * bs.eta;
     }
     paths.prev[i] = Some((si.p64, bs.pdf, si.attributes));
-    paths.ray[i] = si.spawn_ray(bs.wi);
+    paths.ray[i] = si.spawn_ray_inlined(bs.wi);
     paths.depth[i] += 1;
     if paths.depth[i] > settings.rr_depth {
         let rr_beta = (*beta * paths.eta_scale[i]).max_element();

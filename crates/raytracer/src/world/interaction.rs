@@ -24,7 +24,8 @@ impl World {
     /// is stored (the wavefront's) it is built there. Returned by value, the flat case's
     /// record shared its return slot with the general case's out-of-line call, so it was built
     /// on the stack and copied in with `memcpy`.
-    #[inline]
+    // Always inlined into the wavefront's x86-64-v3 batch, its one caller.
+    #[inline(always)]
     pub fn write_interaction(&self, ray: &Ray, hit: &Hit, out: &mut SurfaceInteraction) {
         if self.flat
             && let HitDetail::Triangle(i, b) = hit.detail

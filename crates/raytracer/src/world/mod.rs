@@ -224,11 +224,20 @@ pub struct SurfaceInteraction {
 impl SurfaceInteraction {
     /// A ray leaving the surface in direction `d`, from an origin pushed off the surface.
     pub fn spawn_ray(&self, d: Vec3) -> Ray {
+        self.spawn_ray_inlined(d)
+    }
+
+    /// [`SurfaceInteraction::spawn_ray`], inlined where it is called: the wavefront's
+    /// x86-64-v3 copy compiles it with its own features. (Inlined everywhere, it made the
+    /// photon mapper's first-hit loop, which calls it only behind partly opaque surfaces, dearer.)
+    #[inline(always)]
+    pub(crate) fn spawn_ray_inlined(&self, d: Vec3) -> Ray {
         Ray { time: self.time, ..Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, d), d) }
     }
 
     /// A shadow-ray segment from this surface to a point `p` (with error `p_error` and normal
     /// `n`, zero for points not on surfaces): origin, direction (unnormalised) and `t_max`.
+    #[inline(always)]
     pub fn spawn_ray_to(&self, p: Vec3, p_error: Vec3, n: Vec3) -> Ray {
         let from = offset_ray_origin(self.p, self.p_error, self.ng, p - self.p);
         let to = if n == Vec3::ZERO { p } else { offset_ray_origin(p, p_error, n, from - p) };
