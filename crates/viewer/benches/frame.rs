@@ -503,9 +503,9 @@ const STOP_FRAMES: usize = {
     shadows + 1 + frame / viewer::compositor::SETTLE_PIXELS as usize + 10
 };
 /// [`STOP_FRAMES`] for `scene` at 512^2, whose frame shows the cursor sphere in reflections (the
-/// glossy floor): the bounce light's bands, the mirror's frame, the sphere's glossy lobes in
-/// bands of the rows with a lobe (`SETTLE_REFLECTION_PIXELS` of them a frame, as many rows as
-/// the frame's width allows at least), then the loss's bands (settle.rs).
+/// glossy floor), at most: the bounce light's bands, a mirror's frame, the sphere's glossy lobes
+/// in bands of the rows with a lobe (`SETTLE_REFLECTION_PIXELS / 512` rows a band at least, the
+/// reflections' rectangle being no wider than the frame), then the loss's bands (settle.rs).
 fn stop_frames_with_reflections(scene: &ViewerScene) -> usize {
     let layers = &scene.light_layers().expect("light layers").layers;
     let glossy_rows = layers.glossy.chunks(512).filter(|row| row.iter().any(|ks| *ks != [0.0; 3])).count();

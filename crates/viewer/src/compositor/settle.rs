@@ -57,11 +57,12 @@ pub const SETTLE_SHADOW_PIXELS: u32 = 1 << 16;
 pub const SETTLE_SPHERE_PIXELS: u32 = 1 << 11;
 
 /// The pixels of the reflections' rectangle a settling frame draws a sphere's glossy lobes in
-/// exactly, at most (one row at least): 4 rows at 512 wide. Each pixel traces 64 lobe directions
-/// through the depth: in the frame bench's glossy-floor room at 512^2 on lavapipe the whole
-/// floor's draw costs about 3.5 s of CPU, some 50 us a pixel, so a band costs about 0.1 s, which
-/// with the settling frame's other passes (25 to 50 ms) is about one plain frame (154 ms).
-pub const SETTLE_REFLECTION_PIXELS: u32 = 1 << 11;
+/// exactly, at most (one row at least): 2 rows at 512 wide. Each pixel traces 64 lobe directions
+/// through the depth. In the frame bench's glossy-floor room at 512^2 on lavapipe a frame with a
+/// band of 2 rows costs 97 to 175 ms of CPU (the settling frame's other passes about 35 of them;
+/// the floor's far rows the cheapest), about one plain frame (125 ms), less than the loss's bands
+/// (up to 230 ms); with 4 rows a band it cost up to 290 ms (docs/viewer-frame-time.md).
+pub const SETTLE_REFLECTION_PIXELS: u32 = 1 << 10;
 
 /// Where the frames since the last move stand.
 #[derive(Debug, Default)]
