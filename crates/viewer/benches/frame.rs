@@ -429,7 +429,7 @@ fn cpu_frame_time(c: &mut Criterion) {
     };
     let print = std::env::var("FRAME_STOP_TIMES").is_ok();
     for (scene, suffix, stop_frames) in
-        [(&near, "near-field", STOP_FRAMES), (&glossy, "glossy-floor", STOP_FRAMES_REFLECTIONS)]
+        [(&near, "near-field", STOP_FRAMES), (&glossy, "glossy-floor", stop_frames_with_reflections(&glossy))]
     {
         bench_stop(
             &mut group,
@@ -502,10 +502,19 @@ const STOP_FRAMES: usize = {
     let shadows = frame / viewer::compositor::SETTLE_SHADOW_PIXELS as usize;
     shadows + 1 + frame / viewer::compositor::SETTLE_PIXELS as usize + 10
 };
-/// [`STOP_FRAMES`] for a scene whose frame shows the sphere in reflections (the glossy floor):
-/// the bounce light's bands, one frame of reflections, then the loss's bands (settle.rs).
-const STOP_FRAMES_REFLECTIONS: usize =
-    STOP_FRAMES + 1 + 512 * 512 / viewer::compositor::SETTLE_PIXELS as usize;
+/// [`STOP_FRAMES`] for `scene` at 512^2, whose frame shows the cursor sphere in reflections (the
+/// glossy floor), at most: the bounce light's bands, a mirror's frame, the sphere's glossy lobes
+/// in bands of the rows with a lobe (`SETTLE_REFLECTION_PIXELS / 512` rows a band at least, the
+/// reflections' rectangle being no wider than the frame), then the loss's bands (settle.rs).
+fn stop_frames_with_reflections(scene: &ViewerScene) -> usize {
+    let layers = &scene.light_layers().expect("light layers").layers;
+    let glossy_rows = layers.glossy.chunks(512).filter(|row| row.iter().any(|ks| *ks != [0.0; 3])).count();
+    let rows_a_band = (viewer::compositor::SETTLE_REFLECTION_PIXELS as usize / 512).max(1);
+    STOP_FRAMES
+        + 512 * 512 / viewer::compositor::SETTLE_PIXELS as usize
+        + 1
+        + glossy_rows.div_ceil(rows_a_band)
+}
 
 /// With `FRAME_PASS_TIMES` naming it (`lit-moving`, `lit-rest-near-field`, ...; a comma-separated
 /// list), a CPU-timed lit frame's passes over 8 more frames

@@ -112,7 +112,7 @@ impl Compositor {
         let settle = &self.reduced.settle;
         settle.begin_frame(moving, reduce && self.settings.settle_at_rest, cursor_map);
         let shadow_scissor = if uniform.counts[1] == 1 { self.shadow_scissor_all(&uniform) } else { None };
-        let reflections = self.reflections_drawn(&uniform);
+        let reflections = self.reflection_draws(&uniform);
         let settling =
             (keep_shadowed && !at_rest && (bounce_rect.is_some() || uniform.shadow_bounce[0] == 1))
                 .then(|| settle.step((self.width, self.height), shadow_scissor, reflections))
@@ -276,10 +276,13 @@ impl Compositor {
                 }
                 lap(&mut encoder, "bounce light");
             }
-            // The spheres seen in mirrors and glass, after the bounce light they may reflect. A
-            // settling frame draws them once, from the exact backdrop (settle.rs), never from the
-            // cache, which may hold a moving frame's reflections.
-            if settling.is_none_or(SettleStep::draws_reflections) {
+            // The spheres seen in mirrors and glass, after the bounce light they may reflect. The
+            // settling frames draw them a band at a time, from the exact backdrop (settle.rs),
+            // never from the cache, which may hold a moving frame's reflections.
+            if let Some(band) = settling.and_then(SettleStep::reflection_band) {
+                self.record_reflection_band(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes, band);
+                lap(&mut encoder, "spheres in reflections: a band");
+            } else if settling.is_none_or(SettleStep::draws_reflections) {
                 if settling.is_some() {
                     self.specular.forget();
                 }

@@ -13,9 +13,15 @@
 //! and its removal a band of the frame's rows at a time ([`SETTLE_PIXELS`] a frame), from the
 //! top. In a scene with spheres seen in mirrors or glossy lobes, which read the backdrop after
 //! the exact shadows and bounce light at other pixels than their own, the bounce light settles
-//! first, in bands of rows kept ([`SettlePart::Bounce`]), then one frame draws the reflections
-//! from the kept backdrop ([`SettlePart::Reflections`]), then the loss and its removal settle in
-//! bands of rows. The backdrop after the exact shadows is kept between the frames (`kept`), and in
+//! first, in bands of rows kept ([`SettlePart::Bounce`]), then the reflections from the kept
+//! backdrop ([`SettlePart::Reflections`]), then the loss and its removal settle in bands of rows.
+//! The reflections are drawn a draw at a time, as the specular pass draws them
+//! ([`ReflectionDraws`]): the mirror's in one frame, then each sphere's glossy lobes a band of
+//! the reflections' rectangle's rows a frame ([`SETTLE_REFLECTION_PIXELS`]). Each draw reads the
+//! backdrop after shadows as the draws before it left it, at other pixels than its own: its bands
+//! are drawn from the kept backdrop, which holds the draws before it complete, and kept in the
+//! specular pass's cache until its last band, when the cache, the draw complete, goes into the
+//! kept backdrop. The backdrop after the exact shadows is kept between the frames (`kept`), and in
 //! the rows done the finished backdrop replaces it, so each band is drawn once. Every frame shows
 //! the rows done and, below them, the backdrop the last moving frame drew for these very inputs
 //! (`moving_backdrop`): no frame is further from the exact one than the moving frame was. The
@@ -50,6 +56,14 @@ pub const SETTLE_SHADOW_PIXELS: u32 = 1 << 16;
 /// costs about a sixth of its exact shading.
 pub const SETTLE_SPHERE_PIXELS: u32 = 1 << 11;
 
+/// The pixels of the reflections' rectangle a settling frame draws a sphere's glossy lobes in
+/// exactly, at most (one row at least): 2 rows at 512 wide. Each pixel traces 64 lobe directions
+/// through the depth. In the frame bench's glossy-floor room at 512^2 on lavapipe a frame with a
+/// band of 2 rows costs 97 to 175 ms of CPU (the settling frame's other passes about 35 of them;
+/// the floor's far rows the cheapest), about one plain frame (125 ms), less than the loss's bands
+/// (up to 230 ms); with 4 rows a band it cost up to 290 ms (docs/viewer-frame-time.md).
+pub const SETTLE_REFLECTION_PIXELS: u32 = 1 << 10;
+
 /// Where the frames since the last move stand.
 #[derive(Debug, Default)]
 pub(super) struct Settle {
@@ -68,6 +82,10 @@ pub(super) struct Settle {
     /// Rows of the frame whose exact bounce light is kept (`kept`) since the move, from the top,
     /// when the reflections settle on their own ([`SettlePart::Bounce`]).
     bounce_rows_done: Cell<u32>,
+    /// The reflections' draws ([`ReflectionDraws`]) complete since the move, in their order.
+    reflection_draws_done: Cell<u32>,
+    /// Rows of the reflections' rectangle the draw after them has drawn, from its top.
+    reflection_rows_done: Cell<u32>,
     /// Whether the spheres in reflections were drawn from the exact backdrop since the move.
     reflections_done: Cell<bool>,
     /// Rows of the frame whose backdrop is finished (exact) since the move, from the top.
@@ -108,10 +126,10 @@ pub(super) enum SettlePart {
     Maps,
     /// With reflections: the bounce light exactly in the frame's rows `[top, count]`, kept.
     Bounce([u32; 2]),
-    /// With reflections: the spheres in mirrors and glossy lobes, drawn from the kept backdrop
-    /// (the exact shadows and bounce light everywhere, which the mirror reads at the surfaces it
-    /// reflects), kept.
-    Reflections,
+    /// With reflections: a band of one of the reflections' draws, from the kept backdrop (the
+    /// exact shadows and bounce light everywhere, which the mirror reads at the surfaces it
+    /// reflects, and the draws before it), kept once the draw is complete.
+    Reflections(ReflectionBand),
     /// The bounce light (without reflections), the loss and its removal exactly in the frame's
     /// rows `[top, count]`.
     Rows([u32; 2]),
@@ -135,13 +153,79 @@ impl SettleStep {
         }
     }
 
-    /// Whether this step draws the spheres in reflections (a step of the rows does when they do
-    /// not settle on their own, for a scene without them: nothing).
+    /// Whether this step draws the spheres in reflections whole (a step of the rows does when
+    /// they do not settle on their own, for a scene without them: nothing).
     pub(super) fn draws_reflections(self) -> bool {
+        matches!(self.part, SettlePart::Rows(_)) && !self.reflections
+    }
+
+    /// The band of the reflections this step draws, if any.
+    pub(super) fn reflection_band(self) -> Option<ReflectionBand> {
         match self.part {
-            SettlePart::Reflections => true,
-            SettlePart::Rows(_) => !self.reflections,
-            _ => false,
+            SettlePart::Reflections(band) => Some(band),
+            _ => None,
+        }
+    }
+}
+
+/// The draws of the spheres in reflections, in the specular pass's order
+/// (`Compositor::record_reflections`): the mirror's (every sphere in one pass), then each
+/// sphere's glossy draw, each reading what the draws before it left.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct ReflectionDraws {
+    /// The pixels with a specular reflection or a glossy lobe, `[x, y, w, h]`.
+    pub(super) rect: [u32; 4],
+    /// Whether the frame has mirrors: the mirror's draw comes first.
+    pub(super) mirror: bool,
+    /// The glossy draws, one per sphere (none without glossy lobes).
+    pub(super) glossy: u32,
+}
+
+/// One of [`ReflectionDraws`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum ReflectionDraw {
+    /// The spheres in mirrors, all in one pass.
+    Mirror,
+    /// The glossy lobes of the sphere in this row of the shadow spheres.
+    Glossy(u32),
+}
+
+/// What one settling frame draws of the reflections: `draw` within the frame's rows `rows`
+/// (`[top, count]`, of the reflections' rectangle).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct ReflectionBand {
+    pub(super) draw: ReflectionDraw,
+    pub(super) rows: [u32; 2],
+    /// The draw's last band: the draw is complete after it.
+    pub(super) draw_complete: bool,
+    /// The last draw's last band: the reflections are complete after it.
+    pub(super) last: bool,
+}
+
+impl ReflectionDraws {
+    /// How many draws there are.
+    pub(super) fn count(self) -> u32 {
+        u32::from(self.mirror) + self.glossy
+    }
+
+    /// The band drawn after `draws_done` draws and `rows_done` rows of the next: the mirror's
+    /// whole rectangle (the moving frames draw it in full too, so it costs no more than theirs),
+    /// a glossy draw's rows as [`SETTLE_REFLECTION_PIXELS`] allow.
+    fn band(self, draws_done: u32, rows_done: u32) -> ReflectionBand {
+        let [_, y, w, h] = self.rect;
+        let done = rows_done.min(h);
+        let (draw, rows) = if self.mirror && draws_done == 0 {
+            (ReflectionDraw::Mirror, h - done)
+        } else {
+            let glossy = draws_done - u32::from(self.mirror);
+            (ReflectionDraw::Glossy(glossy), (SETTLE_REFLECTION_PIXELS / w.max(1)).max(1).min(h - done))
+        };
+        let draw_complete = done + rows == h;
+        ReflectionBand {
+            draw,
+            rows: [y + done, rows],
+            draw_complete,
+            last: draw_complete && draws_done + 1 >= self.count(),
         }
     }
 }
@@ -161,6 +245,8 @@ impl Settle {
             self.shadow_rows_done.set(0);
             self.maps_done.set(false);
             self.bounce_rows_done.set(0);
+            self.reflection_draws_done.set(0);
+            self.reflection_rows_done.set(0);
             self.reflections_done.set(false);
             self.rows_done.set(0);
             self.sphere_rows_done.set(self.sphere_map_current.get().then_some(0));
@@ -194,14 +280,14 @@ impl Settle {
 
     /// The step this frame draws, `None` when it is not settling, for a frame of `size` whose
     /// layered shadows are drawn within `shadow_scissor` (`None`: none are) and which shows the
-    /// spheres in reflections (`reflections`: they read the backdrop after the exact shadows and
-    /// bounce light at other pixels, so these settle before them, then the reflections, then the
-    /// loss in the rows).
+    /// spheres in reflections with these draws (`reflections`: they read the backdrop after the
+    /// exact shadows and bounce light at other pixels, so these settle before them, then the
+    /// reflections, then the loss in the rows).
     pub(super) fn step(
         &self,
         (width, height): (u32, u32),
         shadow_scissor: Option<[u32; 4]>,
-        reflections: bool,
+        reflections: Option<ReflectionDraws>,
     ) -> Option<SettleStep> {
         if !self.active.get() {
             return None;
@@ -214,14 +300,16 @@ impl Settle {
             SettlePart::Shadows([x, y + done, w, rows])
         } else if !self.maps_done.get() {
             SettlePart::Maps
-        } else if reflections && self.bounce_rows_done.get() < height {
+        } else if reflections.is_some() && self.bounce_rows_done.get() < height {
             SettlePart::Bounce(rows_band(self.bounce_rows_done.get(), (width, height)))
-        } else if reflections && !self.reflections_done.get() {
-            SettlePart::Reflections
+        } else if let Some(draws) = reflections.filter(|d| d.count() > 0 && !self.reflections_done.get()) {
+            SettlePart::Reflections(
+                draws.band(self.reflection_draws_done.get(), self.reflection_rows_done.get()),
+            )
         } else {
             SettlePart::Rows(rows_band(self.rows_done.get(), (width, height)))
         };
-        Some(SettleStep { first, part, reflections })
+        Some(SettleStep { first, part, reflections: reflections.is_some() })
     }
 
     /// Records `step` as drawn in a frame `height` rows high; whether the frame is now exact.
@@ -233,7 +321,15 @@ impl Settle {
             }
             SettlePart::Maps => self.maps_done.set(true),
             SettlePart::Bounce([top, rows]) => self.bounce_rows_done.set(top + rows),
-            SettlePart::Reflections => self.reflections_done.set(true),
+            SettlePart::Reflections(band) => {
+                if band.draw_complete {
+                    self.reflection_draws_done.set(self.reflection_draws_done.get() + 1);
+                    self.reflection_rows_done.set(0);
+                } else {
+                    self.reflection_rows_done.set(self.reflection_rows_done.get() + band.rows[1]);
+                }
+                self.reflections_done.set(band.last);
+            }
             SettlePart::Rows([top, rows]) => self.rows_done.set(top + rows),
         }
         let complete = self.rows_done.get() >= height && self.maps_done.get();
@@ -275,7 +371,7 @@ pub(super) fn intersect([ax, ay, aw, ah]: [u32; 4], [bx, by, bw, bh]: [u32; 4]) 
 
 impl Compositor {
     /// The texture the settling frames keep the backdrop in (made when first needed).
-    fn settle_kept(&self) -> wgpu::Texture {
+    pub(super) fn settle_kept(&self) -> wgpu::Texture {
         self.frame_sized_copy(&self.reduced.settle.kept, "settling backdrop")
     }
 
@@ -412,7 +508,7 @@ impl Compositor {
     }
 
     /// What a settling frame shows of the backdrop, after its passes: the rows `step` finishes
-    /// kept (or those it drew the bounce light in, or the whole frame after the reflections),
+    /// kept (or those it drew the bounce light in, or the reflections once a draw is complete),
     /// then the rows finished so far from the kept backdrop and those below from the last
     /// moving frame's, copied into the backdrop after shadows too (which the live objects'
     /// shading and edges read).
@@ -422,7 +518,7 @@ impl Compositor {
             SettlePart::Rows(rows) | SettlePart::Bounce(rows) => {
                 self.copy_rows(encoder, &self.linear_texture, &kept, rows)
             }
-            SettlePart::Reflections => self.copy_rows(encoder, &self.linear_texture, &kept, [0, self.height]),
+            SettlePart::Reflections(band) if band.draw_complete => self.copy_reflections_into(encoder, &kept),
             _ => {}
         }
         let done = self.reduced.settle.rows_finished(step).min(self.height);
@@ -434,7 +530,10 @@ impl Compositor {
 
 #[cfg(test)]
 mod tests {
-    use super::{SETTLE_PIXELS, SETTLE_SHADOW_PIXELS, SETTLE_SPHERE_PIXELS, Settle, SettlePart, intersect};
+    use super::{
+        ReflectionBand, ReflectionDraw, ReflectionDraws, SETTLE_PIXELS, SETTLE_REFLECTION_PIXELS,
+        SETTLE_SHADOW_PIXELS, SETTLE_SPHERE_PIXELS, Settle, SettlePart, SettleStep, intersect,
+    };
 
     /// Settling draws the layered shadows a band of their scissor's rows a frame, then the maps,
     /// then the frame's rows from the top, each once and within the budgets, and the frame is
@@ -443,14 +542,14 @@ mod tests {
     fn settling_draws_each_part_once_in_order() {
         let settle = Settle::default();
         settle.begin_frame(false, true, false);
-        assert!(settle.step((512, 512), None, false).is_none(), "the first frame of all does not settle");
+        assert!(settle.step((512, 512), None, None).is_none(), "the first frame of all does not settle");
         settle.begin_frame(true, true, false);
-        assert!(settle.step((512, 512), None, false).is_none(), "a moving frame does not settle");
+        assert!(settle.step((512, 512), None, None).is_none(), "a moving frame does not settle");
         settle.begin_frame(false, true, false);
         let scissor = Some([10, 100, 300, 400]);
         let mut parts = Vec::new();
         loop {
-            let step = settle.step((512, 512), scissor, false).expect("settling");
+            let step = settle.step((512, 512), scissor, None).expect("settling");
             assert_eq!(step.first, parts.is_empty());
             parts.push(step.part);
             let finished = settle.rows_finished(step);
@@ -471,62 +570,147 @@ mod tests {
         for (k, part) in parts[3..].iter().enumerate() {
             assert_eq!(*part, SettlePart::Rows([k as u32 * rows, rows]), "rows' step {k}");
         }
-        assert!(settle.step((512, 512), scissor, false).is_none(), "settled frames draw nothing more");
+        assert!(settle.step((512, 512), scissor, None).is_none(), "settled frames draw nothing more");
         // Without layered shadows the maps come first; a row wider than the budget is a step.
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, true, false);
-        let maps = settle.step((8192, 3), None, false).expect("settling");
+        let maps = settle.step((8192, 3), None, None).expect("settling");
         assert_eq!(maps.part, SettlePart::Maps);
         assert!(!settle.finish(maps, 3));
         for top in 0..3 {
-            let step = settle.step((8192, 3), None, false).expect("settling");
+            let step = settle.step((8192, 3), None, None).expect("settling");
             assert_eq!((step.first, step.part), (false, SettlePart::Rows([top, 1])));
             assert_eq!(settle.finish(step, 3), top == 2);
         }
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, false, false);
-        assert!(settle.step((512, 512), None, false).is_none(), "settling is off");
+        assert!(settle.step((512, 512), None, None).is_none(), "settling is off");
     }
 
-    /// With reflections, the bounce light settles in bands of rows before the reflections' one
-    /// step, and the rows' steps after it draw neither; without, the rows' steps draw both.
-    #[test]
-    fn with_reflections_the_bounce_light_settles_before_them() {
+    /// Settles a frame of `size` with `reflections` from the first frame at rest to the exact
+    /// one, checking that it is exact after the last rows' step alone; the steps in order.
+    fn settle_all(size: (u32, u32), reflections: Option<ReflectionDraws>) -> Vec<SettleStep> {
         let settle = Settle::default();
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, true, false);
         let mut steps = Vec::new();
         loop {
-            let step = settle.step((512, 512), None, true).expect("settling");
+            let step = settle.step(size, None, reflections).expect("settling");
             steps.push(step);
-            let exact = settle.finish(step, 512);
-            assert_eq!(exact, step.rows().is_some_and(|[top, rows]| top + rows == 512));
+            let exact = settle.finish(step, size.1);
+            assert_eq!(exact, step.rows().is_some_and(|[top, rows]| top + rows == size.1));
             if exact {
                 break;
             }
             assert!(steps.len() < 1000, "settling never ends");
         }
+        steps
+    }
+
+    /// With reflections, the bounce light settles in bands of rows before them, then the
+    /// mirror's draw in one step, then each sphere's glossy draw in bands of the reflections'
+    /// rows within the budget, each row once, from the top, the draws in order; the rows' steps
+    /// after them draw neither; without, the rows' steps draw both.
+    #[test]
+    fn with_reflections_the_bounce_light_settles_before_them_and_they_in_bands() {
+        let draws = ReflectionDraws { rect: [0, 300, 512, 42], mirror: true, glossy: 2 };
+        let steps = settle_all((512, 512), Some(draws));
         let bands = (512 / (SETTLE_PIXELS / 512)) as usize;
-        assert_eq!(steps.len(), 2 + 2 * bands);
-        assert_eq!(steps[0].part, SettlePart::Maps);
         let rows = SETTLE_PIXELS / 512;
+        let glossy_rows = SETTLE_REFLECTION_PIXELS / 512;
+        let glossy_bands = 42u32.div_ceil(glossy_rows) as usize;
+        let reflection_steps = 1 + 2 * glossy_bands;
+        assert_eq!(steps.len(), 1 + 2 * bands + reflection_steps);
+        assert_eq!(steps[0].part, SettlePart::Maps);
         for k in 0..bands {
-            let (bounce, loss) = (steps[1 + k], steps[2 + bands + k]);
+            let (bounce, loss) = (steps[1 + k], steps[1 + bands + reflection_steps + k]);
             assert_eq!(bounce.part, SettlePart::Bounce([k as u32 * rows, rows]));
             assert_eq!(bounce.bounce_rows(), Some([k as u32 * rows, rows]));
             assert!(!bounce.draws_reflections() && bounce.rows().is_none());
+            assert!(bounce.reflection_band().is_none());
             assert_eq!(loss.part, SettlePart::Rows([k as u32 * rows, rows]));
             assert!(loss.bounce_rows().is_none() && !loss.draws_reflections());
+            assert!(loss.reflection_band().is_none());
         }
-        let reflections = steps[1 + bands];
-        assert_eq!(reflections.part, SettlePart::Reflections);
-        assert!(reflections.draws_reflections() && reflections.bounce_rows().is_none());
+        let reflections: Vec<ReflectionBand> = steps[1 + bands..1 + bands + reflection_steps]
+            .iter()
+            .map(|s| s.reflection_band().unwrap())
+            .collect();
+        assert!(steps[1 + bands..].iter().all(|s| s.bounce_rows().is_none() && !s.draws_reflections()));
+        let mirror = ReflectionBand {
+            draw: ReflectionDraw::Mirror,
+            rows: [300, 42],
+            draw_complete: true,
+            last: false,
+        };
+        assert_eq!(reflections[0], mirror, "the mirror is drawn whole, first");
+        for sphere in 0..2u32 {
+            let glossy = &reflections[1 + sphere as usize * glossy_bands..][..glossy_bands];
+            for (k, band) in glossy.iter().enumerate() {
+                let top = k as u32 * glossy_rows;
+                let final_band = k + 1 == glossy_bands;
+                assert_eq!(band.draw, ReflectionDraw::Glossy(sphere));
+                assert_eq!(band.rows, [300 + top, glossy_rows.min(42 - top)], "sphere {sphere}'s band {k}");
+                assert!(band.rows[1] * 512 <= SETTLE_REFLECTION_PIXELS, "within the budget");
+                assert_eq!(band.draw_complete, final_band);
+                assert_eq!(band.last, final_band && sphere == 1);
+            }
+        }
+        // Glossy lobes alone: the first sphere's bands come first; a row wider than the budget
+        // is a band.
+        let glossy = ReflectionDraws { rect: [5, 7, 8192, 3], mirror: false, glossy: 1 };
+        let steps = settle_all((8200, 10), Some(glossy));
+        let bands: Vec<ReflectionBand> = steps.iter().filter_map(|s| s.reflection_band()).collect();
+        let expected = (0..3).map(|k| ReflectionBand {
+            draw: ReflectionDraw::Glossy(0),
+            rows: [7 + k, 1],
+            draw_complete: k == 2,
+            last: k == 2,
+        });
+        assert_eq!(bands, expected.collect::<Vec<_>>());
+        // A mirror alone is one step.
+        let mirror = ReflectionDraws { rect: [0, 0, 512, 512], mirror: true, glossy: 0 };
+        let bands: Vec<ReflectionBand> =
+            settle_all((512, 512), Some(mirror)).iter().filter_map(|s| s.reflection_band()).collect();
+        let whole =
+            ReflectionBand { draw: ReflectionDraw::Mirror, rows: [0, 512], draw_complete: true, last: true };
+        assert_eq!(bands, vec![whole]);
+        // Without reflections the rows' steps draw the bounce light and the reflections.
+        let steps = settle_all((512, 512), None);
+        assert_eq!(steps[1].bounce_rows(), Some([0, rows]));
+        assert!(steps[1].draws_reflections(), "without reflections the rows' steps draw all");
+        assert!(steps.iter().all(|s| s.reflection_band().is_none()));
+        assert_eq!(steps.len(), 1 + bands_of(512));
+    }
+
+    /// The rows' steps of a frame 512 wide and `height` high.
+    fn bands_of(height: u32) -> usize {
+        height.div_ceil(SETTLE_PIXELS / 512) as usize
+    }
+
+    /// A move while the reflections settle starts them again from the mirror's draw.
+    #[test]
+    fn a_move_while_the_reflections_settle_starts_them_again() {
+        let draws = ReflectionDraws { rect: [0, 0, 512, 40], mirror: true, glossy: 1 };
+        let settle = Settle::default();
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, true, false);
-        settle.finish(settle.step((512, 512), None, false).expect("maps"), 512);
-        let rows_step = settle.step((512, 512), None, false).expect("rows");
-        assert_eq!(rows_step.bounce_rows(), Some([0, rows]));
-        assert!(rows_step.draws_reflections(), "without reflections the rows' steps draw all");
+        let mut bands = 0;
+        while bands < 3 {
+            let step = settle.step((512, 64), None, Some(draws)).expect("settling");
+            bands += usize::from(step.reflection_band().is_some());
+            settle.finish(step, 64);
+        }
+        settle.begin_frame(true, true, false);
+        settle.begin_frame(false, true, false);
+        let first = loop {
+            let step = settle.step((512, 64), None, Some(draws)).expect("settling");
+            settle.finish(step, 64);
+            if let Some(band) = step.reflection_band() {
+                break band;
+            }
+        };
+        assert_eq!(first.draw, ReflectionDraw::Mirror);
     }
 
     /// The cursor sphere settles only after a move whose last frame drew its radiance map, a

@@ -10,6 +10,7 @@
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
 use super::overlay::{Overlay, offscreen_pipeline_from};
+use super::settle::{ReflectionBand, ReflectionDraw, ReflectionDraws, intersect};
 
 /// The pass's pipeline and what it last left in the frame.
 #[derive(Debug)]
@@ -26,7 +27,9 @@ pub(super) struct SpecularReflections {
     glossy_spread: wgpu::RenderPipeline,
     /// The frame's rectangle of pixels with a specular reflection as the pass last left it
     /// (`None` when no pixel has one), and the uniforms it was drawn from: a still frame copies
-    /// it back instead of drawing the pass again.
+    /// it back instead of drawing the pass again. While the reflections settle in bands
+    /// (`settle.rs`), it holds the bands of the draw being drawn, and is known as drawn from
+    /// nothing until the last.
     cache: Option<wgpu::Texture>,
     drawn_from: super::DrawnFrom,
 }
@@ -117,6 +120,53 @@ impl Compositor {
             && uniform.layer_info[3] != 0
     }
 
+    /// The draws [`Compositor::record_reflections`] makes for `uniform`, in order, for the
+    /// frames that settle them in bands (`settle.rs`); `None` when it draws nothing.
+    pub(super) fn reflection_draws(&self, uniform: &FrameUniform) -> Option<ReflectionDraws> {
+        let rect = self.layers.specular_rect().filter(|_| self.reflections_drawn(uniform))?;
+        let glossy = if self.layers.glossy.is_some() { self.reflecting_spheres(uniform) } else { 0 };
+        Some(ReflectionDraws { rect, mirror: self.layers.reflection.is_some(), glossy })
+            .filter(|draws| draws.count() > 0)
+    }
+
+    /// The spheres the specular pass draws, one draw each.
+    fn reflecting_spheres(&self, uniform: &FrameUniform) -> u32 {
+        uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32)
+    }
+
+    /// Binds the material of the sphere in shadow-sphere row `row` (its mesh slot in `rows`, as
+    /// for the radiosity maps).
+    fn bind_sphere_row(&self, pass: &mut wgpu::RenderPass<'_>, rows: &[i32], row: u32) {
+        let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
+        let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
+        pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
+    }
+
+    /// Records `draw` into the frame's colour target within the pass's scissor: the mirror's
+    /// draws of the `spheres` (a pixel changes in one at most), or one sphere's glossy draw.
+    fn draw_reflection(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        rows: &[i32],
+        spheres: u32,
+        draw: ReflectionDraw,
+    ) {
+        match draw {
+            ReflectionDraw::Mirror => {
+                pass.set_pipeline(&self.specular.pipeline);
+                for row in 0..spheres {
+                    self.bind_sphere_row(pass, rows, row);
+                    pass.draw(0..3, row..row + 1);
+                }
+            }
+            ReflectionDraw::Glossy(row) => {
+                pass.set_pipeline(&self.specular.glossy_pipeline);
+                self.bind_sphere_row(pass, rows, row);
+                pass.draw(0..3, row..row + 1);
+            }
+        }
+    }
+
     /// Shows the live spheres in the scene's specular reflections (`fs_reflection`): within the
     /// pixels that have one, each sphere's draw (its material bound at its mesh slot, `rows`
     /// as for the radiosity maps) replaces the reflected light by the sphere where the mirror
@@ -147,23 +197,15 @@ impl Compositor {
         };
         let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
         if self.specular.drawn_from.renew(uniform, mesh_bytes) {
-            let spheres = uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32);
-            let bind_row = |pass: &mut wgpu::RenderPass<'_>, row: u32| {
-                let slot = rows.iter().position(|&r| r == row as i32).unwrap_or(0);
-                let offset = (slot as u64 * self.mesh_uniform_stride) as u32;
-                pass.set_bind_group(1, &self.mesh_bind_group, &[offset]);
-            };
+            let spheres = self.reflecting_spheres(uniform);
+            let bind_row = |pass: &mut wgpu::RenderPass<'_>, row: u32| self.bind_sphere_row(pass, rows, row);
             // The mirror draws replace the reflected light (read from the backdrop after
             // shadows; a pixel changes in one draw at most).
             if self.layers.reflection.is_some() {
                 {
                     let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
                     pass.set_scissor_rect(x, y, w, h);
-                    pass.set_pipeline(&self.specular.pipeline);
-                    for row in 0..spheres {
-                        bind_row(&mut pass, row);
-                        pass.draw(0..3, row..row + 1);
-                    }
+                    self.draw_reflection(&mut pass, rows, spheres, ReflectionDraw::Mirror);
                 }
                 self.copy_to_shadowed(encoder, [x, y, w, h]);
             }
@@ -177,9 +219,7 @@ impl Compositor {
                     {
                         let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
                         pass.set_scissor_rect(x, y, w, h);
-                        pass.set_pipeline(&self.specular.glossy_pipeline);
-                        bind_row(&mut pass, row);
-                        pass.draw(0..3, row..row + 1);
+                        self.draw_reflection(&mut pass, rows, spheres, ReflectionDraw::Glossy(row));
                     }
                     self.copy_to_shadowed(encoder, [x, y, w, h]);
                 }
@@ -188,6 +228,61 @@ impl Compositor {
         } else {
             encoder.copy_texture_to_texture(cache.as_image_copy(), frame_rect, size);
             self.copy_to_shadowed(encoder, [x, y, w, h]);
+        }
+    }
+
+    /// One settling frame's band of the reflections (`settle.rs`): `band`'s draw within its
+    /// rows, from the backdrop after shadows, which holds the draws before it complete (the
+    /// settling frames' kept backdrop), its rows kept in the cache at their place. After a draw's
+    /// last band the cache holds the draw complete ([`Compositor::copy_reflections_into`]), and
+    /// after the last draw's what [`Compositor::record_reflections`] leaves, known as drawn from
+    /// `uniform` and `mesh_bytes` from then on; until then from nothing.
+    pub(super) fn record_reflection_band(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        uniform: &FrameUniform,
+        rows: &[i32],
+        mesh_bytes: &[u8],
+        band: ReflectionBand,
+    ) {
+        let (Some(rect @ [x, y, w, _]), Some(cache)) = (self.layers.specular_rect(), &self.specular.cache)
+        else {
+            return;
+        };
+        self.specular.forget();
+        let [top, count] = band.rows;
+        if let Some([bx, by, bw, bh]) = intersect(rect, [x, top, w, count]) {
+            {
+                let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
+                pass.set_scissor_rect(bx, by, bw, bh);
+                self.draw_reflection(&mut pass, rows, self.reflecting_spheres(uniform), band.draw);
+            }
+            encoder.copy_texture_to_texture(
+                wgpu::TexelCopyTextureInfo {
+                    origin: wgpu::Origin3d { x: bx, y: by, z: 0 },
+                    ..self.linear_texture.as_image_copy()
+                },
+                wgpu::TexelCopyTextureInfo {
+                    origin: wgpu::Origin3d { x: bx - x, y: by - y, z: 0 },
+                    ..cache.as_image_copy()
+                },
+                wgpu::Extent3d { width: bw, height: bh, depth_or_array_layers: 1 },
+            );
+        }
+        if band.last {
+            self.specular.drawn_from.renew(uniform, mesh_bytes);
+        }
+    }
+
+    /// Copies the reflections' rectangle as the specular pass last left it (its cache) into `to`,
+    /// a frame-sized texture, at its place.
+    pub(super) fn copy_reflections_into(&self, encoder: &mut wgpu::CommandEncoder, to: &wgpu::Texture) {
+        if let (Some([x, y, w, h]), Some(cache)) = (self.layers.specular_rect(), &self.specular.cache) {
+            encoder.copy_texture_to_texture(
+                cache.as_image_copy(),
+                wgpu::TexelCopyTextureInfo { origin: wgpu::Origin3d { x, y, z: 0 }, ..to.as_image_copy() },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
         }
     }
 
