@@ -520,34 +520,35 @@ fn diffuse_radiance_lit(material: Material, p: vec3<f32>, n: vec3<f32>, lit: Dir
 // (`hybrid-view` binds them unless `--no-near-field`): spheres read them from their near-field
 // maps (glossy_lobe), drawn when their inputs change, live meshes trace them per fragment.
 fn shade(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
-    return shade_with(material, p, n_in, view_dir, false, false);
+    return shade_with(material, p, n_in, view_dir, -1, false);
 }
 
 // shade for a live surface the eye sees directly (a live mesh or sphere).
 fn shade_seen(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
-    return shade_with(material, p, n_in, view_dir, false, true);
+    return shade_with(material, p, n_in, view_dir, -1, true);
 }
 
 // The cursor sphere's radiance at p (unit outward normal n) seen along view_dir: in a moving
 // frame whose radiosity maps hold it (frame.tone.y, compositor/frame.rs) and seen from outside,
-// from its map (shade_with's `from_map`), or where its radiance map is drawn from that (tone.y
+// from its map (shade_with's `map_row`), or where its radiance map is drawn from that (tone.y
 // 2), from the radiance map (cursor_radiance.wgsl); else exactly.
 fn shade_cursor_sphere(p: vec3<f32>, n: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
     let outside = dot(n, view_dir) < 0.0;
     if frame.tone.y > 1.5 && outside {
         return cursor_radiance_lookup(n);
     }
-    let from_map = frame.tone.y > 0.5 && outside;
-    return shade_with(frame.sphere_material, p, n, view_dir, from_map, true);
+    let map_row = select(-1, 0, frame.tone.y > 0.5 && outside);
+    return shade_with(frame.sphere_material, p, n, view_dir, map_row, true);
 }
 
-// shade. With `from_map` (a moving frame: the cursor sphere, row 0 of the radiosity maps, seen
-// from outside) the costliest terms come from the sphere's radiosity map, drawn this frame by
-// the same diffuse_radiance: its diffuse and ambient radiance (bilinear between the map's
+// shade. With `map_row` >= 0 (a moving frame: a sphere seen from outside, whose row of the
+// radiosity maps is drawn this frame: the cursor sphere's row 0, or a sphere seen in a glossy
+// lobe) the costliest terms come from the sphere's radiosity map, drawn this frame by the same
+// diffuse_radiance: its diffuse and ambient radiance (bilinear between the map's
 // texels), and its lights' highlights integrated without the scene's shadow rays, scaled by
 // the share of the lights' light the scene lets reach p (the map's alpha); the reflection
 // probes' part is as shade's.
-fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, from_map: bool, traced: bool) -> vec3<f32> {
+fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, map_row: i32, traced: bool) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
@@ -561,9 +562,10 @@ fn shade_with(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<
     // The reflection probes hold the scene's radiance without the lights' emission (the bake
     // leaves the emitters it sees directly out): every light's glossy reflection is added here.
     let reflections = frame.reflection_origin.w > 0.5 && ks != 0.0;
+    let from_map = map_row >= 0;
     var map = vec4<f32>(0.0);
     if from_map {
-        map = radiosity_lookup(0u, n);
+        map = radiosity_lookup(u32(map_row), n);
     }
     // From the map, only the highlights need the lights.
     var lit = DirectLight(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));

@@ -5,7 +5,7 @@
 // on that point alone (the view direction at a point of a sphere is the point's own), as the
 // own-shadow loss does (shadow_loss.wgsl). So a moving frame shades the sphere once per texel of
 // a CURSOR_RADIANCE_TEXELS^2 map over its half facing the eye (the loss maps' hemi-octahedral
-// layout) with the moving frame's own shading (shade_with's `from_map`: the diffuse radiance from
+// layout) with the moving frame's own shading (shade_with's `map_row`: the diffuse radiance from
 // the radiosity map, the highlights without the scene's shadow rays, the reflection probes'
 // lobe), and its fragments and edge samples read the map bilinearly instead of integrating the
 // lights' samples and the probes' lobe each.
@@ -56,7 +56,7 @@ fn fs_cursor_radiance_map(@builtin(position) position: vec4<f32>) -> @location(0
         m = normalize(n - (CURSOR_RADIANCE_LEAST_COS - facing) * view_dir);
     }
     loss_map_row = 0;
-    return vec4<f32>(shade_with(frame.sphere_material, p, m, view_dir, true, true), 1.0);
+    return vec4<f32>(shade_with(frame.sphere_material, p, m, view_dir, 0, true), 1.0);
 }
 
 // fs_sphere for a moving frame that reads the cursor sphere's radiance map, which

@@ -315,7 +315,7 @@ fn fs_glossy_gather(in: ReflectionOut) -> @location(0) vec4<f32> {
     if in.row > 0u {
         before = textureLoad(reduced_gather, texel, 0);
     }
-    let change = glossy_change(pixel, in.row);
+    let change = glossy_change(pixel, in.row, true);
     return vec4<f32>(before.rgb + change.rgb, max(before.a, change.w));
 }
 

@@ -135,13 +135,23 @@ fn seen_surface_change(p: vec3<f32>, origin: vec3<f32>, dir: vec3<f32>, weight: 
 // copies the frame there between draws).
 const GLOSSY_TRACED: u32 = 64u;
 const GLOSSY_SHADED: u32 = 8u;
+// The lobe directions of a moving frame's samples (fs_glossy_gather, one pixel in
+// REDUCED_GLOSSY_STRIDE^2): a quarter, each weighing four. Every pixel's change is then
+// spread from four samples' 16 directions, turned differently at each; the lobes' samples cost
+// about 300 of a 520 ms moving frame on lavapipe with all 64 (docs/viewer-frame-time.md).
+const GLOSSY_TRACED_MOVING: u32 = 16u;
+// The directions that meet a sphere a moving frame's sample shades, at most: the sphere's
+// radiance then comes from its radiosity map, smooth over the sphere, and each shaded direction
+// still marches for the light the sphere hides (hidden_radiance).
+const GLOSSY_SHADED_MOVING: u32 = 2u;
 
-// Direction `i` of GLOSSY_TRACED of the Blinn lobe of exponent `e` at normal n (tangents t, b)
-// seen from v, the strata turned by `turn`: xyz the direction, w its `f cos / pdf` per unit Ks
-// (0 when it leaves the hemisphere): raytracer::bsdf's D G / (4 cos_o) over the half vector's
-// density (e + 1) cos_h^e / (8 pi o_dot_h).
-fn glossy_direction(i: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v: vec3<f32>, turn: f32) -> vec4<f32> {
-    let u1 = (f32(i) + 0.5) / f32(GLOSSY_TRACED);
+// Direction `i` of `count` (GLOSSY_TRACED, or fewer while moving) of the Blinn lobe of exponent
+// `e` at normal n (tangents t, b) seen from v, the strata turned by `turn`: xyz the direction,
+// w its `f cos / pdf` per unit Ks (0 when it leaves the hemisphere), raytracer::bsdf's D G /
+// (4 cos_o) over the half vector's density (e + 1) cos_h^e / (8 pi o_dot_h), times
+// GLOSSY_TRACED / count, so that a sum over `count` directions weighs as one over GLOSSY_TRACED.
+fn glossy_direction(i: u32, count: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v: vec3<f32>, turn: f32) -> vec4<f32> {
+    let u1 = (f32(i) + 0.5) / f32(count);
     let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
     let cos_h = pow(u1, 1.0 / (e + 1.0));
     let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
@@ -155,7 +165,8 @@ fn glossy_direction(i: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v:
         return vec4<f32>(l, 0.0);
     }
     let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
-    return vec4<f32>(l, (e + 2.0) / (e + 1.0) * g * o_dot_h / cos_o);
+    let weight = (e + 2.0) / (e + 1.0) * g * o_dot_h / cos_o;
+    return vec4<f32>(l, weight * (f32(GLOSSY_TRACED) / f32(count)));
 }
 
 // The tangents of normal n that glossy_direction turns the lobe about.
@@ -193,7 +204,7 @@ fn glossy_indirect_share(pixel: vec2<i32>, ks: vec3<f32>, diffuse_albedo: vec3<f
     let turn = lobe_turn(pixel);
     var albedo = 0.0;
     for (var i = 0u; i < GLOSSY_TRACED; i++) {
-        albedo += max(glossy_direction(i, exponent, n, tb[0], tb[1], v, turn).w, 0.0);
+        albedo += max(glossy_direction(i, GLOSSY_TRACED, exponent, n, tb[0], tb[1], v, turn).w, 0.0);
     }
     let lobe = ks * (albedo / f32(GLOSSY_TRACED));
     return lobe / max(lobe + diffuse_albedo, vec3<f32>(1e-6));
@@ -222,7 +233,7 @@ fn first_sphere(p: vec3<f32>, l: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(in.position.xy);
-    let change = glossy_change(pixel, in.row);
+    let change = glossy_change(pixel, in.row, false);
     if change.w == 0.0 {
         discard;
     }
@@ -234,8 +245,11 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
 // What draw `row`'s sphere changes in the glossy lobe of `pixel` (fs_glossy), per unit Ks and
 // times GLOSSY_TRACED, in rgb; w is 0 where it changes nothing (no lobe there, or the lobe
 // meets neither the sphere nor the live objects' shadows), else 1. At full resolution
-// (fs_glossy) and, while moving, at one pixel of each block (fs_glossy_gather).
-fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
+// (fs_glossy) and, while moving, at one pixel of each block (fs_glossy_gather, `moving`): then
+// over GLOSSY_TRACED_MOVING directions, and the sphere's radiance in the lobe comes from its
+// radiosity map (drawn this frame), as the moving cursor sphere's own does (shade_with's
+// `map_row`).
+fn glossy_change(pixel: vec2<i32>, row: u32, moving: bool) -> vec4<f32> {
     if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
         return vec4<f32>(0.0);
     }
@@ -255,6 +269,7 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
     let t = tb[0];
     let b = tb[1];
     let turn = lobe_turn(pixel);
+    let traced = select(GLOSSY_TRACED, GLOSSY_TRACED_MOVING, moving);
     // A surface with a diffuse albedo as well (plastic, or a metal's outline partly on a matte
     // surface) has only its lobe's share of the indirect light traced here.
     var diffuse_albedo = vec3<f32>(0.0);
@@ -268,7 +283,7 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
     var albedo = 0.0;
     var met = 0.0;
     var met_count = 0u;
-    // Which of the GLOSSY_TRACED directions met the sphere, so that the shading loop below
+    // Which of the `traced` directions met the sphere, so that the shading loop below
     // visits only those it shades.
     var met_mask = vec2<u32>(0u);
     // Which free directions met a surface no march finds (the eye does not see it).
@@ -277,8 +292,8 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
     // The lobe's weight times the share of light the live objects take, summed over the free
     // directions that meet a surface the eye does not see.
     var hidden_taken = vec3<f32>(0.0);
-    for (var i = 0u; i < GLOSSY_TRACED; i++) {
-        let d = glossy_direction(i, exponent, n, t, b, v, turn);
+    for (var i = 0u; i < traced; i++) {
+        let d = glossy_direction(i, traced, exponent, n, t, b, v, turn);
         if d.w <= 0.0 {
             continue;
         }
@@ -302,11 +317,11 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
     // A surface the eye does not see (behind another, or off screen) has no shadowed pixel to
     // read: the scene's triangles find it, and the share of its light the live objects take is
     // rebuilt there (its radiance taken as the lobe's mean, below).
-    for (var i = 0u; i < GLOSSY_TRACED; i++) {
+    for (var i = 0u; i < traced; i++) {
         if (hidden_mask[i / 32u] & (1u << (i % 32u))) == 0u {
             continue;
         }
-        let d = glossy_direction(i, exponent, n, t, b, v, turn);
+        let d = glossy_direction(i, traced, exponent, n, t, b, v, turn);
         let hit = scene_first_hit(p + n * ray_offset(p), d.xyz, 3.0e38);
         if hit.w > 0.0 {
             hidden_taken += d.w * live_shadow_share(p + hit.w * d.xyz, hit.xyz);
@@ -322,7 +337,8 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
     var change = shadowed - mean * hidden_taken;
     if met_count > 0u {
         let material = live_sphere_material(row);
-        let stride = (met_count + GLOSSY_SHADED - 1u) / GLOSSY_SHADED;
+        let shaded_most = select(GLOSSY_SHADED, GLOSSY_SHADED_MOVING, moving);
+        let stride = (met_count + shaded_most - 1u) / shaded_most;
         // The directions to shade are chosen first and shaded in a loop without `continue`:
         // on lavapipe, a loop that skipped directions with `continue` around the call to
         // shade left about half the fragments after their first or second shaded direction
@@ -330,9 +346,9 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
         var chosen: array<u32, GLOSSY_SHADED>;
         var chosen_count = 0u;
         var k = 0u;
-        for (var i = 0u; i < GLOSSY_TRACED; i++) {
+        for (var i = 0u; i < traced; i++) {
             if (met_mask[i / 32u] & (1u << (i % 32u))) != 0u {
-                if k % stride == 0u && chosen_count < GLOSSY_SHADED {
+                if k % stride == 0u && chosen_count < shaded_most {
                     chosen[chosen_count] = i;
                     chosen_count += 1u;
                 }
@@ -342,14 +358,15 @@ fn glossy_change(pixel: vec2<i32>, row: u32) -> vec4<f32> {
         var shaded = vec3<f32>(0.0);
         var shaded_weight = 0.0;
         for (var j = 0u; j < chosen_count; j++) {
-            let d = glossy_direction(chosen[j], exponent, n, t, b, v, turn);
+            let d = glossy_direction(chosen[j], traced, exponent, n, t, b, v, turn);
             let first = first_sphere(p, d.xyz);
             shaded_weight += d.w;
             if scene_lets_light(p, n, d.xyz, first.y, 0.0) {
                 let q = p + first.y * d.xyz;
                 let m = normalize(q - sphere.xyz);
                 loss_map_row = loss_map_row_at(row, sphere.xyz, m);
-                let seen = shade(material, q, m, d.xyz) * frame.tone.x;
+                let map_row = select(-1, i32(row), moving && frame.bounce.x == 1u);
+                let seen = shade_with(material, q, m, d.xyz, map_row, false) * frame.tone.x;
                 shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
             }
         }
