@@ -130,12 +130,12 @@ impl Compositor {
         // The cursor sphere's exact shading settles after the backdrop (settle.rs): from the
         // last moving frame's radiance map while the backdrop settles, then a band of its rows
         // exactly a frame at rest.
-        let sphere_settling = sphere && keep_shadowed && settle.sphere_settling();
+        let sphere_settling = sphere && keep_shadowed && settle.sphere.settling();
         let sphere_step = if sphere_settling && at_rest {
             let [x, y, z, r] = uniform.sphere.map(f64::from);
             // Off screen, the sphere has no rows: the first step is the last.
             let bounds = self.box_scissor(glam::DVec3::new(x, y, z), r * 1.001);
-            settle.sphere_step(bounds.unwrap_or_default())
+            settle.sphere.step(bounds.unwrap_or_default())
         } else {
             None
         };
@@ -319,7 +319,7 @@ impl Compositor {
         if let Some(step) = sphere_step {
             self.record_live_settling(&mut encoder, &draws, step);
             lap(&mut encoder, "live objects");
-            if !settle.sphere_finish(step) {
+            if !settle.sphere.finish(step) {
                 exact = false;
             }
         } else if keep_shadowed {

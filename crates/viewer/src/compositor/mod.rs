@@ -26,6 +26,7 @@ mod reflections;
 mod scene_shadows;
 mod settings;
 mod settle;
+mod settle_sphere;
 mod shadow_bounce;
 mod shadows;
 mod specular;
@@ -43,7 +44,8 @@ pub use settings::{
     CompositeMode, CompositorSettings, DepthSettings, FRAME_FORMAT, LINEAR_FORMAT, LINEAR_FORMAT_FALLBACK,
     MASK_FORMAT, MAX_LIGHTS, ShadowSettings, linear_format,
 };
-pub use settle::{SETTLE_PIXELS, SETTLE_REFLECTION_PIXELS, SETTLE_SHADOW_PIXELS, SETTLE_SPHERE_PIXELS};
+pub use settle::{SETTLE_PIXELS, SETTLE_REFLECTION_PIXELS, SETTLE_SHADOW_PIXELS};
+pub use settle_sphere::SETTLE_SPHERE_PIXELS;
 pub use shadow_bounce::TAKEN_BANDS as SHADOW_BOUNCE_BANDS;
 
 use crate::error::ViewerError;

@@ -29,17 +29,10 @@
 //! last band is drawn the frame is, bit for bit, the exact one; the frames after it copy it as any
 //! frame at rest does.
 //!
-//! The cursor sphere's exact shading (with the scene's triangles bound, hundreds of shadow rays a
-//! fragment toward each area light) settles the same way. While the backdrop settles, the sphere
-//! is read from the radiance map the last moving frame drew for these very inputs
-//! (`cursor_radiance_map.rs`: the moving frame's own sphere). Once the backdrop is exact (the
-//! frames at rest that copy it), each frame shades a band of the sphere's rows exactly, as many as
-//! [`SETTLE_SPHERE_PIXELS`] pixels of its bounds allow, and keeps the frame's rows drawn so far
-//! (`sphere_kept`; their backdrop no longer changes), the rows below still from the map. A
-//! fragment's shading depends on its own pixel alone, so the frame that shades the last band
-//! (and its edges exactly) is, bit for bit, the exact frame.
+//! The cursor sphere's exact shading settles after the backdrop (`settle_sphere.rs`).
 
 use super::Compositor;
+use super::settle_sphere::SphereSettle;
 use std::cell::{Cell, RefCell};
 
 /// The pixels a settling frame draws the bounce light, the loss and its removal in exactly, at
@@ -50,11 +43,6 @@ pub const SETTLE_PIXELS: u32 = 1 << 12;
 /// The pixels of the layered shadows' scissor a settling frame draws them in exactly, at most
 /// (one row at least): a quarter of the frame at 512^2 (about 0.5 s in full on lavapipe).
 pub const SETTLE_SHADOW_PIXELS: u32 = 1 << 16;
-
-/// The pixels of the cursor sphere's bounds a frame at rest shades exactly while the sphere
-/// settles, at most (one row at least): at 512^2 on lavapipe a band of the bench's sphere then
-/// costs about a sixth of its exact shading.
-pub const SETTLE_SPHERE_PIXELS: u32 = 1 << 11;
 
 /// The pixels of the reflections' rectangle a settling frame draws a sphere's glossy lobes in
 /// exactly, at most (one row at least): 2 rows at 512 wide. Each pixel traces 64 lobe directions
@@ -95,14 +83,8 @@ pub(super) struct Settle {
     /// The backdrop the last moving frame drew (before its live objects), shown below the rows
     /// done.
     moving_backdrop: RefCell<Option<wgpu::Texture>>,
-    /// Whether the cursor sphere's radiance map holds the sphere of the frame being drawn: the
-    /// last moving frame drew it, and the frames at rest since have its inputs.
-    sphere_map_current: Cell<bool>,
-    /// Rows of the cursor sphere's bounds shaded exactly since the move, from their top; `None`
-    /// when its exact shading is not settling.
-    sphere_rows_done: Cell<Option<u32>>,
-    /// The frame's rows whose cursor sphere is exact, as the live objects' pass left them.
-    sphere_kept: RefCell<Option<wgpu::Texture>>,
+    /// The cursor sphere's exact shading, settling after the backdrop.
+    pub(super) sphere: SphereSettle,
 }
 
 /// What one settling frame draws.
@@ -237,8 +219,7 @@ impl Settle {
     pub(super) fn begin_frame(&self, moving: bool, enabled: bool, cursor_map: bool) {
         if moving {
             self.active.set(false);
-            self.sphere_map_current.set(cursor_map);
-            self.sphere_rows_done.set(None);
+            self.sphere.moving(cursor_map);
         } else if self.was_moving.get() && enabled {
             self.active.set(true);
             self.started.set(false);
@@ -249,33 +230,9 @@ impl Settle {
             self.reflection_rows_done.set(0);
             self.reflections_done.set(false);
             self.rows_done.set(0);
-            self.sphere_rows_done.set(self.sphere_map_current.get().then_some(0));
+            self.sphere.start();
         }
         self.was_moving.set(moving);
-    }
-
-    /// Whether the cursor sphere's exact shading is settling: the frame shows the sphere from its
-    /// radiance map but for the rows [`Settle::sphere_step`] gives.
-    pub(super) fn sphere_settling(&self) -> bool {
-        self.sphere_rows_done.get().is_some()
-    }
-
-    /// The rows of the cursor sphere's `bounds` (`[x, y, w, h]`) a frame at rest with the exact
-    /// backdrop shades exactly, and those shaded before; `None` when its shading is not settling.
-    pub(super) fn sphere_step(&self, [_, y, w, h]: [u32; 4]) -> Option<SphereStep> {
-        let done = self.sphere_rows_done.get()?.min(h);
-        let rows = (SETTLE_SPHERE_PIXELS / w.max(1)).max(1).min(h - done);
-        Some(SphereStep { kept: [y, done], band: [y + done, rows], last: done + rows == h })
-    }
-
-    /// Records `step` as drawn; whether the sphere is now exact in every row.
-    pub(super) fn sphere_finish(&self, step: SphereStep) -> bool {
-        if step.last {
-            self.sphere_rows_done.set(None);
-        } else if let Some(done) = self.sphere_rows_done.get() {
-            self.sphere_rows_done.set(Some(done + step.band[1]));
-        }
-        step.last
     }
 
     /// The step this frame draws, `None` when it is not settling, for a frame of `size` whose
@@ -302,7 +259,7 @@ impl Settle {
             SettlePart::Maps
         } else if reflections.is_some() && self.bounce_rows_done.get() < height {
             SettlePart::Bounce(rows_band(self.bounce_rows_done.get(), (width, height)))
-        } else if let Some(draws) = reflections.filter(|d| d.count() > 0 && !self.reflections_done.get()) {
+        } else if let Some(draws) = reflections.filter(|_| !self.reflections_done.get()) {
             SettlePart::Reflections(
                 draws.band(self.reflection_draws_done.get(), self.reflection_rows_done.get()),
             )
@@ -352,16 +309,6 @@ fn rows_band(done: u32, (width, height): (u32, u32)) -> [u32; 2] {
     [done, (SETTLE_PIXELS / width.max(1)).max(1).min(height - done)]
 }
 
-/// The frame's rows a frame at rest draws the cursor sphere exactly in while it settles (`band`:
-/// its first row and how many) and those it keeps from earlier frames (`kept`, likewise);
-/// `last`: the band is the last, the sphere exact after it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct SphereStep {
-    pub(super) kept: [u32; 2],
-    pub(super) band: [u32; 2],
-    pub(super) last: bool,
-}
-
 /// The intersection of two rectangles, `None` when empty.
 pub(super) fn intersect([ax, ay, aw, ah]: [u32; 4], [bx, by, bw, bh]: [u32; 4]) -> Option<[u32; 4]> {
     let (x0, y0) = (ax.max(bx), ay.max(by));
@@ -381,15 +328,9 @@ impl Compositor {
         self.frame_sized_copy(&self.reduced.settle.moving_backdrop, "last moving frame's backdrop")
     }
 
-    /// The texture the frames at rest keep the cursor sphere's exact rows in (made when first
-    /// needed).
-    fn sphere_kept(&self) -> wgpu::Texture {
-        self.frame_sized_copy(&self.reduced.settle.sphere_kept, "settling sphere rows")
-    }
-
     /// The frame-sized texture of the linear format held in `slot`, which frames copy into and
     /// out of (made when first needed).
-    fn frame_sized_copy(
+    pub(super) fn frame_sized_copy(
         &self,
         slot: &std::cell::RefCell<Option<wgpu::Texture>>,
         label: &str,
@@ -410,51 +351,8 @@ impl Compositor {
         .clone()
     }
 
-    /// Draws the live meshes (`draws`) exactly and the cursor sphere of a frame at rest whose
-    /// sphere settles: exactly in `step`'s band, from its radiance map elsewhere, then the rows
-    /// shaded exactly before put back from the kept copy (colour only: the mask and depth are
-    /// the same either way) and the band's rows kept.
-    pub(super) fn record_live_settling(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        draws: &[usize],
-        step: SphereStep,
-    ) {
-        let [top, rows] = step.band;
-        {
-            let mut pass = self.begin_frame_pass(encoder, &self.linear_view, false);
-            self.draw_live(&mut pass, (&self.mesh_pipeline, &self.sphere_pipeline), draws, false);
-            let below = top + rows;
-            for ([y, h], pipeline) in [
-                ([0, top], &self.sphere_mapped_pipeline),
-                ([top, rows], &self.sphere_pipeline),
-                ([below, self.height - below], &self.sphere_mapped_pipeline),
-            ] {
-                if h > 0 {
-                    pass.set_scissor_rect(0, y, self.width, h);
-                    pass.set_pipeline(pipeline);
-                    pass.draw(0..36, 0..1);
-                }
-            }
-        }
-        let kept = self.sphere_kept();
-        for ([y, h], into_kept) in [(step.band, true), (step.kept, false)] {
-            if h == 0 {
-                continue;
-            }
-            let (from, to) =
-                if into_kept { (&self.linear_texture, &kept) } else { (&kept, &self.linear_texture) };
-            let origin = wgpu::Origin3d { x: 0, y, z: 0 };
-            encoder.copy_texture_to_texture(
-                wgpu::TexelCopyTextureInfo { origin, ..from.as_image_copy() },
-                wgpu::TexelCopyTextureInfo { origin, ..to.as_image_copy() },
-                wgpu::Extent3d { width: self.width, height: h, depth_or_array_layers: 1 },
-            );
-        }
-    }
-
     /// Copies the frame's rows `[top, count]` from `from` into `to`.
-    fn copy_rows(
+    pub(super) fn copy_rows(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         from: &wgpu::Texture,
@@ -532,7 +430,7 @@ impl Compositor {
 mod tests {
     use super::{
         ReflectionBand, ReflectionDraw, ReflectionDraws, SETTLE_PIXELS, SETTLE_REFLECTION_PIXELS,
-        SETTLE_SHADOW_PIXELS, SETTLE_SPHERE_PIXELS, Settle, SettlePart, SettleStep, intersect,
+        SETTLE_SHADOW_PIXELS, Settle, SettlePart, SettleStep, intersect,
     };
 
     /// Settling draws the layered shadows a band of their scissor's rows a frame, then the maps,
@@ -711,40 +609,6 @@ mod tests {
             }
         };
         assert_eq!(first.draw, ReflectionDraw::Mirror);
-    }
-
-    /// The cursor sphere settles only after a move whose last frame drew its radiance map, a
-    /// band of its rows a frame, each row once, from the top, the last band flagged.
-    #[test]
-    fn the_sphere_settles_row_band_by_row_band() {
-        let settle = Settle::default();
-        settle.begin_frame(true, true, false);
-        settle.begin_frame(false, true, false);
-        assert!(!settle.sphere_settling(), "no radiance map was drawn");
-        settle.begin_frame(true, true, true);
-        assert!(!settle.sphere_settling(), "a moving frame does not settle");
-        settle.begin_frame(false, true, false);
-        assert!(settle.sphere_settling());
-        let bounds = [100, 300, 128, 100];
-        let per_band = SETTLE_SPHERE_PIXELS / 128;
-        let (mut next, mut frames) = (300, 0);
-        loop {
-            let step = settle.sphere_step(bounds).expect("settling");
-            assert_eq!(step.kept, [300, next - 300]);
-            assert_eq!(step.band, [next, per_band.min(400 - next)]);
-            next += step.band[1];
-            frames += 1;
-            assert_eq!(settle.sphere_finish(step), next == 400);
-            if step.last {
-                break;
-            }
-        }
-        assert_eq!(frames, 100u32.div_ceil(per_band));
-        assert!(!settle.sphere_settling() && settle.sphere_step(bounds).is_none());
-        settle.begin_frame(true, true, true);
-        settle.begin_frame(false, true, false);
-        let off_screen = settle.sphere_step([0; 4]).expect("settling");
-        assert!(off_screen.last && off_screen.band[1] == 0, "no rows: the first step is the last");
     }
 
     #[test]
