@@ -19,30 +19,6 @@ const RADIANCE: f32 = 0.6;
 /// The glass sphere (world space), in front of the box's back wall.
 const GLASS: (DVec3, f64) = (DVec3::new(-0.1, -0.2, 0.3), 0.45);
 
-/// Snell refraction of unit `v` at unit normal `n` (`n . v < 0`), relative index `eta`.
-fn refract(v: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
-    let cos_i = -n.dot(v);
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
-    (sin2_t <= 1.0).then(|| eta * v + (eta * cos_i - (1.0 - sin2_t).sqrt()) * n)
-}
-
-/// The exit ray of the camera ray `(origin, dir)` through the glass sphere (entering, crossing,
-/// leaving; `None` when it misses it or reflects totally inside).
-fn exit_ray(origin: DVec3, dir: DVec3) -> Option<(DVec3, DVec3)> {
-    let (c, r) = GLASS;
-    let t = ray_sphere(origin, dir, c, r)?;
-    let entry = origin + t * dir;
-    let inside = refract(dir, (entry - c) / r, 1.0 / ETA)?.normalize();
-    let exit = entry + inside * (-2.0 * (entry - c).dot(inside));
-    let out = refract(inside, -(exit - c) / r, ETA)?.normalize();
-    Some((exit, out))
-}
-
-/// The distance from `o` (inside the box [-1, 1]^3) along unit `d` to the box's walls.
-fn to_the_walls(o: DVec3, d: DVec3) -> f64 {
-    (0..3).filter(|&a| d[a] != 0.0).map(|a| (d[a].signum() - o[a]) / d[a]).fold(f64::INFINITY, f64::min)
-}
-
 /// An exit ray: origin, unit direction, distance to the box's walls.
 type ExitRay = (DVec3, DVec3, f64);
 
@@ -75,8 +51,8 @@ fn glass_scene_lit_by(lights: Vec<viewer::LiveLight>) -> (ViewerScene, Vec<Optio
             let origin = world_from_camera.transform_point3(ray.origin);
             let dir = world_from_camera.transform_vector3(ray.direction).normalize();
             layers.normal[k] = [0.0, 0.0, 1.0];
-            let Some((o, d)) = exit_ray(origin, dir) else { continue };
-            let distance = to_the_walls(o, d);
+            let Some((o, d)) = glass_exit_ray(origin, dir, GLASS, ETA) else { continue };
+            let distance = to_the_box_walls(o, d);
             exits[k] = Some((o, d, distance));
             layers.transmittance[k] = [TRANSMITTANCE; 3];
             layers.transmitted[k] = [LEVEL; 3];

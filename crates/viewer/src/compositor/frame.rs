@@ -289,9 +289,17 @@ impl Compositor {
                 self.record_reflections(&mut encoder, &keyed, &loss_map_rows, &mesh_bytes);
                 lap(&mut encoder, "spheres in reflections");
             }
-            if !settling_without_rows {
+            // The settling frames draw the glass after the reflections, from the kept backdrop
+            // (settle.rs): it reads other pixels, before the loss's removal.
+            if settling.is_some_and(|step| step.part == SettlePart::Transmission) {
                 self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
                 lap(&mut encoder, "spheres seen through glass");
+            }
+            if !settling_without_rows {
+                if settling.is_none_or(SettleStep::draws_reflections) {
+                    self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
+                    lap(&mut encoder, "spheres seen through glass");
+                }
                 let rows = settling.and_then(SettleStep::rows);
                 self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes, rows);
                 lap(&mut encoder, "second bounce: what each pixel loses");

@@ -11,10 +11,12 @@
 //! time ([`SETTLE_SHADOW_PIXELS`] a frame); then the maps and the clusters, which read the
 //! backdrop after shadows everywhere, from the exact shadows; then the exact bounce light, loss
 //! and its removal a band of the frame's rows at a time ([`SETTLE_PIXELS`] a frame), from the
-//! top. In a scene with spheres seen in mirrors or glossy lobes, which read the backdrop after
-//! the exact shadows and bounce light at other pixels than their own, the bounce light settles
-//! first, in bands of rows kept ([`SettlePart::Bounce`]), then the reflections from the kept
-//! backdrop ([`SettlePart::Reflections`]), then the loss and its removal settle in bands of rows.
+//! top. In a scene with spheres seen in mirrors, glossy lobes or through glass, which read the
+//! backdrop after the exact shadows and bounce light at other pixels than their own, the bounce
+//! light settles first, in bands of rows kept ([`SettlePart::Bounce`]), then the reflections from
+//! the kept backdrop ([`SettlePart::Reflections`]), then the glass, whole, from the kept backdrop
+//! with the reflections ([`SettlePart::Transmission`]), then the loss and its removal settle in
+//! bands of rows.
 //! The reflections are drawn a draw at a time, as the specular pass draws them
 //! ([`ReflectionDraws`]): the mirror's in one frame, then each sphere's glossy lobes a band of
 //! the reflections' rectangle's rows a frame ([`SETTLE_REFLECTION_PIXELS`]). Each draw reads the
@@ -76,6 +78,8 @@ pub(super) struct Settle {
     reflection_rows_done: Cell<u32>,
     /// Whether the spheres in reflections were drawn from the exact backdrop since the move.
     reflections_done: Cell<bool>,
+    /// Whether the spheres seen through glass were drawn from the exact backdrop since the move.
+    transmission_done: Cell<bool>,
     /// Rows of the frame whose backdrop is finished (exact) since the move, from the top.
     rows_done: Cell<u32>,
     /// The backdrop after the exact shadows, and in the rows done the finished backdrop.
@@ -112,6 +116,11 @@ pub(super) enum SettlePart {
     /// exact shadows and bounce light everywhere, which the mirror reads at the surfaces it
     /// reflects, and the draws before it), kept once the draw is complete.
     Reflections(ReflectionBand),
+    /// With spheres seen through glass: their draw, whole, from the kept backdrop after the
+    /// reflections (it reads the backdrop after the exact shadows, bounce light and reflections
+    /// where the exit rays meet the scene, before the loss's removal), kept. Every moving frame
+    /// draws it whole too, so it costs no more than theirs.
+    Transmission,
     /// The bounce light (without reflections), the loss and its removal exactly in the frame's
     /// rows `[top, count]`.
     Rows([u32; 2]),
@@ -150,17 +159,21 @@ impl SettleStep {
     }
 }
 
-/// The draws of the spheres in reflections, in the specular pass's order
-/// (`Compositor::record_reflections`): the mirror's (every sphere in one pass), then each
-/// sphere's glossy draw, each reading what the draws before it left.
+/// The draws of the spheres in reflections and seen through glass, in the exact frame's order
+/// (`Compositor::record_reflections`, then `Compositor::record_transmission`): the mirror's
+/// (every sphere in one pass), then each sphere's glossy draw, each reading what the draws
+/// before it left at other pixels than its own, then the glass's ([`SettlePart::Transmission`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct ReflectionDraws {
-    /// The pixels with a specular reflection or a glossy lobe, `[x, y, w, h]`.
+    /// The pixels with a specular reflection or a glossy lobe, `[x, y, w, h]` (unused without
+    /// mirror and glossy draws).
     pub(super) rect: [u32; 4],
     /// Whether the frame has mirrors: the mirror's draw comes first.
     pub(super) mirror: bool,
     /// The glossy draws, one per sphere (none without glossy lobes).
     pub(super) glossy: u32,
+    /// Whether the frame shows spheres through glass: that draw comes last, whole in one frame.
+    pub(super) transmission: bool,
 }
 
 /// One of [`ReflectionDraws`].
@@ -186,6 +199,7 @@ pub(super) struct ReflectionBand {
 
 impl ReflectionDraws {
     /// How many draws there are.
+    /// How many draws the specular pass makes (the glass's is not one).
     pub(super) fn count(self) -> u32 {
         u32::from(self.mirror) + self.glossy
     }
@@ -229,6 +243,7 @@ impl Settle {
             self.reflection_draws_done.set(0);
             self.reflection_rows_done.set(0);
             self.reflections_done.set(false);
+            self.transmission_done.set(false);
             self.rows_done.set(0);
             self.sphere.start();
         }
@@ -259,10 +274,12 @@ impl Settle {
             SettlePart::Maps
         } else if reflections.is_some() && self.bounce_rows_done.get() < height {
             SettlePart::Bounce(rows_band(self.bounce_rows_done.get(), (width, height)))
-        } else if let Some(draws) = reflections.filter(|_| !self.reflections_done.get()) {
+        } else if let Some(draws) = reflections.filter(|d| d.count() > 0 && !self.reflections_done.get()) {
             SettlePart::Reflections(
                 draws.band(self.reflection_draws_done.get(), self.reflection_rows_done.get()),
             )
+        } else if reflections.is_some_and(|d| d.transmission) && !self.transmission_done.get() {
+            SettlePart::Transmission
         } else {
             SettlePart::Rows(rows_band(self.rows_done.get(), (width, height)))
         };
@@ -287,6 +304,7 @@ impl Settle {
                 }
                 self.reflections_done.set(band.last);
             }
+            SettlePart::Transmission => self.transmission_done.set(true),
             SettlePart::Rows([top, rows]) => self.rows_done.set(top + rows),
         }
         let complete = self.rows_done.get() >= height && self.maps_done.get();
@@ -416,6 +434,7 @@ impl Compositor {
             SettlePart::Rows(rows) | SettlePart::Bounce(rows) => {
                 self.copy_rows(encoder, &self.linear_texture, &kept, rows)
             }
+            SettlePart::Transmission => self.copy_transmission_into(encoder, &kept),
             SettlePart::Reflections(band) if band.draw_complete => self.copy_reflections_into(encoder, &kept),
             _ => {}
         }
@@ -511,7 +530,7 @@ mod tests {
     /// after them draw neither; without, the rows' steps draw both.
     #[test]
     fn with_reflections_the_bounce_light_settles_before_them_and_they_in_bands() {
-        let draws = ReflectionDraws { rect: [0, 300, 512, 42], mirror: true, glossy: 2 };
+        let draws = ReflectionDraws { rect: [0, 300, 512, 42], mirror: true, glossy: 2, transmission: false };
         let steps = settle_all((512, 512), Some(draws));
         let bands = (512 / (SETTLE_PIXELS / 512)) as usize;
         let rows = SETTLE_PIXELS / 512;
@@ -556,7 +575,7 @@ mod tests {
         }
         // Glossy lobes alone: the first sphere's bands come first; a row wider than the budget
         // is a band.
-        let glossy = ReflectionDraws { rect: [5, 7, 8192, 3], mirror: false, glossy: 1 };
+        let glossy = ReflectionDraws { rect: [5, 7, 8192, 3], mirror: false, glossy: 1, transmission: false };
         let steps = settle_all((8200, 10), Some(glossy));
         let bands: Vec<ReflectionBand> = steps.iter().filter_map(|s| s.reflection_band()).collect();
         let expected = (0..3).map(|k| ReflectionBand {
@@ -567,7 +586,7 @@ mod tests {
         });
         assert_eq!(bands, expected.collect::<Vec<_>>());
         // A mirror alone is one step.
-        let mirror = ReflectionDraws { rect: [0, 0, 512, 512], mirror: true, glossy: 0 };
+        let mirror = ReflectionDraws { rect: [0, 0, 512, 512], mirror: true, glossy: 0, transmission: false };
         let bands: Vec<ReflectionBand> =
             settle_all((512, 512), Some(mirror)).iter().filter_map(|s| s.reflection_band()).collect();
         let whole =
@@ -581,6 +600,35 @@ mod tests {
         assert_eq!(steps.len(), 1 + bands_of(512));
     }
 
+    /// The glass's draw comes once, whole, after the bounce light's rows and the reflections'
+    /// bands and before the rows' steps, which then draw neither; with glass alone it follows
+    /// the bounce light's rows.
+    #[test]
+    fn the_glass_settles_after_the_reflections_and_before_the_loss() {
+        let parts =
+            |draws| settle_all((512, 512), Some(draws)).into_iter().map(|s| s.part).collect::<Vec<_>>();
+        let with_mirror =
+            ReflectionDraws { rect: [0, 300, 512, 42], mirror: true, glossy: 0, transmission: true };
+        let parts_with_mirror = parts(with_mirror);
+        let glass = parts_with_mirror.iter().position(|p| *p == SettlePart::Transmission).expect("the glass");
+        assert_eq!(parts_with_mirror.iter().filter(|p| **p == SettlePart::Transmission).count(), 1);
+        assert!(matches!(parts_with_mirror[glass - 1], SettlePart::Reflections(band) if band.last));
+        assert!(parts_with_mirror[glass + 1..].iter().all(|p| matches!(p, SettlePart::Rows(_))));
+        assert_eq!(parts_with_mirror.len(), 1 + 2 * bands_of(512) + 2);
+        let glass_alone = ReflectionDraws { rect: [0; 4], mirror: false, glossy: 0, transmission: true };
+        let parts_alone = parts(glass_alone);
+        let glass = parts_alone.iter().position(|p| *p == SettlePart::Transmission).expect("the glass");
+        assert!(matches!(parts_alone[glass - 1], SettlePart::Bounce([top, rows]) if top + rows == 512));
+        assert!(parts_alone.iter().all(|p| !matches!(p, SettlePart::Reflections(_))));
+        let steps = settle_all((512, 512), Some(glass_alone));
+        assert!(
+            steps
+                .iter()
+                .filter(|s| s.rows().is_some())
+                .all(|s| s.bounce_rows().is_none() && !s.draws_reflections())
+        );
+    }
+
     /// The rows' steps of a frame 512 wide and `height` high.
     fn bands_of(height: u32) -> usize {
         height.div_ceil(SETTLE_PIXELS / 512) as usize
@@ -589,7 +637,7 @@ mod tests {
     /// A move while the reflections settle starts them again from the mirror's draw.
     #[test]
     fn a_move_while_the_reflections_settle_starts_them_again() {
-        let draws = ReflectionDraws { rect: [0, 0, 512, 40], mirror: true, glossy: 1 };
+        let draws = ReflectionDraws { rect: [0, 0, 512, 40], mirror: true, glossy: 1, transmission: false };
         let settle = Settle::default();
         settle.begin_frame(true, true, false);
         settle.begin_frame(false, true, false);

@@ -121,13 +121,20 @@ impl Compositor {
             && uniform.layer_info[3] != 0
     }
 
-    /// The draws [`Compositor::record_reflections`] makes for `uniform`, in order, for the
-    /// frames that settle them in bands (`settle.rs`); `None` when it draws nothing.
+    /// The draws [`Compositor::record_reflections`] and [`Compositor::record_transmission`]
+    /// make for `uniform`, in order, for the frames that settle them (`settle.rs`); `None` when
+    /// they draw nothing.
     pub(super) fn reflection_draws(&self, uniform: &FrameUniform) -> Option<ReflectionDraws> {
-        let rect = self.layers.specular_rect().filter(|_| self.reflections_drawn(uniform))?;
-        let glossy = if self.layers.glossy.is_some() { self.reflecting_spheres(uniform) } else { 0 };
-        Some(ReflectionDraws { rect, mirror: self.layers.reflection.is_some(), glossy })
-            .filter(|draws| draws.count() > 0)
+        let rect = self.layers.specular_rect().filter(|_| self.reflections_drawn(uniform));
+        let glossy =
+            if rect.is_some() && self.layers.glossy.is_some() { self.reflecting_spheres(uniform) } else { 0 };
+        Some(ReflectionDraws {
+            rect: rect.unwrap_or_default(),
+            mirror: rect.is_some() && self.layers.reflection.is_some(),
+            glossy,
+            transmission: self.transmission_drawn(uniform),
+        })
+        .filter(|draws| draws.count() > 0 || draws.transmission)
     }
 
     /// The spheres the specular pass draws, one draw each.

@@ -154,6 +154,30 @@ impl Transmission {
 }
 
 impl Compositor {
+    /// Whether [`Compositor::record_transmission`] draws anything for `uniform`: some pixel
+    /// transmits and there are spheres, with the spheres in reflections' switch (the bounce
+    /// light's, layered shadows on).
+    pub(super) fn transmission_drawn(&self, uniform: &FrameUniform) -> bool {
+        self.transmission.is_some()
+            && self.settings.bounce_light
+            && uniform.counts[1] == 1
+            && uniform.layer_info[3] != 0
+    }
+
+    /// Copies the pixels that transmit from the frame's colour target into `to`, a frame-sized
+    /// texture, at their place.
+    pub(super) fn copy_transmission_into(&self, encoder: &mut wgpu::CommandEncoder, to: &wgpu::Texture) {
+        if let Some(transmission) = &self.transmission {
+            let [x, y, w, h] = transmission.rect;
+            let origin = wgpu::Origin3d { x, y, z: 0 };
+            encoder.copy_texture_to_texture(
+                wgpu::TexelCopyTextureInfo { origin, ..self.linear_texture.as_image_copy() },
+                wgpu::TexelCopyTextureInfo { origin, ..to.as_image_copy() },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+    }
+
     /// Shows the live spheres seen through the scene's glass (`fs_transmission`): within the
     /// pixels that transmit, each sphere's draw (its material bound at its mesh slot, `rows` as
     /// for the radiosity maps) replaces the light the exit ray brought by the sphere where that
@@ -166,11 +190,10 @@ impl Compositor {
         uniform: &FrameUniform,
         rows: &[i32],
     ) {
-        let Some(transmission) = &self.transmission else { return };
-        // On with the spheres in reflections (the bounce light's switch, layered shadows on).
-        if !self.settings.bounce_light || uniform.counts[1] != 1 || uniform.layer_info[3] == 0 {
+        let Some(transmission) = self.transmission.as_ref().filter(|_| self.transmission_drawn(uniform))
+        else {
             return;
-        }
+        };
         let [x, y, w, h] = transmission.rect;
         let spheres = uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32);
         {

@@ -521,3 +521,26 @@ pub fn sphere_lobe_error(
     assert!(pixels > 300 && total > least * pixels as f64, "{pixels} pixels facing down, total {total}");
     (error / total, pixels)
 }
+
+/// Snell refraction of unit `v` at unit normal `n` (`n . v < 0`), relative index `eta`.
+pub fn refract(v: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
+    let cos_i = -n.dot(v);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    (sin2_t <= 1.0).then(|| eta * v + (eta * cos_i - (1.0 - sin2_t).sqrt()) * n)
+}
+
+/// The exit ray of the ray `(origin, dir)` through a glass sphere `(centre, radius)` of index
+/// `eta` (entering, crossing, leaving; `None` when it misses it or reflects totally inside).
+pub fn glass_exit_ray(origin: DVec3, dir: DVec3, (c, r): (DVec3, f64), eta: f64) -> Option<(DVec3, DVec3)> {
+    let t = ray_sphere(origin, dir, c, r)?;
+    let entry = origin + t * dir;
+    let inside = refract(dir, (entry - c) / r, 1.0 / eta)?.normalize();
+    let exit = entry + inside * (-2.0 * (entry - c).dot(inside));
+    let out = refract(inside, -(exit - c) / r, eta)?.normalize();
+    Some((exit, out))
+}
+
+/// The distance from `o` (inside the box [-1, 1]^3) along unit `d` to the box's walls.
+pub fn to_the_box_walls(o: DVec3, d: DVec3) -> f64 {
+    (0..3).filter(|&a| d[a] != 0.0).map(|a| (d[a].signum() - o[a]) / d[a]).fold(f64::INFINITY, f64::min)
+}
