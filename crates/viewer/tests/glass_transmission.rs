@@ -41,26 +41,18 @@ fn glass_scene_lit_by(lights: Vec<viewer::LiveLight>) -> (ViewerScene, Vec<Optio
     let mut s = flat_cornell(LEVEL, lights);
     let fingerprint = sidecar::depth_fingerprint(s.depth().values());
     let mut layers = sidecar::LightLayers::new(w, h, fingerprint, vec![]);
-    let camera = s.camera().clone();
-    let world_from_camera = camera.world_from_camera();
     let mut exits = vec![None; (w * h) as usize];
-    for j in 0..h {
-        for i in 0..w {
-            let k = (j * w + i) as usize;
-            let ray = camera.pixel_centre_ray(i, j);
-            let origin = world_from_camera.transform_point3(ray.origin);
-            let dir = world_from_camera.transform_vector3(ray.direction).normalize();
-            layers.normal[k] = [0.0, 0.0, 1.0];
-            let Some((o, d)) = glass_exit_ray(origin, dir, GLASS, ETA) else { continue };
-            let distance = to_the_box_walls(o, d);
-            exits[k] = Some((o, d, distance));
-            layers.transmittance[k] = [TRANSMITTANCE; 3];
-            layers.transmitted[k] = [LEVEL; 3];
-            layers.indirect[k] = [LEVEL; 3];
-            layers.transmission_origin[k] = o.as_vec3().to_array();
-            layers.transmission_direction[k] = d.as_vec3().to_array();
-            layers.transmission_distance[k] = [distance as f32; 3];
-        }
+    for (k, origin, dir) in world_pixel_rays(s.camera(), w, h) {
+        layers.normal[k] = [0.0, 0.0, 1.0];
+        let Some((o, d)) = glass_exit_ray(origin, dir, GLASS, ETA) else { continue };
+        let distance = to_the_box_walls(o, d);
+        exits[k] = Some((o, d, distance));
+        layers.transmittance[k] = [TRANSMITTANCE; 3];
+        layers.transmitted[k] = [LEVEL; 3];
+        layers.indirect[k] = [LEVEL; 3];
+        layers.transmission_origin[k] = o.as_vec3().to_array();
+        layers.transmission_direction[k] = d.as_vec3().to_array();
+        layers.transmission_distance[k] = [distance as f32; 3];
     }
     let area_samples = vec![vec![]; unlayered.len()];
     s.set_light_layers(SceneLayers { layers, layer_of_light: unlayered, area_samples }).unwrap();

@@ -234,29 +234,21 @@ fn with_glass_sphere(
 ) -> (ViewerScene, Vec<Option<(DVec3, DVec3)>>) {
     let mut scene_layers = scene.light_layers().expect("light layers").clone();
     let layers = &mut scene_layers.layers;
-    let camera = scene.camera().clone();
-    let world_from_camera = camera.world_from_camera();
     let mut exits = vec![None; (SIZE * SIZE) as usize];
-    for j in 0..SIZE {
-        for i in 0..SIZE {
-            let k = (j * SIZE + i) as usize;
-            let ray = camera.pixel_centre_ray(i, j);
-            let origin = world_from_camera.transform_point3(ray.origin);
-            let dir = world_from_camera.transform_vector3(ray.direction).normalize();
-            let Some((o, d)) = glass_exit_ray(origin, dir, glass, GLASS_ETA) else { continue };
-            exits[k] = Some((o, d));
-            layers.light[0][k] = [0.0; 3];
-            layers.albedo[k] = [0.0; 3];
-            layers.glossy[k] = [0.0; 3];
-            layers.reflectance[k] = [0.0; 3];
-            layers.reflected[k] = [0.0; 3];
-            layers.transmittance[k] = [0.8; 3];
-            layers.transmitted[k] = [LEVEL; 3];
-            layers.indirect[k] = [LEVEL; 3];
-            layers.transmission_origin[k] = o.as_vec3().to_array();
-            layers.transmission_direction[k] = d.as_vec3().to_array();
-            layers.transmission_distance[k] = [to_the_box_walls(o, d) as f32; 3];
-        }
+    for (k, origin, dir) in world_pixel_rays(scene.camera(), SIZE, SIZE) {
+        let Some((o, d)) = glass_exit_ray(origin, dir, glass, GLASS_ETA) else { continue };
+        exits[k] = Some((o, d));
+        layers.light[0][k] = [0.0; 3];
+        layers.albedo[k] = [0.0; 3];
+        layers.glossy[k] = [0.0; 3];
+        layers.reflectance[k] = [0.0; 3];
+        layers.reflected[k] = [0.0; 3];
+        layers.transmittance[k] = [0.8; 3];
+        layers.transmitted[k] = [LEVEL; 3];
+        layers.indirect[k] = [LEVEL; 3];
+        layers.transmission_origin[k] = o.as_vec3().to_array();
+        layers.transmission_direction[k] = d.as_vec3().to_array();
+        layers.transmission_distance[k] = [to_the_box_walls(o, d) as f32; 3];
     }
     scene.set_light_layers(scene_layers).unwrap();
     (scene, exits)

@@ -544,3 +544,21 @@ pub fn glass_exit_ray(origin: DVec3, dir: DVec3, (c, r): (DVec3, f64), eta: f64)
 pub fn to_the_box_walls(o: DVec3, d: DVec3) -> f64 {
     (0..3).filter(|&a| d[a] != 0.0).map(|a| (d[a].signum() - o[a]) / d[a]).fold(f64::INFINITY, f64::min)
 }
+
+/// Each pixel of a `width` x `height` frame seen by `camera`, row by row: its index and its
+/// centre ray in world space (origin and unit direction).
+pub fn world_pixel_rays(
+    camera: &Camera,
+    width: u32,
+    height: u32,
+) -> impl Iterator<Item = (usize, DVec3, DVec3)> + '_ {
+    let world_from_camera = camera.world_from_camera();
+    (0..height).flat_map(move |j| {
+        (0..width).map(move |i| {
+            let ray = camera.pixel_centre_ray(i, j);
+            let origin = world_from_camera.transform_point3(ray.origin);
+            let dir = world_from_camera.transform_vector3(ray.direction).normalize();
+            ((j * width + i) as usize, origin, dir)
+        })
+    })
+}
