@@ -120,7 +120,8 @@ fn no_surface() -> SurfaceInteraction {
 
 /// Renders a batch of camera rays, each with its sampler (the state after the camera's
 /// dimensions; `rays` and `samplers` are as long as each other): the radiance and coverage of
-/// each, as [`crate::integrators::PathTracer`] returns them.
+/// each, as [`crate::integrators::PathTracer`] returns them. The batch runs as its x86-64-v3
+/// copy where the world found that instruction set on this CPU (`World::x86_64_v3`).
 pub fn render_batch(
     world: &World,
     settings: PathSettings,
@@ -129,7 +130,7 @@ pub fn render_batch(
     counters: &mut RayCounters,
 ) -> Vec<Radiance> {
     #[cfg(target_arch = "x86_64")]
-    if let Some(v3) = X86_64V3::detect() {
+    if let Some(v3) = world.x86_64_v3 {
         // SAFETY: the token exists only on a CPU with these features.
         return unsafe { render_batch_v3(v3, world, settings, rays, samplers, counters) };
     }
@@ -478,4 +479,80 @@ fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Op
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{render_batch, supports};
+    use crate::diagnostics::Diagnostics;
+    use crate::integrators::{IntegratorKind, RayCounters};
+    use crate::sampler::PixelSampler;
+    use crate::world::{PixelFootprint, Ray, World};
+    use glam::{DVec3, Vec3};
+
+    /// The batch's x86-64-v3 copy (its stages inlined, the Lambert lanes on) gives the baseline
+    /// copy's radiance, coverage, ray counts and sampler states bit for bit, in a box of matte
+    /// walls lit by an area quad and a point light, where some camera rays leave the box.
+    #[test]
+    fn x86_64_v3_batch_matches_the_baseline() {
+        if crate::accel::X86_64V3::detect().is_none() {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        }
+        let rib = "WorldBegin\nSurface \"matte\"\n\
+                   LightSource \"pointlight\" 1 \"from\" [0.4 0.7 0.3] \"intensity\" [0.3]\n\
+                   AttributeBegin\nAreaLightSource \"arealight\" 2 \"intensity\" [6]\n\
+                   Polygon \"P\" [-0.3 0.99 0.2 0.3 0.99 0.2 0.3 0.99 0.7 -0.3 0.99 0.7]\nAttributeEnd\n\
+                   AttributeBegin\nColor [0.7 0.7 0.7]\nSurface \"matte\"\n\
+                   Polygon \"P\" [-1 -1 -1 1 -1 -1 1 -1 1 -1 -1 1]\n\
+                   Polygon \"P\" [-1 1 -1 1 1 -1 1 1 1 -1 1 1]\n\
+                   Polygon \"P\" [-1 -1 1 1 -1 1 1 1 1 -1 1 1]\nAttributeEnd\n\
+                   AttributeBegin\nColor [0.7 0.2 0.2]\nSurface \"matte\"\n\
+                   Polygon \"P\" [-1 -1 -1 -1 1 -1 -1 1 1 -1 -1 1]\nAttributeEnd\n\
+                   AttributeBegin\nColor [0.2 0.6 0.3]\nSurface \"matte\" \"Kd\" [0.8]\n\
+                   Polygon \"P\" [1 -1 -1 1 1 -1 1 1 1 1 -1 1]\nAttributeEnd\nWorldEnd\n";
+        let scene = rib_parser::load_bytes("batch.rib", rib.as_bytes().to_vec(), &Default::default())
+            .unwrap_or_else(|e| panic!("{}", e.render()))
+            .scene;
+        // The eye outside the open front of the box, so the rays toward the corners escape.
+        let eye = DVec3::new(0.1, 0.05, -1.6);
+        let mut world = World::build(&scene, eye, PixelFootprint::Unknown, &mut Diagnostics::default())
+            .expect("the world builds");
+        let settings = supports(&world, &IntegratorKind::Path { max_depth: 6, rr_depth: 3 })
+            .expect("the wavefront renders a box of matte polygons");
+        // Camera rays from the eye (render space's origin) over a 24x24 grid, 3 samples each,
+        // each with the sampler the tile loop would give it after its pixel jitter.
+        let (mut rays, mut samplers) = (Vec::new(), Vec::new());
+        for y in 0..24 {
+            for x in 0..24 {
+                let pixel = PixelSampler::new(11, x, y);
+                for s in 0..3 {
+                    let mut sampler = pixel.sample(s);
+                    let jitter = sampler.uniform2();
+                    let ndc = (glam::Vec2::new(x as f32, y as f32) + jitter) / 12.0 - 1.0;
+                    rays.push(Ray::new(Vec3::ZERO, Vec3::new(ndc.x * 2.0, -ndc.y * 2.0, 1.0)));
+                    samplers.push(sampler);
+                }
+            }
+        }
+        let results = [true, false].map(|v3| {
+            world.x86_64_v3 = if v3 { crate::accel::X86_64V3::detect() } else { None };
+            let mut samplers = samplers.clone();
+            let mut counters = RayCounters::default();
+            let radiance = render_batch(&world, settings, &rays, &mut samplers, &mut counters);
+            let bits: Vec<_> =
+                radiance.iter().map(|r| (r.rgb.to_array().map(f32::to_bits), r.alpha.to_bits())).collect();
+            (bits, counters, format!("{samplers:?}"))
+        });
+        assert!(results[0].0 == results[1].0, "the radiance differs");
+        assert_eq!(results[0].1, results[1].1, "the ray counts differ");
+        assert!(results[0].2 == results[1].2, "the samplers' states differ");
+        let lit = results[0].0.iter().filter(|(rgb, _)| rgb.iter().any(|&c| f32::from_bits(c) > 0.0)).count();
+        let escaped = results[0].0.iter().filter(|&&(_, alpha)| alpha == 0).count();
+        let counters = results[0].1;
+        assert!(
+            lit > 800 && escaped > 100 && counters.bounce > counters.camera,
+            "{lit} lit, {escaped} escaped, {counters:?}"
+        );
+    }
 }
