@@ -294,8 +294,11 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths<'_
 
 /// Stage 3: next-event estimation, one light chosen by power with its shadow ray, weighted
 /// for MIS against the BSDF sample that follows ([`crate::integrators::sample_one_light`]
-/// split in three: the light samples; the BSDF's value and density toward them, eight lanes at
-/// a time for one-lobe Lambert BSDFs where the CPU has AVX2; the shadow rays).
+/// path by path). One pass over the live paths: a path whose BSDF is one Lambert lobe waits,
+/// where the CPU has AVX2, for seven others, and the eight take the BSDF's value and density
+/// toward their light samples in lanes and then trace their shadow rays; any other path is
+/// estimated at once. Each path does the scalar integrator's operations in its order, so the
+/// order among paths changes nothing.
 #[inline(always)]
 fn light_samples(
     v3: Option<X86_64V3>,
@@ -304,97 +307,89 @@ fn light_samples(
     live: &[u32],
     counters: &mut RayCounters,
 ) {
-    // A light sample with the probability of its light's choice, and whether MIS weights it.
-    struct Picked {
-        pick: f32,
-        mis: bool,
-        ls: LightLiSample,
-    }
-    // Whether each path estimates direct light here (its BSDF has a non-specular lobe), and
-    // the light and the point on it, path by path in the scalar integrator's order.
-    let mut estimates = Vec::with_capacity(live.len());
-    let mut picked = Vec::with_capacity(live.len());
+    // The paths waiting for their group's lanes: each path and its light sample, with the
+    // probability of its light's choice and whether MIS weights it.
+    let mut group = lanes::LambertEvalGroup::default();
+    let no_sample =
+        LightLiSample { li: Vec3::ZERO, wi: Vec3::ZERO, pdf: 0.0, is_delta: false, p_light: None };
+    let mut waiting = [(0usize, Picked { pick: 0.0, mis: false, ls: no_sample }); lanes::LANES];
+    let mut filled = 0;
     for &i in live {
         let i = i as usize;
         let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
         if !bsdf.has_non_specular() {
-            estimates.push(false);
-            picked.push(None);
             continue;
         }
-        estimates.push(true);
         let sampler = &mut paths.sampler[i];
         let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
-            picked.push(None);
+            // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
+            paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
         let light = &world.lights[light as usize];
-        let ls = light.sample_li_inlined(&light_context(si), sampler.uniform2());
-        picked.push(ls.map(|ls| Picked { pick, mis: !light.is_delta(), ls }));
-    }
-    // `f |cos|` and the BSDF's density toward each light sample.
-    let mut values = vec![(Vec3::ZERO, 0.0f32); live.len()];
-    let mut group = lanes::LambertEvalGroup::default();
-    let mut members = [0usize; lanes::LANES];
-    let mut filled = 0;
-    for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
-        let i = i as usize;
-        let Some(picked) = picked else { continue };
-        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
-        let ls = &picked.ls;
+        let Some(ls) = light.sample_li_inlined(&light_context(si), sampler.uniform2()) else {
+            paths.l[i] += paths.beta[i] * Vec3::ZERO;
+            continue;
+        };
+        let picked = Picked { pick, mis: !light.is_delta(), ls };
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
                 group.set(filled, si.wo, ls.wi, bsdf, r);
-                members[filled] = k;
+                waiting[filled] = (i, picked);
                 filled += 1;
                 if filled == lanes::LANES {
                     let out = lanes::lambert_f_pdf(v3, &group);
-                    for (lane, &m) in members.iter().enumerate() {
-                        values[m] = out.get(lane);
+                    for (lane, (i, picked)) in waiting.iter().enumerate() {
+                        estimate_direct(world, paths, *i, picked, out.get(lane), counters);
                     }
                     filled = 0;
                 }
             }
             _ => {
+                // `f |cos|` and the BSDF's density toward the light sample.
                 let (f, pdf) = if picked.mis && !ls.is_delta {
                     bsdf.f_and_pdf(si.wo, ls.wi, LobeFlags::ALL)
                 } else {
                     (bsdf.f(si.wo, ls.wi, LobeFlags::ALL), 0.0)
                 };
-                values[k] = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
+                let value = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
+                estimate_direct(world, paths, i, &picked, value, counters);
             }
         }
     }
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_f_pdf(v3, &group);
-        for (lane, &m) in members[..filled].iter().enumerate() {
-            values[m] = out.get(lane);
+        for (lane, (i, picked)) in waiting[..filled].iter().enumerate() {
+            estimate_direct(world, paths, *i, picked, out.get(lane), counters);
         }
     }
-    // The shadow rays and the estimates (`direct_from_light`'s arithmetic).
-    for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
-        let i = i as usize;
-        if !estimates[k] {
-            continue;
-        }
-        let mut total = Vec3::ZERO;
-        if let Some(picked) = picked
-            && values[k].0 != Vec3::ZERO
-            && picked.ls.li != Vec3::ZERO
-        {
-            total += visible_light_estimate(
-                world,
-                &paths.si[i],
-                &picked.ls,
-                values[k],
-                picked.pick,
-                picked.mis,
-                counters,
-            );
-        }
-        // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
-        paths.l[i] += paths.beta[i] * total;
+}
+
+/// A light sample with the probability of its light's choice, and whether MIS weights it.
+#[derive(Clone, Copy)]
+struct Picked {
+    pick: f32,
+    mis: bool,
+    ls: LightLiSample,
+}
+
+/// Path `i`'s direct light from its light sample, given the BSDF's `f |cos|` and density
+/// toward it (`value`): its shadow ray and `direct_from_light`'s arithmetic, added to `L`.
+#[inline(always)]
+fn estimate_direct(
+    world: &World,
+    paths: &mut Paths<'_>,
+    i: usize,
+    picked: &Picked,
+    value: (Vec3, f32),
+    counters: &mut RayCounters,
+) {
+    let mut total = Vec3::ZERO;
+    if value.0 != Vec3::ZERO && picked.ls.li != Vec3::ZERO {
+        total +=
+            visible_light_estimate(world, &paths.si[i], &picked.ls, value, picked.pick, picked.mis, counters);
     }
+    paths.l[i] += paths.beta[i] * total;
 }
 
 /// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
