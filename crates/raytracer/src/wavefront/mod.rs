@@ -393,52 +393,55 @@ fn estimate_direct(
 }
 
 /// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
-/// Russian roulette. The numbers are drawn path by path in the scalar integrator's order; the
-/// directions of one-lobe Lambert BSDFs are sampled eight at a time where the CPU has AVX2.
+/// Russian roulette, in one pass over the live paths that keeps those that go on. A path
+/// whose BSDF is one Lambert lobe waits, where the CPU has AVX2, for seven others, and the
+/// eight directions are sampled in lanes; any other path is sampled at once. Each path draws
+/// its numbers in the scalar integrator's order.
 #[inline(always)]
 fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
-    let mut numbers: Vec<(f32, glam::Vec2)> = Vec::with_capacity(live.len());
-    for &i in live.iter() {
+    let mut group = lanes::LambertGroup::default();
+    let mut members = [0u32; lanes::LANES];
+    let mut filled = 0;
+    // The paths kept so far are written over the front of `live`, never past the one read.
+    let mut next = 0;
+    for k in 0..live.len() {
+        let i = live[k];
+        let (si, bsdf) = (&paths.si[i as usize], &paths.bsdf[i as usize]);
         let sampler = &mut paths.sampler[i as usize];
         let u_lobe = sampler.uniform();
-        numbers.push((u_lobe, sampler.uniform2()));
-    }
-    let mut samples: Vec<Option<BsdfSample>> = vec![None; live.len()];
-    let mut group = lanes::LambertGroup::default();
-    let mut members = [0usize; lanes::LANES];
-    let mut filled = 0;
-    for (k, &i) in live.iter().enumerate() {
-        let i = i as usize;
-        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
-        let (u_lobe, u) = numbers[k];
+        let u = sampler.uniform2();
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
                 group.set(filled, si.wo, bsdf, r, u);
-                members[filled] = k;
+                members[filled] = i;
                 filled += 1;
                 if filled == lanes::LANES {
                     let out = lanes::lambert_samples(v3, &group);
                     for (lane, &m) in members.iter().enumerate() {
-                        samples[m] = out.get(lane);
+                        if continue_path(settings, paths, m as usize, out.get(lane)) {
+                            live[next] = m;
+                            next += 1;
+                        }
                     }
                     filled = 0;
                 }
             }
-            _ => samples[k] = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL),
+            _ => {
+                let bs = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL);
+                if continue_path(settings, paths, i as usize, bs) {
+                    live[next] = i;
+                    next += 1;
+                }
+            }
         }
     }
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_samples(v3, &group);
         for (lane, &m) in members[..filled].iter().enumerate() {
-            samples[m] = out.get(lane);
-        }
-    }
-    let mut next = 0;
-    for k in 0..live.len() {
-        let i = live[k] as usize;
-        if continue_path(settings, paths, i, samples[k]) {
-            live[next] = live[k];
-            next += 1;
+            if continue_path(settings, paths, m as usize, out.get(lane)) {
+                live[next] = m;
+                next += 1;
+            }
         }
     }
     live.truncate(next);
