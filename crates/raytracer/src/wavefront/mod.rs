@@ -120,7 +120,8 @@ fn no_surface() -> SurfaceInteraction {
 
 /// Renders a batch of camera rays, each with its sampler (the state after the camera's
 /// dimensions; `rays` and `samplers` are as long as each other): the radiance and coverage of
-/// each, as [`crate::integrators::PathTracer`] returns them.
+/// each, as [`crate::integrators::PathTracer`] returns them. The batch runs as its x86-64-v3
+/// copy where the world found that instruction set on this CPU (`World::x86_64_v3`).
 pub fn render_batch(
     world: &World,
     settings: PathSettings,
@@ -129,7 +130,7 @@ pub fn render_batch(
     counters: &mut RayCounters,
 ) -> Vec<Radiance> {
     #[cfg(target_arch = "x86_64")]
-    if let Some(v3) = X86_64V3::detect() {
+    if let Some(v3) = world.x86_64_v3 {
         // SAFETY: the token exists only on a CPU with these features.
         return unsafe { render_batch_v3(v3, world, settings, rays, samplers, counters) };
     }
@@ -293,8 +294,11 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths<'_
 
 /// Stage 3: next-event estimation, one light chosen by power with its shadow ray, weighted
 /// for MIS against the BSDF sample that follows ([`crate::integrators::sample_one_light`]
-/// split in three: the light samples; the BSDF's value and density toward them, eight lanes at
-/// a time for one-lobe Lambert BSDFs where the CPU has AVX2; the shadow rays).
+/// path by path). One pass over the live paths: a path whose BSDF is one Lambert lobe waits,
+/// where the CPU has AVX2, for seven others, and the eight take the BSDF's value and density
+/// toward their light samples in lanes and then trace their shadow rays; any other path is
+/// estimated at once. Each path does the scalar integrator's operations in its order, so the
+/// order among paths changes nothing.
 #[inline(always)]
 fn light_samples(
     v3: Option<X86_64V3>,
@@ -303,146 +307,141 @@ fn light_samples(
     live: &[u32],
     counters: &mut RayCounters,
 ) {
-    // A light sample with the probability of its light's choice, and whether MIS weights it.
-    struct Picked {
-        pick: f32,
-        mis: bool,
-        ls: LightLiSample,
-    }
-    // Whether each path estimates direct light here (its BSDF has a non-specular lobe), and
-    // the light and the point on it, path by path in the scalar integrator's order.
-    let mut estimates = Vec::with_capacity(live.len());
-    let mut picked = Vec::with_capacity(live.len());
+    // The paths waiting for their group's lanes: each path and its light sample, with the
+    // probability of its light's choice and whether MIS weights it.
+    let mut group = lanes::LambertEvalGroup::default();
+    let no_sample =
+        LightLiSample { li: Vec3::ZERO, wi: Vec3::ZERO, pdf: 0.0, is_delta: false, p_light: None };
+    let mut waiting = [(0usize, Picked { pick: 0.0, mis: false, ls: no_sample }); lanes::LANES];
+    let mut filled = 0;
     for &i in live {
         let i = i as usize;
         let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
         if !bsdf.has_non_specular() {
-            estimates.push(false);
-            picked.push(None);
             continue;
         }
-        estimates.push(true);
         let sampler = &mut paths.sampler[i];
         let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
-            picked.push(None);
+            // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
+            paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
         let light = &world.lights[light as usize];
-        let ls = light.sample_li_inlined(&light_context(si), sampler.uniform2());
-        picked.push(ls.map(|ls| Picked { pick, mis: !light.is_delta(), ls }));
-    }
-    // `f |cos|` and the BSDF's density toward each light sample.
-    let mut values = vec![(Vec3::ZERO, 0.0f32); live.len()];
-    let mut group = lanes::LambertEvalGroup::default();
-    let mut members = [0usize; lanes::LANES];
-    let mut filled = 0;
-    for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
-        let i = i as usize;
-        let Some(picked) = picked else { continue };
-        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
-        let ls = &picked.ls;
+        let Some(ls) = light.sample_li_inlined(&light_context(si), sampler.uniform2()) else {
+            paths.l[i] += paths.beta[i] * Vec3::ZERO;
+            continue;
+        };
+        let picked = Picked { pick, mis: !light.is_delta(), ls };
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
                 group.set(filled, si.wo, ls.wi, bsdf, r);
-                members[filled] = k;
+                waiting[filled] = (i, picked);
                 filled += 1;
                 if filled == lanes::LANES {
                     let out = lanes::lambert_f_pdf(v3, &group);
-                    for (lane, &m) in members.iter().enumerate() {
-                        values[m] = out.get(lane);
+                    for (lane, (i, picked)) in waiting.iter().enumerate() {
+                        estimate_direct(world, paths, *i, picked, out.get(lane), counters);
                     }
                     filled = 0;
                 }
             }
             _ => {
+                // `f |cos|` and the BSDF's density toward the light sample.
                 let (f, pdf) = if picked.mis && !ls.is_delta {
                     bsdf.f_and_pdf(si.wo, ls.wi, LobeFlags::ALL)
                 } else {
                     (bsdf.f(si.wo, ls.wi, LobeFlags::ALL), 0.0)
                 };
-                values[k] = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
+                let value = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
+                estimate_direct(world, paths, i, &picked, value, counters);
             }
         }
     }
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_f_pdf(v3, &group);
-        for (lane, &m) in members[..filled].iter().enumerate() {
-            values[m] = out.get(lane);
+        for (lane, (i, picked)) in waiting[..filled].iter().enumerate() {
+            estimate_direct(world, paths, *i, picked, out.get(lane), counters);
         }
-    }
-    // The shadow rays and the estimates (`direct_from_light`'s arithmetic).
-    for (k, (&i, picked)) in live.iter().zip(&picked).enumerate() {
-        let i = i as usize;
-        if !estimates[k] {
-            continue;
-        }
-        let mut total = Vec3::ZERO;
-        if let Some(picked) = picked
-            && values[k].0 != Vec3::ZERO
-            && picked.ls.li != Vec3::ZERO
-        {
-            total += visible_light_estimate(
-                world,
-                &paths.si[i],
-                &picked.ls,
-                values[k],
-                picked.pick,
-                picked.mis,
-                counters,
-            );
-        }
-        // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
-        paths.l[i] += paths.beta[i] * total;
     }
 }
 
+/// A light sample with the probability of its light's choice, and whether MIS weights it.
+#[derive(Clone, Copy)]
+struct Picked {
+    pick: f32,
+    mis: bool,
+    ls: LightLiSample,
+}
+
+/// Path `i`'s direct light from its light sample, given the BSDF's `f |cos|` and density
+/// toward it (`value`): its shadow ray and `direct_from_light`'s arithmetic, added to `L`.
+#[inline(always)]
+fn estimate_direct(
+    world: &World,
+    paths: &mut Paths<'_>,
+    i: usize,
+    picked: &Picked,
+    value: (Vec3, f32),
+    counters: &mut RayCounters,
+) {
+    let mut total = Vec3::ZERO;
+    if value.0 != Vec3::ZERO && picked.ls.li != Vec3::ZERO {
+        total +=
+            visible_light_estimate(world, &paths.si[i], &picked.ls, value, picked.pick, picked.mis, counters);
+    }
+    paths.l[i] += paths.beta[i] * total;
+}
+
 /// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
-/// Russian roulette. The numbers are drawn path by path in the scalar integrator's order; the
-/// directions of one-lobe Lambert BSDFs are sampled eight at a time where the CPU has AVX2.
+/// Russian roulette, in one pass over the live paths that keeps those that go on. A path
+/// whose BSDF is one Lambert lobe waits, where the CPU has AVX2, for seven others, and the
+/// eight directions are sampled in lanes; any other path is sampled at once. Each path draws
+/// its numbers in the scalar integrator's order.
 #[inline(always)]
 fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
-    let mut numbers: Vec<(f32, glam::Vec2)> = Vec::with_capacity(live.len());
-    for &i in live.iter() {
+    let mut group = lanes::LambertGroup::default();
+    let mut members = [0u32; lanes::LANES];
+    let mut filled = 0;
+    // The paths kept so far are written over the front of `live`, never past the one read.
+    let mut next = 0;
+    for k in 0..live.len() {
+        let i = live[k];
+        let (si, bsdf) = (&paths.si[i as usize], &paths.bsdf[i as usize]);
         let sampler = &mut paths.sampler[i as usize];
         let u_lobe = sampler.uniform();
-        numbers.push((u_lobe, sampler.uniform2()));
-    }
-    let mut samples: Vec<Option<BsdfSample>> = vec![None; live.len()];
-    let mut group = lanes::LambertGroup::default();
-    let mut members = [0usize; lanes::LANES];
-    let mut filled = 0;
-    for (k, &i) in live.iter().enumerate() {
-        let i = i as usize;
-        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
-        let (u_lobe, u) = numbers[k];
+        let u = sampler.uniform2();
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
                 group.set(filled, si.wo, bsdf, r, u);
-                members[filled] = k;
+                members[filled] = i;
                 filled += 1;
                 if filled == lanes::LANES {
                     let out = lanes::lambert_samples(v3, &group);
                     for (lane, &m) in members.iter().enumerate() {
-                        samples[m] = out.get(lane);
+                        if continue_path(settings, paths, m as usize, out.get(lane)) {
+                            live[next] = m;
+                            next += 1;
+                        }
                     }
                     filled = 0;
                 }
             }
-            _ => samples[k] = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL),
+            _ => {
+                let bs = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL);
+                if continue_path(settings, paths, i as usize, bs) {
+                    live[next] = i;
+                    next += 1;
+                }
+            }
         }
     }
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_samples(v3, &group);
         for (lane, &m) in members[..filled].iter().enumerate() {
-            samples[m] = out.get(lane);
-        }
-    }
-    let mut next = 0;
-    for k in 0..live.len() {
-        let i = live[k] as usize;
-        if continue_path(settings, paths, i, samples[k]) {
-            live[next] = live[k];
-            next += 1;
+            if continue_path(settings, paths, m as usize, out.get(lane)) {
+                live[next] = m;
+                next += 1;
+            }
         }
     }
     live.truncate(next);
@@ -478,4 +477,80 @@ fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Op
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{render_batch, supports};
+    use crate::diagnostics::Diagnostics;
+    use crate::integrators::{IntegratorKind, RayCounters};
+    use crate::sampler::PixelSampler;
+    use crate::world::{PixelFootprint, Ray, World};
+    use glam::{DVec3, Vec3};
+
+    /// The batch's x86-64-v3 copy (its stages inlined, the Lambert lanes on) gives the baseline
+    /// copy's radiance, coverage, ray counts and sampler states bit for bit, in a box of matte
+    /// walls lit by an area quad and a point light, where some camera rays leave the box.
+    #[test]
+    fn x86_64_v3_batch_matches_the_baseline() {
+        if crate::accel::X86_64V3::detect().is_none() {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        }
+        let rib = "WorldBegin\nSurface \"matte\"\n\
+                   LightSource \"pointlight\" 1 \"from\" [0.4 0.7 0.3] \"intensity\" [0.3]\n\
+                   AttributeBegin\nAreaLightSource \"arealight\" 2 \"intensity\" [6]\n\
+                   Polygon \"P\" [-0.3 0.99 0.2 0.3 0.99 0.2 0.3 0.99 0.7 -0.3 0.99 0.7]\nAttributeEnd\n\
+                   AttributeBegin\nColor [0.7 0.7 0.7]\nSurface \"matte\"\n\
+                   Polygon \"P\" [-1 -1 -1 1 -1 -1 1 -1 1 -1 -1 1]\n\
+                   Polygon \"P\" [-1 1 -1 1 1 -1 1 1 1 -1 1 1]\n\
+                   Polygon \"P\" [-1 -1 1 1 -1 1 1 1 1 -1 1 1]\nAttributeEnd\n\
+                   AttributeBegin\nColor [0.7 0.2 0.2]\nSurface \"matte\"\n\
+                   Polygon \"P\" [-1 -1 -1 -1 1 -1 -1 1 1 -1 -1 1]\nAttributeEnd\n\
+                   AttributeBegin\nColor [0.2 0.6 0.3]\nSurface \"matte\" \"Kd\" [0.8]\n\
+                   Polygon \"P\" [1 -1 -1 1 1 -1 1 1 1 1 -1 1]\nAttributeEnd\nWorldEnd\n";
+        let scene = rib_parser::load_bytes("batch.rib", rib.as_bytes().to_vec(), &Default::default())
+            .unwrap_or_else(|e| panic!("{}", e.render()))
+            .scene;
+        // The eye outside the open front of the box, so the rays toward the corners escape.
+        let eye = DVec3::new(0.1, 0.05, -1.6);
+        let mut world = World::build(&scene, eye, PixelFootprint::Unknown, &mut Diagnostics::default())
+            .expect("the world builds");
+        let settings = supports(&world, &IntegratorKind::Path { max_depth: 6, rr_depth: 3 })
+            .expect("the wavefront renders a box of matte polygons");
+        // Camera rays from the eye (render space's origin) over a 24x24 grid, 3 samples each,
+        // each with the sampler the tile loop would give it after its pixel jitter.
+        let (mut rays, mut samplers) = (Vec::new(), Vec::new());
+        for y in 0..24 {
+            for x in 0..24 {
+                let pixel = PixelSampler::new(11, x, y);
+                for s in 0..3 {
+                    let mut sampler = pixel.sample(s);
+                    let jitter = sampler.uniform2();
+                    let ndc = (glam::Vec2::new(x as f32, y as f32) + jitter) / 12.0 - 1.0;
+                    rays.push(Ray::new(Vec3::ZERO, Vec3::new(ndc.x * 2.0, -ndc.y * 2.0, 1.0)));
+                    samplers.push(sampler);
+                }
+            }
+        }
+        let results = [true, false].map(|v3| {
+            world.x86_64_v3 = if v3 { crate::accel::X86_64V3::detect() } else { None };
+            let mut samplers = samplers.clone();
+            let mut counters = RayCounters::default();
+            let radiance = render_batch(&world, settings, &rays, &mut samplers, &mut counters);
+            let bits: Vec<_> =
+                radiance.iter().map(|r| (r.rgb.to_array().map(f32::to_bits), r.alpha.to_bits())).collect();
+            (bits, counters, format!("{samplers:?}"))
+        });
+        assert!(results[0].0 == results[1].0, "the radiance differs");
+        assert_eq!(results[0].1, results[1].1, "the ray counts differ");
+        assert!(results[0].2 == results[1].2, "the samplers' states differ");
+        let lit = results[0].0.iter().filter(|(rgb, _)| rgb.iter().any(|&c| f32::from_bits(c) > 0.0)).count();
+        let escaped = results[0].0.iter().filter(|&&(_, alpha)| alpha == 0).count();
+        let counters = results[0].1;
+        assert!(
+            lit > 800 && escaped > 100 && counters.bounce > counters.camera,
+            "{lit} lit, {escaped} escaped, {counters:?}"
+        );
+    }
 }

@@ -298,7 +298,8 @@ pub struct World {
     /// Present when this CPU has x86-64-v3's instruction set: the ray queries then run their
     /// copies compiled for it, with eight-lane node tests. The results do not change (the same
     /// IEEE operations in the same order; Rust never fuses a multiply and an add by itself).
-    x86_64_v3: Option<X86_64V3>,
+    /// The wavefront's batch takes it too; tests set it to `None` to run the baseline copies.
+    pub(crate) x86_64_v3: Option<X86_64V3>,
     /// One BLAS of triangles alone in render space ([`World::is_flat`]): the ray queries then
     /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
     flat: bool,
