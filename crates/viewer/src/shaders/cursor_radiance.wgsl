@@ -5,10 +5,10 @@
 // on that point alone (the view direction at a point of a sphere is the point's own), as the
 // own-shadow loss does (shadow_loss.wgsl). So a moving frame shades the sphere once per texel of
 // a CURSOR_RADIANCE_TEXELS^2 map over its half facing the eye (the loss maps' hemi-octahedral
-// layout) with the moving frame's own shading (shade_with's `map_row`: the diffuse radiance from
-// the radiosity map, the highlights without the scene's shadow rays, the reflection probes'
-// lobe), and its fragments and edge samples read the map bilinearly instead of integrating the
-// lights' samples and the probes' lobe each.
+// layout) with the moving frame's own shading (cursor_map_shading, shade_with's `map_row`: the
+// diffuse radiance from the radiosity map, the highlights without the scene's shadow rays, the
+// reflection probes' lobe), and its fragments and edge samples read the map bilinearly instead
+// of integrating the lights' samples and the probes' lobe each.
 
 const CURSOR_RADIANCE_TEXELS: u32 = 64u;
 // The least cosine between a texel's normal and the direction toward the eye that the map shades
@@ -55,8 +55,36 @@ fn fs_cursor_radiance_map(@builtin(position) position: vec4<f32>) -> @location(0
     if facing < CURSOR_RADIANCE_LEAST_COS {
         m = normalize(n - (CURSOR_RADIANCE_LEAST_COS - facing) * view_dir);
     }
-    loss_map_row = 0;
-    return vec4<f32>(shade_with(frame.sphere_material, p, m, view_dir, 0, true), 1.0);
+    return vec4<f32>(cursor_map_shading(frame.sphere_material, p, m, view_dir), 1.0);
+}
+
+// shade_with(material, p, n_in, view_dir, 0, true) in a moving frame, the only frame that draws
+// the map: the diffuse radiance from the radiosity map's row 0, the highlights without the
+// scene's shadow rays scaled by its share let through, and the reflection probes' lobe without
+// traced directions (frame.tone.w, glossy_lobe). The same sums, without the code of the exact
+// shading's branches: lavapipe runs the code of a branch no fragment of a group takes (the
+// traced lobe's walk through the scene, once per lobe direction), so the map's entry point
+// holds only what a moving frame runs.
+fn cursor_map_shading(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    if material.colour.w > 0.5 {
+        return material.colour.rgb;
+    }
+    let v = -view_dir;
+    let n = select(n_in, -n_in, dot(n_in, v) < 0.0);
+    let ks = material.coefficients.z;
+    let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
+    let map = radiosity_lookup(0u, n);
+    var specular = vec3<f32>(0.0);
+    if ks != 0.0 {
+        specular = direct_light_over(p, n, v, exponent, true, false, false).specular * map.a;
+    }
+    if frame.reflection_origin.w > 0.5 && ks != 0.0 {
+        let p_world = (frame.world_from_camera_point * vec4<f32>(p, 1.0)).xyz;
+        let n_world = normalize((frame.world_from_camera * vec4<f32>(n, 0.0)).xyz);
+        let v_world = normalize((frame.world_from_camera * vec4<f32>(v, 0.0)).xyz);
+        specular += blinn_albedo(material, dot(n, v)) * glossy_reflection_from_probes(p_world, n_world, v_world, exponent);
+    }
+    return map.rgb + material.specular_colour.rgb * ks * specular;
 }
 
 // fs_sphere for a moving frame that reads the cursor sphere's radiance map, which

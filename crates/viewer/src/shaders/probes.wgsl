@@ -449,6 +449,91 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     return sum / total;
 }
 
+// glossy_reflection without traced hits, for entry points that never trace the lobe's
+// directions (the moving cursor sphere's radiance map): the same sums in one pass over the
+// directions, without the traced directions' code or the arrays that carry each direction
+// between passes. lavapipe runs the code of a branch no fragment of a group takes, so the
+// traced branches cost a frame that never takes them as much as one that does.
+fn glossy_reflection_from_probes(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> vec3<f32> {
+    let cos_o = max(dot(n, v), 1e-3);
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t = normalize(cross(helper, n));
+    let b = cross(n, t);
+    let grid = grid_cell(p, frame.reflection_origin.xyz, frame.reflection_spacing.xyz, frame.reflection_counts.xyz);
+    var cells: array<vec3<u32>, 8>;
+    var probe_weights: array<f32, 8>;
+    var nearest_cell = vec3<u32>(0u);
+    var nearest_weight = -1.0;
+    var probes_total = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let c = cell_corner(grid, corner);
+        cells[corner] = c.probe;
+        probe_weights[corner] = 0.0;
+        if c.trilinear > 0.0 {
+            let sees = probe_sees(c.probe, p);
+            probe_weights[corner] = select(1e-3 * c.trilinear, c.trilinear, sees);
+            if probe_weights[corner] > nearest_weight {
+                nearest_weight = probe_weights[corner];
+                nearest_cell = c.probe;
+            }
+        }
+        probes_total += probe_weights[corner];
+    }
+    if !(probes_total > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
+        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
+        let u2 = f32(reverseBits(i)) * 2.3283064365386963e-10;
+        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
+        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+        let phi = 2.0 * PI * u2;
+        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+        let o_dot_h = dot(v, h);
+        let l = 2.0 * o_dot_h * h - v;
+        let cos_l = dot(n, l);
+        // No `continue`: lavapipe lost fragments' remaining iterations after one (direct_light_over).
+        if o_dot_h > 0.0 && cos_l > 0.0 {
+            let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);
+            let weight = g * o_dot_h / cos_o;
+            total += weight;
+            if weight > 0.0 {
+                let pdf = (exponent + 1.0) * pow(cos_h, exponent) / (8.0 * PI * o_dot_h);
+                let omega = 1.0 / (f32(GLOSSY_SAMPLES) * max(pdf, 1e-6));
+                let level = reflection_level_of_exponent(8.0 * PI / omega);
+                // Where the direction meets the scene, and the radiance of each probe toward it.
+                let hit = probe_hit(nearest_cell, p, l);
+                let distant = probe_specular_at(nearest_cell, hit);
+                var kept = vec3<f32>(1.0);
+                if frame.counts.y == 1u && !distant {
+                    kept = vec3<f32>(1.0) - live_share_at_hit(nearest_cell, p, l, hit);
+                }
+                var radiance = vec3<f32>(0.0);
+                var radiance_weight = 0.0;
+                for (var corner = 0u; corner < 8u; corner++) {
+                    let w = probe_weights[corner];
+                    if w > 0.0 {
+                        let to_hit = hit - probe_position(cells[corner]);
+                        let len = length(to_hit);
+                        let dir = select(l, to_hit / len, len > 0.0 && !distant);
+                        radiance += w * textureSampleLevel(reflection_radiance, reflection_sampler, octahedral_uv(dir), probe_index(cells[corner]), level).rgb;
+                        radiance_weight += w;
+                    }
+                }
+                if radiance_weight > 0.0 {
+                    sum += weight * kept * radiance / radiance_weight;
+                }
+            }
+        }
+    }
+    if !(total > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return sum / total;
+}
+
 // Whether the probe of grid cell `cell` sees the scene's surface point `x`: nothing nearer than
 // 80 % of x's distance in x's direction on its distance map. probe_sees's 5 % slack takes a
 // floor point seen at a grazing angle for hidden (the texel's centre meets it nearer).
