@@ -263,6 +263,31 @@ fn reflection_level_of_exponent(e: f32) -> f32 {
 // (sidecar::GLOSSY_SAMPLES).
 const GLOSSY_SAMPLES: u32 = 16u;
 
+// Direction `i` of `count` of a Blinn lobe of exponent `e` about unit normal n (tangents t and
+// b) seen from unit direction v, importance-sampled as raytracer::bsdf samples it: a stratified
+// u1, u2 the radical inverse of i, turned by `turn` (0: none). Every lobe sampler here draws its
+// directions through it, so the frame at rest, the moving frame and the maps see one lobe.
+struct BlinnDirection {
+    // The reflected direction (unit when o_dot_h > 0).
+    l: vec3<f32>,
+    // The half vector's cosine to n, its cosine to v, and l's cosine to n.
+    cos_h: f32,
+    o_dot_h: f32,
+    cos_l: f32,
+}
+
+fn blinn_direction(i: u32, count: u32, turn: f32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v: vec3<f32>) -> BlinnDirection {
+    let u1 = (f32(i) + 0.5) / f32(count);
+    let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
+    let cos_h = pow(u1, 1.0 / (e + 1.0));
+    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+    let phi = 2.0 * PI * u2;
+    let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
+    let o_dot_h = dot(v, h);
+    let l = 2.0 * o_dot_h * h - v;
+    return BlinnDirection(l, cos_h, o_dot_h, dot(n, l));
+}
+
 // The reflection probes' radiance averaged over the ray tracer's Blinn lobe (`exponent`) at
 // world point p, unit normal n and unit direction to the eye v: the lobe's own directions
 // (importance-sampled, a fixed stratified set), each weighted by `f cos / pdf` and read at the
@@ -286,18 +311,14 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
         weights[i] = 0.0;
         directions[i] = vec4<f32>(n, 0.0);
-        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
-        let u2 = f32(reverseBits(i)) * 2.3283064365386963e-10;
-        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
-        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
-        let phi = 2.0 * PI * u2;
-        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
-        let o_dot_h = dot(v, h);
+        let d = blinn_direction(i, GLOSSY_SAMPLES, 0.0, exponent, n, t, b, v);
+        let cos_h = d.cos_h;
+        let o_dot_h = d.o_dot_h;
         if o_dot_h <= 0.0 {
             continue;
         }
-        let l = 2.0 * o_dot_h * h - v;
-        let cos_l = dot(n, l);
+        let l = d.l;
+        let cos_l = d.cos_l;
         if cos_l <= 0.0 {
             continue;
         }
@@ -485,15 +506,11 @@ fn glossy_reflection_from_probes(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, expon
     var sum = vec3<f32>(0.0);
     var total = 0.0;
     for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
-        let u1 = (f32(i) + 0.5) / f32(GLOSSY_SAMPLES);
-        let u2 = f32(reverseBits(i)) * 2.3283064365386963e-10;
-        let cos_h = pow(u1, 1.0 / (exponent + 1.0));
-        let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
-        let phi = 2.0 * PI * u2;
-        let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
-        let o_dot_h = dot(v, h);
-        let l = 2.0 * o_dot_h * h - v;
-        let cos_l = dot(n, l);
+        let d = blinn_direction(i, GLOSSY_SAMPLES, 0.0, exponent, n, t, b, v);
+        let cos_h = d.cos_h;
+        let o_dot_h = d.o_dot_h;
+        let l = d.l;
+        let cos_l = d.cos_l;
         // No `continue`: lavapipe lost fragments' remaining iterations after one (direct_light_over).
         if o_dot_h > 0.0 && cos_l > 0.0 {
             let g = min(min(2.0 * cos_h * cos_o / o_dot_h, 2.0 * cos_h * cos_l / o_dot_h), 1.0);

@@ -151,15 +151,11 @@ const GLOSSY_SHADED_MOVING: u32 = 2u;
 // (4 cos_o) over the half vector's density (e + 1) cos_h^e / (8 pi o_dot_h), times
 // GLOSSY_TRACED / count, so that a sum over `count` directions weighs as one over GLOSSY_TRACED.
 fn glossy_direction(i: u32, count: u32, e: f32, n: vec3<f32>, t: vec3<f32>, b: vec3<f32>, v: vec3<f32>, turn: f32) -> vec4<f32> {
-    let u1 = (f32(i) + 0.5) / f32(count);
-    let u2 = fract(f32(reverseBits(i)) * 2.3283064365386963e-10 + turn);
-    let cos_h = pow(u1, 1.0 / (e + 1.0));
-    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
-    let phi = 2.0 * PI * u2;
-    let h = normalize(t * (sin_h * cos(phi)) + b * (sin_h * sin(phi)) + n * cos_h);
-    let o_dot_h = dot(v, h);
-    let l = 2.0 * o_dot_h * h - v;
-    let cos_l = dot(n, l);
+    let d = blinn_direction(i, count, turn, e, n, t, b, v);
+    let cos_h = d.cos_h;
+    let o_dot_h = d.o_dot_h;
+    let l = d.l;
+    let cos_l = d.cos_l;
     let cos_o = max(dot(n, v), 1e-3);
     if o_dot_h <= 0.0 || cos_l <= 0.0 {
         return vec4<f32>(l, 0.0);
