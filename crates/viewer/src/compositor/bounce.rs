@@ -196,21 +196,22 @@ impl Compositor {
 
     /// Copies the rectangle `[x, y, w, h]` of the frame into the backdrop after shadows, which
     /// the live objects' edges blend with.
-    pub(super) fn copy_to_shadowed(&self, encoder: &mut wgpu::CommandEncoder, [x, y, w, h]: [u32; 4]) {
+    pub(super) fn copy_to_shadowed(&self, encoder: &mut wgpu::CommandEncoder, rect: [u32; 4]) {
+        self.copy_frame_rect_into(encoder, rect, &self.shadowed_texture);
+    }
+
+    /// Copies `[x, y, w, h]` of the frame's colour target into `to`, a frame-sized texture, at
+    /// its place.
+    pub(super) fn copy_frame_rect_into(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        [x, y, w, h]: [u32; 4],
+        to: &wgpu::Texture,
+    ) {
         let origin = wgpu::Origin3d { x, y, z: 0 };
         encoder.copy_texture_to_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &self.linear_texture,
-                mip_level: 0,
-                origin,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyTextureInfo {
-                texture: &self.shadowed_texture,
-                mip_level: 0,
-                origin,
-                aspect: wgpu::TextureAspect::All,
-            },
+            wgpu::TexelCopyTextureInfo { origin, ..self.linear_texture.as_image_copy() },
+            wgpu::TexelCopyTextureInfo { origin, ..to.as_image_copy() },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
     }

@@ -291,15 +291,11 @@ impl Compositor {
             }
             // The settling frames draw the glass after the reflections, from the kept backdrop
             // (settle.rs): it reads other pixels, before the loss's removal.
-            if settling.is_some_and(|step| step.part == SettlePart::Transmission) {
+            if settling.is_none_or(SettleStep::draws_transmission) {
                 self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
                 lap(&mut encoder, "spheres seen through glass");
             }
             if !settling_without_rows {
-                if settling.is_none_or(SettleStep::draws_reflections) {
-                    self.record_transmission(&mut encoder, &uniform, &loss_map_rows);
-                    lap(&mut encoder, "spheres seen through glass");
-                }
                 let rows = settling.and_then(SettleStep::rows);
                 self.record_shadow_bounce_taken(&mut encoder, &uniform, &mesh_bytes, rows);
                 lap(&mut encoder, "second bounce: what each pixel loses");

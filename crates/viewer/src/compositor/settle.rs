@@ -150,6 +150,12 @@ impl SettleStep {
         matches!(self.part, SettlePart::Rows(_)) && !self.reflections
     }
 
+    /// Whether this step draws the spheres seen through glass: their own step, or a step of
+    /// the rows when the glass does not settle on its own.
+    pub(super) fn draws_transmission(self) -> bool {
+        self.part == SettlePart::Transmission || self.draws_reflections()
+    }
+
     /// The band of the reflections this step draws, if any.
     pub(super) fn reflection_band(self) -> Option<ReflectionBand> {
         match self.part {
@@ -621,6 +627,9 @@ mod tests {
         assert!(matches!(parts_alone[glass - 1], SettlePart::Bounce([top, rows]) if top + rows == 512));
         assert!(parts_alone.iter().all(|p| !matches!(p, SettlePart::Reflections(_))));
         let steps = settle_all((512, 512), Some(glass_alone));
+        assert_eq!(steps.iter().filter(|s| s.draws_transmission()).count(), 1, "the glass is drawn once");
+        let without = settle_all((512, 512), None);
+        assert!(without.iter().filter(|s| s.rows().is_some()).all(|s| s.draws_transmission()));
         assert!(
             steps
                 .iter()

@@ -168,13 +168,7 @@ impl Compositor {
     /// texture, at their place.
     pub(super) fn copy_transmission_into(&self, encoder: &mut wgpu::CommandEncoder, to: &wgpu::Texture) {
         if let Some(transmission) = &self.transmission {
-            let [x, y, w, h] = transmission.rect;
-            let origin = wgpu::Origin3d { x, y, z: 0 };
-            encoder.copy_texture_to_texture(
-                wgpu::TexelCopyTextureInfo { origin, ..self.linear_texture.as_image_copy() },
-                wgpu::TexelCopyTextureInfo { origin, ..to.as_image_copy() },
-                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            );
+            self.copy_frame_rect_into(encoder, transmission.rect, to);
         }
     }
 
