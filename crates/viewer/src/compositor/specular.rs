@@ -25,6 +25,10 @@ pub(super) struct SpecularReflections {
     /// block of [`GLOSSY_STRIDE`]^2, into the reduced grid (binding 22), and its spreading over
     /// the frame.
     glossy_gather: wgpu::RenderPipeline,
+    /// The same where the frame draws the spheres' radiosity maps (the bounce light on): the
+    /// spheres in the lobes shaded from their maps, by an entry point without the exact
+    /// shading's code, which lavapipe would run in every fragment.
+    glossy_gather_from_maps: wgpu::RenderPipeline,
     glossy_spread: wgpu::RenderPipeline,
     /// The frame's rectangle of pixels with a specular reflection as the pass last left it
     /// (`None` when no pixel has one), and the uniforms it was drawn from: a still frame copies
@@ -71,8 +75,15 @@ impl SpecularReflections {
         let glossy_gather = offscreen_pipeline_from(
             device,
             with_mesh,
-            vertex,
+            vertex.clone(),
             ("spheres in glossy reflections, reduced", "fs_glossy_gather"),
+            overlay.linear_format,
+        );
+        let glossy_gather_from_maps = offscreen_pipeline_from(
+            device,
+            with_mesh,
+            vertex,
+            ("spheres in glossy reflections, reduced, from the radiosity maps", "fs_glossy_gather_from_maps"),
             overlay.linear_format,
         );
         let cache = rect.map(|[_, _, width, height]| {
@@ -91,6 +102,7 @@ impl SpecularReflections {
             pipeline,
             glossy_pipeline,
             glossy_gather,
+            glossy_gather_from_maps,
             glossy_spread,
             cache,
             drawn_from: super::DrawnFrom::default(),
@@ -314,6 +326,12 @@ impl Compositor {
         if gw == 0 || gh == 0 {
             return;
         }
+        // A frame with the bounce light draws the spheres' radiosity maps before this pass.
+        let gather = if uniform.bounce[0] == 1 {
+            &self.specular.glossy_gather_from_maps
+        } else {
+            &self.specular.glossy_gather
+        };
         for row in 0..spheres {
             {
                 // Each draw after the first adds to what the draws before it left (read from the
@@ -321,7 +339,7 @@ impl Compositor {
                 let load =
                     if row == 0 { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) } else { wgpu::LoadOp::Load };
                 let mut pass = super::colour_pass(encoder, "glossy lobes, reduced", &grid.drawn_view, load);
-                pass.set_pipeline(&self.specular.glossy_gather);
+                pass.set_pipeline(gather);
                 pass.set_bind_group(0, &self.frame_bind_group, &[]);
                 bind_row(&mut pass, row);
                 pass.set_scissor_rect(gx, gy, gw, gh);

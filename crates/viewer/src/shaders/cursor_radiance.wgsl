@@ -55,17 +55,18 @@ fn fs_cursor_radiance_map(@builtin(position) position: vec4<f32>) -> @location(0
     if facing < CURSOR_RADIANCE_LEAST_COS {
         m = normalize(n - (CURSOR_RADIANCE_LEAST_COS - facing) * view_dir);
     }
-    return vec4<f32>(cursor_map_shading(frame.sphere_material, p, m, view_dir), 1.0);
+    return vec4<f32>(cursor_map_shading(frame.sphere_material, p, m, view_dir, 0u), 1.0);
 }
 
-// shade_with(material, p, n_in, view_dir, 0, true) in a moving frame, the only frame that draws
-// the map: the diffuse radiance from the radiosity map's row 0, the highlights without the
-// scene's shadow rays scaled by its share let through, and the reflection probes' lobe without
-// traced directions (frame.tone.w, glossy_lobe). The same sums, without the code of the exact
+// shade_with(material, p, n_in, view_dir, map_row, false) in a moving frame, the only frame
+// that draws the radiosity maps (row 0, the cursor sphere's, for its radiance map; a sphere's
+// own row in a glossy lobe, glossy_change_from_maps): the diffuse radiance from the map, the
+// highlights without the scene's shadow rays scaled by its share let through, and the
+// reflection probes' lobe without traced directions (frame.tone.w, glossy_lobe). The same sums, without the code of the exact
 // shading's branches: lavapipe runs the code of a branch no fragment of a group takes (the
 // traced lobe's walk through the scene, once per lobe direction), so the map's entry point
 // holds only what a moving frame runs.
-fn cursor_map_shading(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+fn cursor_map_shading(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, map_row: u32) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
     }
@@ -73,7 +74,7 @@ fn cursor_map_shading(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_di
     let n = select(n_in, -n_in, dot(n_in, v) < 0.0);
     let ks = material.coefficients.z;
     let exponent = clamp(1.0 / max(material.coefficients.w, 1e-4), 1.0, 10000.0);
-    let map = radiosity_lookup(0u, n);
+    let map = radiosity_lookup(map_row, n);
     var specular = vec3<f32>(0.0);
     if ks != 0.0 {
         specular = direct_light_over(p, n, v, exponent, true, false, false).specular * map.a;

@@ -310,12 +310,25 @@ fn fs_shadow_spread(@builtin(position) position: vec4<f32>) -> @location(0) vec4
 @fragment
 fn fs_glossy_gather(in: ReflectionOut) -> @location(0) vec4<f32> {
     let texel = vec2<i32>(in.position.xy);
-    let pixel = reduced_sample_pixel(texel, REDUCED_GLOSSY_STRIDE);
+    let change = glossy_change(reduced_sample_pixel(texel, REDUCED_GLOSSY_STRIDE), in.row, true);
+    return glossy_gathered(texel, in.row, change);
+}
+
+// fs_glossy_gather where the frame draws the spheres' radiosity maps (the bounce light on): the
+// spheres in the lobe shaded from their maps (glossy_change_from_maps).
+@fragment
+fn fs_glossy_gather_from_maps(in: ReflectionOut) -> @location(0) vec4<f32> {
+    let texel = vec2<i32>(in.position.xy);
+    let change = glossy_change_from_maps(reduced_sample_pixel(texel, REDUCED_GLOSSY_STRIDE), in.row);
+    return glossy_gathered(texel, in.row, change);
+}
+
+// Draw `row`'s change at grid texel `texel` added to what the draws before it left there.
+fn glossy_gathered(texel: vec2<i32>, row: u32, change: vec4<f32>) -> vec4<f32> {
     var before = vec4<f32>(0.0);
-    if in.row > 0u {
+    if row > 0u {
         before = textureLoad(reduced_gather, texel, 0);
     }
-    let change = glossy_change(pixel, in.row, true);
     return vec4<f32>(before.rgb + change.rgb, max(before.a, change.w));
 }
 

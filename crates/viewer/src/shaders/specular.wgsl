@@ -242,25 +242,108 @@ fn fs_glossy(in: ReflectionOut) -> @location(0) vec4<f32> {
 // times GLOSSY_TRACED, in rgb; w is 0 where it changes nothing (no lobe there, or the lobe
 // meets neither the sphere nor the live objects' shadows), else 1. At full resolution
 // (fs_glossy) and, while moving, at one pixel of each block (fs_glossy_gather, `moving`): then
-// over GLOSSY_TRACED_MOVING directions, and the sphere's radiance in the lobe comes from its
-// radiosity map (drawn this frame), as the moving cursor sphere's own does (shade_with's
-// `map_row`).
+// over GLOSSY_TRACED_MOVING directions. The sphere in the lobe is shaded as the eye would see
+// it (shade_with); a moving frame with radiosity maps shades it from its map instead
+// (glossy_change_from_maps).
 fn glossy_change(pixel: vec2<i32>, row: u32, moving: bool) -> vec4<f32> {
-    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+    let survey = glossy_lobe_survey(pixel, row, moving);
+    if !survey.changes {
         return vec4<f32>(0.0);
+    }
+    if survey.chosen_count == 0u {
+        return vec4<f32>(survey.change, 1.0);
+    }
+    let material = live_sphere_material(row);
+    let sphere = frame.shadow_spheres[row];
+    var shaded = vec3<f32>(0.0);
+    var shaded_weight = 0.0;
+    for (var j = 0u; j < survey.chosen_count; j++) {
+        let hit = lobe_sphere_hit(survey, j, row);
+        shaded_weight += hit.weight;
+        if hit.lit {
+            loss_map_row = loss_map_row_at(row, sphere.xyz, hit.m);
+            let seen = shade_with(material, hit.q, hit.m, hit.dir, -1, false) * frame.tone.x;
+            shaded += hit.weight * (seen - hidden_radiance(survey.p, hit.dir, hit.beyond, survey.mean));
+        }
+    }
+    return vec4<f32>(survey.change + survey.met * shaded / max(shaded_weight, 1e-30), 1.0);
+}
+
+// glossy_change(pixel, row, true) in a moving frame with the bounce light on, which draws the
+// spheres' radiosity maps first: the sphere in the lobe shaded from its map as the moving cursor
+// sphere's own is (cursor_map_shading), the same sums as shade_with's `map_row`. A function of
+// its own, for an entry point of its own (fs_glossy_gather_from_maps) without shade_with's
+// code: lavapipe runs the code of a branch no fragment of a group takes, and a branch on a
+// constant argument kept that cost (docs/viewer-frame-time.md).
+fn glossy_change_from_maps(pixel: vec2<i32>, row: u32) -> vec4<f32> {
+    let survey = glossy_lobe_survey(pixel, row, true);
+    if !survey.changes {
+        return vec4<f32>(0.0);
+    }
+    if survey.chosen_count == 0u {
+        return vec4<f32>(survey.change, 1.0);
+    }
+    let material = live_sphere_material(row);
+    var shaded = vec3<f32>(0.0);
+    var shaded_weight = 0.0;
+    for (var j = 0u; j < survey.chosen_count; j++) {
+        let hit = lobe_sphere_hit(survey, j, row);
+        shaded_weight += hit.weight;
+        if hit.lit {
+            let seen = cursor_map_shading(material, hit.q, hit.m, hit.dir, row) * frame.tone.x;
+            shaded += hit.weight * (seen - hidden_radiance(survey.p, hit.dir, hit.beyond, survey.mean));
+        }
+    }
+    return vec4<f32>(survey.change + survey.met * shaded / max(shaded_weight, 1e-30), 1.0);
+}
+
+// What a glossy pixel's lobe holds for draw `row`'s sphere before the sphere is shaded
+// (glossy_change): the lobe's frame, the change of the shadows seen in it, and the directions
+// that meet the sphere and are to be shaded.
+struct LobeSurvey {
+    // False where the draw changes nothing at the pixel.
+    changes: bool,
+    // The camera-space surface point, its unit normal and lobe tangents, and the direction
+    // toward the eye.
+    p: vec3<f32>,
+    n: vec3<f32>,
+    t: vec3<f32>,
+    b: vec3<f32>,
+    v: vec3<f32>,
+    exponent: f32,
+    turn: f32,
+    // The lobe's directions (GLOSSY_TRACED, or GLOSSY_TRACED_MOVING).
+    traced: u32,
+    // The shadows' change seen in the lobe, less the light the live objects take from surfaces
+    // the eye does not see.
+    change: vec3<f32>,
+    // The lobe's mean incoming radiance, for what a direction hides where no march finds it.
+    mean: vec3<f32>,
+    // The weight of the directions that meet the sphere first.
+    met: f32,
+    // Which of them are shaded (every stride-th).
+    chosen: array<u32, GLOSSY_SHADED>,
+    chosen_count: u32,
+}
+
+fn glossy_lobe_survey(pixel: vec2<i32>, row: u32, moving: bool) -> LobeSurvey {
+    var survey: LobeSurvey;
+    survey.changes = false;
+    survey.chosen_count = 0u;
+    if frame.reflection.x != 1u || frame.reflection.w == NO_LAYER {
+        return survey;
     }
     let ks = textureLoad(light_layers, pixel, i32(frame.reflection.w), 0).rgb;
     let exponent = textureLoad(light_layers, pixel, i32(frame.reflection.w) + 1, 0).r;
     let centre = surface_point(pixel);
     let n_raw = textureLoad(light_layers, pixel, i32(frame.layer_info.z), 0).xyz;
     if all(ks <= vec3<f32>(0.0)) || !(exponent >= 1.0) || centre.w < 0.5 || dot(n_raw, n_raw) <= 1e-12 {
-        return vec4<f32>(0.0);
+        return survey;
     }
     let p = centre.xyz;
     let n = normalize(n_raw);
     let view = view_direction_to(p);
     let v = -view;
-    let sphere = frame.shadow_spheres[row];
     let tb = lobe_tangents(n);
     let t = tb[0];
     let b = tb[1];
@@ -279,8 +362,8 @@ fn glossy_change(pixel: vec2<i32>, row: u32, moving: bool) -> vec4<f32> {
     var albedo = 0.0;
     var met = 0.0;
     var met_count = 0u;
-    // Which of the `traced` directions met the sphere, so that the shading loop below
-    // visits only those it shades.
+    // Which of the `traced` directions met the sphere, so that the choice below visits only
+    // those.
     var met_mask = vec2<u32>(0u);
     // Which free directions met a surface no march finds (the eye does not see it).
     var hidden_mask = vec2<u32>(0u);
@@ -324,51 +407,70 @@ fn glossy_change(pixel: vec2<i32>, row: u32, moving: bool) -> vec4<f32> {
         }
     }
     if met_count == 0u && all(shadowed == vec3<f32>(0.0)) && all(hidden_taken == vec3<f32>(0.0)) {
-        return vec4<f32>(0.0);
+        return survey;
     }
     // The lobe's mean incoming radiance: what a direction hides, or sends from a surface the eye
     // does not see, where no march finds it.
     let indirect = textureLoad(light_layers, pixel, i32(frame.layer_info.y), 0).rgb;
     let mean = indirect / max(ks * albedo / f32(GLOSSY_TRACED) + diffuse_albedo, vec3<f32>(1e-6));
-    var change = shadowed - mean * hidden_taken;
+    survey.changes = true;
+    survey.p = p;
+    survey.n = n;
+    survey.t = t;
+    survey.b = b;
+    survey.v = v;
+    survey.exponent = exponent;
+    survey.turn = turn;
+    survey.traced = traced;
+    survey.change = shadowed - mean * hidden_taken;
+    survey.mean = mean;
+    survey.met = met;
     if met_count > 0u {
-        let material = live_sphere_material(row);
         let shaded_most = select(GLOSSY_SHADED, GLOSSY_SHADED_MOVING, moving);
         let stride = (met_count + shaded_most - 1u) / shaded_most;
         // The directions to shade are chosen first and shaded in a loop without `continue`:
         // on lavapipe, a loop that skipped directions with `continue` around the call to
         // shade left about half the fragments after their first or second shaded direction
         // (docs/viewer-specular.md, "Directions the shading loop lost").
-        var chosen: array<u32, GLOSSY_SHADED>;
-        var chosen_count = 0u;
         var k = 0u;
         for (var i = 0u; i < traced; i++) {
             if (met_mask[i / 32u] & (1u << (i % 32u))) != 0u {
-                if k % stride == 0u && chosen_count < shaded_most {
-                    chosen[chosen_count] = i;
-                    chosen_count += 1u;
+                if k % stride == 0u && survey.chosen_count < shaded_most {
+                    survey.chosen[survey.chosen_count] = i;
+                    survey.chosen_count += 1u;
                 }
                 k += 1u;
             }
         }
-        var shaded = vec3<f32>(0.0);
-        var shaded_weight = 0.0;
-        for (var j = 0u; j < chosen_count; j++) {
-            let d = glossy_direction(chosen[j], traced, exponent, n, t, b, v, turn);
-            let first = first_sphere(p, d.xyz);
-            shaded_weight += d.w;
-            if scene_lets_light(p, n, d.xyz, first.y, 0.0) {
-                let q = p + first.y * d.xyz;
-                let m = normalize(q - sphere.xyz);
-                loss_map_row = loss_map_row_at(row, sphere.xyz, m);
-                let map_row = select(-1, i32(row), moving && frame.bounce.x == 1u);
-                let seen = shade_with(material, q, m, d.xyz, map_row, false) * frame.tone.x;
-                shaded += d.w * (seen - hidden_radiance(p, d.xyz, first.z, mean));
-            }
-        }
-        change += met * shaded / max(shaded_weight, 1e-30);
     }
-    return vec4<f32>(change, 1.0);
+    return survey;
+}
+
+// Where chosen direction `j` of a lobe survey meets draw `row`'s sphere.
+struct LobeSphereHit {
+    // The direction and its weight.
+    dir: vec3<f32>,
+    weight: f32,
+    // The point on the sphere and its unit normal.
+    q: vec3<f32>,
+    m: vec3<f32>,
+    // The distance past the sphere (its exit), where the light it hides comes from.
+    beyond: f32,
+    // Whether the scene lets the sphere's light reach the surface point.
+    lit: bool,
+}
+
+fn lobe_sphere_hit(survey: LobeSurvey, j: u32, row: u32) -> LobeSphereHit {
+    let d = glossy_direction(survey.chosen[j], survey.traced, survey.exponent, survey.n, survey.t, survey.b, survey.v, survey.turn);
+    let first = first_sphere(survey.p, d.xyz);
+    var hit: LobeSphereHit;
+    hit.dir = d.xyz;
+    hit.weight = d.w;
+    hit.q = survey.p + first.y * d.xyz;
+    hit.m = normalize(hit.q - frame.shadow_spheres[row].xyz);
+    hit.beyond = first.z;
+    hit.lit = scene_lets_light(survey.p, survey.n, d.xyz, first.y, 0.0);
+    return hit;
 }
 
 // The radiance (image units, without what emitters emit: their light hidden is their light
