@@ -139,8 +139,9 @@ pub fn render_batch(
 
 /// [`render_batch`] compiled for x86-64-v3: the four stages are inlined into it, so their
 /// scalar arithmetic (the surface interaction, the BSDF, the light sample's moves, the MIS
-/// weights) gets the VEX encodings' three operands instead of SSE2's register copies. The
-/// results are the same bits: Rust never fuses a multiply and an add by itself.
+/// weights) gets the VEX encodings' three operands instead of SSE2's register copies, and the
+/// samplers take their Sobol pairs with SIMD ([`Sampler::uniform2_v3`]). The results are the
+/// same bits: Rust never fuses a multiply and an add by itself.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn render_batch_v3(
@@ -321,13 +322,13 @@ fn light_samples(
             continue;
         }
         let sampler = &mut paths.sampler[i];
-        let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
+        let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform_v3(v3)) else {
             // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
             paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
         let light = &world.lights[light as usize];
-        let Some(ls) = light.sample_li_inlined(&light_context(si), sampler.uniform2()) else {
+        let Some(ls) = light.sample_li_inlined(&light_context(si), sampler.uniform2_v3(v3)) else {
             paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
@@ -408,8 +409,8 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
         let i = live[k];
         let (si, bsdf) = (&paths.si[i as usize], &paths.bsdf[i as usize]);
         let sampler = &mut paths.sampler[i as usize];
-        let u_lobe = sampler.uniform();
-        let u = sampler.uniform2();
+        let u_lobe = sampler.uniform_v3(v3);
+        let u = sampler.uniform2_v3(v3);
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
                 group.set(filled, si.wo, bsdf, r, u);
@@ -418,7 +419,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
                 if filled == lanes::LANES {
                     let out = lanes::lambert_samples(v3, &group);
                     for (lane, &m) in members.iter().enumerate() {
-                        if continue_path(settings, paths, m as usize, out.get(lane)) {
+                        if continue_path(Some(v3), settings, paths, m as usize, out.get(lane)) {
                             live[next] = m;
                             next += 1;
                         }
@@ -428,7 +429,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
             }
             _ => {
                 let bs = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL);
-                if continue_path(settings, paths, i as usize, bs) {
+                if continue_path(v3, settings, paths, i as usize, bs) {
                     live[next] = i;
                     next += 1;
                 }
@@ -438,7 +439,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_samples(v3, &group);
         for (lane, &m) in members[..filled].iter().enumerate() {
-            if continue_path(settings, paths, m as usize, out.get(lane)) {
+            if continue_path(Some(v3), settings, paths, m as usize, out.get(lane)) {
                 live[next] = m;
                 next += 1;
             }
@@ -450,7 +451,13 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
 /// A path's throughput, next ray and Russian roulette after its BSDF sample `bs`: false when
 /// the path ends.
 #[inline(always)]
-fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Option<BsdfSample>) -> bool {
+fn continue_path(
+    v3: Option<X86_64V3>,
+    settings: PathSettings,
+    paths: &mut Paths<'_>,
+    i: usize,
+    bs: Option<BsdfSample>,
+) -> bool {
     let Some(bs) = bs else { return false };
     let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
     let cos = bs.wi.dot(bsdf.frame.z).abs();
@@ -470,7 +477,7 @@ fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Op
         let rr_beta = (*beta * paths.eta_scale[i]).max_element();
         if rr_beta < 1.0 {
             let q = (1.0 - rr_beta).max(0.0);
-            if paths.sampler[i].uniform() < q {
+            if paths.sampler[i].uniform_v3(v3) < q {
                 return false;
             }
             *beta /= 1.0 - q;
