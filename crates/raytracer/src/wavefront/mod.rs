@@ -184,7 +184,7 @@ fn render_batch_inlined(
     };
     let mut live: Vec<u32> = (0..n as u32).collect();
     while !live.is_empty() {
-        closest_hits(world, &mut paths, &mut live, counters);
+        closest_hits(v3, world, &mut paths, &mut live, counters);
         emission_and_bsdf(world, settings, &mut paths, &mut live);
         light_samples(v3, world, &mut paths, &live, counters);
         bsdf_samples(v3, settings, &mut paths, &mut live);
@@ -215,7 +215,13 @@ fn retain_live(live: &mut Vec<u32>, mut keep: impl FnMut(usize) -> bool) {
 /// Stage 1: each live path's closest hit and its surface interaction; paths that leave the
 /// scene take what the environment gives them and end.
 #[inline(always)]
-fn closest_hits(world: &World, paths: &mut Paths<'_>, live: &mut Vec<u32>, counters: &mut RayCounters) {
+fn closest_hits(
+    v3: Option<X86_64V3>,
+    world: &World,
+    paths: &mut Paths<'_>,
+    live: &mut Vec<u32>,
+    counters: &mut RayCounters,
+) {
     retain_live(
         live,
         #[inline(always)]
@@ -229,7 +235,7 @@ fn closest_hits(world: &World, paths: &mut Paths<'_>, live: &mut Vec<u32>, count
             let ray = paths.ray[i];
             match world.intersect(&ray) {
                 Some(hit) => {
-                    world.write_interaction(&ray, &hit, &mut paths.si[i]);
+                    world.write_interaction(v3, &ray, &hit, &mut paths.si[i]);
                     // An opaque surface stops the ray with weight one (the scalar path's product).
                     paths.beta[i] *= Vec3::ONE;
                     true
@@ -328,7 +334,7 @@ fn light_samples(
             continue;
         };
         let light = &world.lights[light as usize];
-        let Some(ls) = light.sample_li_inlined(&light_context(si), sampler.uniform2_v3(v3)) else {
+        let Some(ls) = light.sample_li_inlined(v3, &light_context(si), sampler.uniform2_v3(v3)) else {
             paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
