@@ -334,7 +334,7 @@ mod tests {
         ];
         let mut rng = crate::sampling::Rng::new(2, 7);
         let mut value = |k: usize| {
-            if k % 4 == 0 {
+            if k.is_multiple_of(4) {
                 special[(k / 4) % special.len()]
             } else {
                 let magnitude = 10f64.powi((rng.uniform() * 80.0) as i32 - 40);
@@ -344,7 +344,7 @@ mod tests {
         for k in 0..20_000 {
             let p = DVec3::new(value(k), value(k + 1), value(k + 2));
             let extra = DVec3::new(value(k + 3), value(k + 5), value(k + 6)).abs()
-                * if k % 9 == 0 { -1.0 } else { 1.0 };
+                * if k.is_multiple_of(9) { -1.0 } else { 1.0 };
             let expected = round_point(p, extra);
             let bits =
                 |(a, b): (Vec3, Vec3)| (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));

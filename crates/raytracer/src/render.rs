@@ -167,7 +167,8 @@ pub struct CameraRays {
     motion: Option<Arc<TransformMotion>>,
     /// For a perspective camera, the render-space origin its pinhole rays all share (the eye,
     /// [`CameraRays::clip`]'s transform of depth_remap's world origin, made once), or `None`
-    /// where that is not finite (no ray) or the camera is orthographic.
+    /// where that is not finite (no ray) or the camera is orthographic. Made from `camera` as
+    /// `new` was given it (nothing changes `camera` after that).
     eye: Option<DVec3>,
 }
 
@@ -309,9 +310,9 @@ impl CameraRays {
     /// direction `direction`.
     #[inline(always)]
     fn clip_finite(&self, o: DVec3, direction: DVec3, dz_dt: f64) -> Option<(Ray, DVec3)> {
-        // `dz_dt < inf` is `is_finite` for a positive value (the test was a dozen integer
-        // instructions as `is_finite`).
-        if !direction.is_finite() || !(dz_dt > 0.0 && dz_dt < f64::INFINITY) {
+        // For a positive `dz_dt`, being below infinity is being finite (a comparison, where
+        // `is_finite` was a dozen integer instructions on the bits).
+        if !(direction.is_finite() && dz_dt > 0.0 && dz_dt < f64::INFINITY) {
             return None;
         }
         let t_near = self.near / dz_dt;

@@ -161,7 +161,7 @@ fn reversed_to_unit(x: u32) -> f32 {
 /// and the pair's scramble seeds, with SSE lanes: the shuffled index is reversed with byte
 /// shuffles, and the two coordinates' Laine-Karras permutations (`pmulld`) and final
 /// reversals share the instructions of one register's lanes 0 and 1. The same integer
-/// operations, so the same bits, as the scalar code; about two dozen fewer instructions a pair.
+/// operations, so the same bits, as the scalar code; about 59 instructions a pair instead of 76.
 ///
 /// `v3` is proof that the CPU has AVX2 (and with it SSSE3 and SSE4.1); the caller should be
 /// compiled with x86-64-v3's features, or the intrinsics are calls.
