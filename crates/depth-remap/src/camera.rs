@@ -349,6 +349,7 @@ impl Camera {
     }
 
     /// Raster position (origin top-left, y down, pixel units) to screen position.
+    #[inline]
     pub fn raster_to_screen(&self, raster: DVec2) -> DVec2 {
         let (w, h) = self.resolution();
         let sw = self.screen_window;
@@ -415,8 +416,20 @@ impl Camera {
     pub fn world_ray_through_raster(&self, raster: DVec2) -> WorldRay {
         let s = self.raster_to_screen(raster);
         let origin_camera = if self.is_perspective() { DVec3::ZERO } else { DVec3::new(s.x, s.y, 0.0) };
-        let direction = self.world_from_camera.transform_vector3(self.unit_depth_direction(s)).normalize();
-        WorldRay { origin: self.world_from_camera.transform_point3(origin_camera), direction }
+        WorldRay {
+            origin: self.world_from_camera.transform_point3(origin_camera),
+            direction: self.world_direction_at_screen(s),
+        }
+    }
+
+    /// The direction of [`Camera::world_ray_through_raster`] at a screen position, unit length
+    /// in world units. For a perspective camera, whose rays all start at
+    /// [`Camera::eye_position`], this and the screen position are all a ray needs; a caller
+    /// that also wants [`Camera::eye_depth_per_radial_at_screen`] converts the raster position
+    /// once.
+    #[inline]
+    pub fn world_direction_at_screen(&self, screen: DVec2) -> DVec3 {
+        self.world_from_camera.transform_vector3(self.unit_depth_direction(screen)).normalize()
     }
 
     /// The planar eye depth (camera-space z) per unit of radial world distance along the ray

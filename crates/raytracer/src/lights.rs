@@ -12,8 +12,9 @@
 //! sampling), and sampled as an emitter of rays (`sample_le`, for photon tracing), with its total
 //! power (`power`) for choosing among lights.
 
+use crate::accel::X86_64V3;
 use crate::environment_light::EnvironmentLight;
-use crate::math::{Frame, offset_ray_origin, round_point, transform_normal};
+use crate::math::{Frame, offset_ray_origin, round_point, round_point_v3, transform_normal};
 use crate::sampling::{
     Distribution1D, UNIFORM_SPHERE_PDF, sample_concentric_disk, sample_cosine_hemisphere,
     sample_uniform_cone, sample_uniform_sphere, sample_uniform_triangle, uniform_cone_pdf,
@@ -228,13 +229,19 @@ impl Light {
 
     /// Samples incident light at `ctx`.
     pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2) -> Option<LightLiSample> {
-        self.sample_li_inlined(ctx, u)
+        self.sample_li_inlined(None, ctx, u)
     }
 
     /// [`Light::sample_li`], inlined where it is called: the wavefront's x86-64-v3 copy
-    /// compiles it with its own features.
+    /// compiles it with its own features, and rounds an area light's point in lanes where `v3`
+    /// says it may ([`round_point_v3`]).
     #[inline(always)]
-    pub(crate) fn sample_li_inlined(&self, ctx: &LightSampleContext, u: Vec2) -> Option<LightLiSample> {
+    pub(crate) fn sample_li_inlined(
+        &self,
+        v3: Option<X86_64V3>,
+        ctx: &LightSampleContext,
+        u: Vec2,
+    ) -> Option<LightLiSample> {
         match self {
             Light::Point { position, intensity } => {
                 let d = *position - ctx.p;
@@ -288,7 +295,7 @@ impl Light {
                     {
                         return self.sample_sphere_cone(ctx, *centre, *radius, *flip, u);
                     }
-                    _ => self.sample_area(u)?,
+                    _ => self.sample_area(v3, u)?,
                 };
                 let d = p - ctx.p;
                 let d2 = d.length_squared();
@@ -322,7 +329,7 @@ impl Light {
     /// A point on an area light chosen with an area density: (point, error, front normal, pdf).
     /// Always inlined, into [`Light::sample_li_inlined`] among others.
     #[inline(always)]
-    fn sample_area(&self, u: Vec2) -> Option<(Vec3, Vec3, Vec3, f32)> {
+    fn sample_area(&self, v3: Option<X86_64V3>, u: Vec2) -> Option<(Vec3, Vec3, Vec3, f32)> {
         let Light::Area { shape, .. } = self else { return None };
         match shape {
             EmitterShape::Triangles { triangles, normals, by_area, area } => {
@@ -331,7 +338,7 @@ impl Light {
                 let b = sample_uniform_triangle(Vec2::new(u0, u.y));
                 let b = [f64::from(b[0]), f64::from(b[1]), f64::from(b[2])];
                 let (p64, err) = crate::shapes::barycentric_point(b, p0, p1, p2);
-                let (p, p_err) = round_point(p64, err);
+                let (p, p_err) = round_point_v3(v3, p64, err);
                 Some((p, p_err, normals[i], 1.0 / area))
             }
             EmitterShape::Quadric { quadric, render_from_object, object_from_render, det, flip, .. } => {
@@ -489,7 +496,7 @@ impl Light {
                 })
             }
             Light::Area { two_sided, .. } => {
-                let (p, p_err, n, pdf_pos) = self.sample_area(u_pos)?;
+                let (p, p_err, n, pdf_pos) = self.sample_area(None, u_pos)?;
                 let mut local = sample_cosine_hemisphere(u_dir);
                 let mut pdf_dir = local.z / PI;
                 let mut n_side = n;

@@ -165,6 +165,11 @@ pub struct CameraRays {
     lens: Option<ThinLens>,
     /// A moving camera ([`World::camera_motion`]); `None` when it stays.
     motion: Option<Arc<TransformMotion>>,
+    /// For a perspective camera, the render-space origin its pinhole rays all share (the eye,
+    /// [`CameraRays::clip`]'s transform of depth_remap's world origin, made once), or `None`
+    /// where that is not finite (no ray) or the camera is orthographic. Made from `camera` as
+    /// `new` was given it (nothing changes `camera` after that).
+    eye: Option<DVec3>,
 }
 
 impl CameraRays {
@@ -172,7 +177,11 @@ impl CameraRays {
         let c = camera.clipping();
         let near = if c.near.is_finite() && c.near > 0.0 { c.near } else { 0.0 };
         let far = if c.far.is_finite() && c.far > near { c.far } else { f64::INFINITY };
-        CameraRays { camera, render_from_world: *render_from_world, near, far, lens: None, motion: None }
+        let eye = camera
+            .is_perspective()
+            .then(|| render_from_world.transform_point3(camera.world_ray_through_raster(DVec2::ZERO).origin))
+            .filter(|o| o.is_finite());
+        CameraRays { camera, render_from_world: *render_from_world, near, far, lens: None, motion: None, eye }
     }
 
     /// The same rays through a thin lens (`DepthOfField`); a lens without aperture is a pinhole.
@@ -189,12 +198,28 @@ impl CameraRays {
 
     /// The ray of [`CameraRays::lens_ray`] taken by the camera at shutter fraction `time`, and
     /// carrying that time. Without camera motion it is that ray unmoved; the depth table keeps
-    /// using the pinhole ray at shutter open ([`CameraRays::pixel_centre_ray`]).
+    /// using the pinhole ray at shutter open ([`CameraRays::pixel_centre_ray`]). Inlined into
+    /// the tile loop, with [`CameraRays::lens_ray`] and [`CameraRays::ray`]: out of line, the
+    /// ray and its origin went back through memory at each of the three calls. A lens and a
+    /// moving camera are calls.
+    #[inline(always)]
     pub fn lens_ray_at(&self, raster: DVec2, lens_u: Vec2, time: f32) -> Option<(Ray, DVec3)> {
         let (ray, origin) = self.lens_ray(raster, lens_u)?;
         let Some(motion) = &self.motion else {
             return Some((Ray { time, ..ray }, origin));
         };
+        self.moved(motion, (ray, origin), time)
+    }
+
+    /// The camera ray `(ray, origin)` of shutter open as `motion` moves it to shutter fraction
+    /// `time` ([`CameraRays::lens_ray_at`]).
+    #[inline(never)]
+    fn moved(
+        &self,
+        motion: &TransformMotion,
+        (ray, origin): (Ray, DVec3),
+        time: f32,
+    ) -> Option<(Ray, DVec3)> {
         let m = motion.at(f64::from(time));
         let moved_origin = m.transform_point3(origin);
         let direction = m.transform_vector3(ray.direction.as_dvec3());
@@ -220,10 +245,17 @@ impl CameraRays {
 
     /// The ray through a raster position and the lens point `lens_u` picks (uniform in
     /// `[0, 1)^2`), in render space; the pinhole ray of [`CameraRays::ray`] without a lens.
+    #[inline(always)]
     pub fn lens_ray(&self, raster: DVec2, lens_u: Vec2) -> Option<(Ray, DVec3)> {
-        let Some(lens) = self.lens else {
-            return self.ray(raster);
-        };
+        match self.lens {
+            None => self.ray(raster),
+            Some(lens) => self.thin_lens_ray(lens, raster, lens_u),
+        }
+    }
+
+    /// [`CameraRays::lens_ray`] through `lens`.
+    #[inline(never)]
+    fn thin_lens_ray(&self, lens: ThinLens, raster: DVec2, lens_u: Vec2) -> Option<(Ray, DVec3)> {
         let bent = lens.refract(self.camera.ray_through_raster(raster), lens_u);
         let world_from_camera = self.camera.world_from_camera();
         let direction_world = world_from_camera.transform_vector3(bent.direction);
@@ -236,10 +268,21 @@ impl CameraRays {
         self.clip(wr, bent.direction.z / world_length)
     }
 
-    /// The ray through a raster position, in render space, with its `f64` origin.
+    /// The ray through a raster position, in render space, with its `f64` origin. A
+    /// perspective camera's is depth_remap's world ray (its direction, from the screen position
+    /// converted once) from the eye found once, the same bits as [`CameraRays::to_render`] of
+    /// [`Camera::world_ray_through_raster`] gives.
+    #[inline(always)]
     pub fn ray(&self, raster: DVec2) -> Option<(Ray, DVec3)> {
-        let wr = self.camera.world_ray_through_raster(raster);
-        self.to_render(wr, raster)
+        if !self.camera.is_perspective() {
+            let wr = self.camera.world_ray_through_raster(raster);
+            return self.to_render(wr, raster);
+        }
+        let eye = self.eye?;
+        let s = self.camera.raster_to_screen(raster);
+        let direction = self.camera.world_direction_at_screen(s);
+        // The eye is finite (`CameraRays::new`).
+        self.clip_finite(eye, direction, self.camera.eye_depth_per_radial_at_screen(s.x, s.y))
     }
 
     /// *The* ray through the centre of pixel `(i, j)` (depth_remap's definition), in render space.
@@ -257,17 +300,26 @@ impl CameraRays {
     /// are) grows by `dz_dt` per unit of world distance along it.
     fn clip(&self, wr: WorldRay, dz_dt: f64) -> Option<(Ray, DVec3)> {
         let o = self.render_from_world.transform_point3(wr.origin);
-        if !o.is_finite() || !wr.direction.is_finite() {
+        if !o.is_finite() {
             return None;
         }
-        if !(dz_dt > 0.0) || !dz_dt.is_finite() {
+        self.clip_finite(o, wr.direction, dz_dt)
+    }
+
+    /// [`CameraRays::clip`] of the ray from the finite render-space point `o` along the world
+    /// direction `direction`.
+    #[inline(always)]
+    fn clip_finite(&self, o: DVec3, direction: DVec3, dz_dt: f64) -> Option<(Ray, DVec3)> {
+        // For a positive `dz_dt`, being below infinity is being finite (a comparison, where
+        // `is_finite` was a dozen integer instructions on the bits).
+        if !(direction.is_finite() && dz_dt > 0.0 && dz_dt < f64::INFINITY) {
             return None;
         }
         let t_near = self.near / dz_dt;
         let t_far = self.far / dz_dt;
         let ray = Ray {
             origin: o.as_vec3(),
-            direction: wr.direction.as_vec3(),
+            direction: direction.as_vec3(),
             t_min: t_near as f32,
             t_max: if t_far.is_finite() { t_far as f32 } else { f32::INFINITY },
             time: 0.0,

@@ -104,10 +104,13 @@ pub(crate) struct NodeTest {
 impl NodeTest {
     #[inline(always)]
     fn new(ray: &TraversalRay) -> NodeTest {
-        let negative = ray.inv_direction.cmplt(Vec3A::ZERO).bitmask();
-        let near = [0, 1, 2].map(|a| ((negative >> a) & 1) as usize);
-        let pad = |near: usize| Vec4::splat(if near == 1 { CHILD_PAD } else { -CHILD_PAD });
-        NodeTest { near, near_pad: near.map(pad), far_pad: near.map(|n| pad(n ^ 1)) }
+        let negative = ray.inv_direction.cmplt(Vec3A::ZERO);
+        let near = [0, 1, 2].map(|a| ((negative.bitmask() >> a) & 1) as usize);
+        // The pads chosen in lanes from the comparison's mask, not per axis from `near` (three
+        // branches or selects, and their values moved into place, per query).
+        let near_pad = Vec3A::select(negative, Vec3A::splat(CHILD_PAD), Vec3A::splat(-CHILD_PAD));
+        let [x, y, z] = near_pad.to_array().map(Vec4::splat);
+        NodeTest { near, near_pad: [x, y, z], far_pad: [-x, -y, -z] }
     }
 }
 

@@ -139,8 +139,9 @@ pub fn render_batch(
 
 /// [`render_batch`] compiled for x86-64-v3: the four stages are inlined into it, so their
 /// scalar arithmetic (the surface interaction, the BSDF, the light sample's moves, the MIS
-/// weights) gets the VEX encodings' three operands instead of SSE2's register copies. The
-/// results are the same bits: Rust never fuses a multiply and an add by itself.
+/// weights) gets the VEX encodings' three operands instead of SSE2's register copies, and the
+/// samplers take their Sobol pairs with SIMD ([`Sampler::uniform2_v3`]). The results are the
+/// same bits: Rust never fuses a multiply and an add by itself.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn render_batch_v3(
@@ -183,7 +184,7 @@ fn render_batch_inlined(
     };
     let mut live: Vec<u32> = (0..n as u32).collect();
     while !live.is_empty() {
-        closest_hits(world, &mut paths, &mut live, counters);
+        closest_hits(v3, world, &mut paths, &mut live, counters);
         emission_and_bsdf(world, settings, &mut paths, &mut live);
         light_samples(v3, world, &mut paths, &live, counters);
         bsdf_samples(v3, settings, &mut paths, &mut live);
@@ -214,7 +215,13 @@ fn retain_live(live: &mut Vec<u32>, mut keep: impl FnMut(usize) -> bool) {
 /// Stage 1: each live path's closest hit and its surface interaction; paths that leave the
 /// scene take what the environment gives them and end.
 #[inline(always)]
-fn closest_hits(world: &World, paths: &mut Paths<'_>, live: &mut Vec<u32>, counters: &mut RayCounters) {
+fn closest_hits(
+    v3: Option<X86_64V3>,
+    world: &World,
+    paths: &mut Paths<'_>,
+    live: &mut Vec<u32>,
+    counters: &mut RayCounters,
+) {
     retain_live(
         live,
         #[inline(always)]
@@ -228,7 +235,7 @@ fn closest_hits(world: &World, paths: &mut Paths<'_>, live: &mut Vec<u32>, count
             let ray = paths.ray[i];
             match world.intersect(&ray) {
                 Some(hit) => {
-                    world.write_interaction(&ray, &hit, &mut paths.si[i]);
+                    world.write_interaction(v3, &ray, &hit, &mut paths.si[i]);
                     // An opaque surface stops the ray with weight one (the scalar path's product).
                     paths.beta[i] *= Vec3::ONE;
                     true
@@ -321,13 +328,13 @@ fn light_samples(
             continue;
         }
         let sampler = &mut paths.sampler[i];
-        let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform()) else {
+        let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform_v3(v3)) else {
             // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
             paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
         let light = &world.lights[light as usize];
-        let Some(ls) = light.sample_li_inlined(&light_context(si), sampler.uniform2()) else {
+        let Some(ls) = light.sample_li_inlined(v3, &light_context(si), sampler.uniform2_v3(v3)) else {
             paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
@@ -408,8 +415,8 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
         let i = live[k];
         let (si, bsdf) = (&paths.si[i as usize], &paths.bsdf[i as usize]);
         let sampler = &mut paths.sampler[i as usize];
-        let u_lobe = sampler.uniform();
-        let u = sampler.uniform2();
+        let u_lobe = sampler.uniform_v3(v3);
+        let u = sampler.uniform2_v3(v3);
         match (v3, lanes::single_lambert(bsdf)) {
             (Some(v3), Some(r)) => {
                 group.set(filled, si.wo, bsdf, r, u);
@@ -418,7 +425,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
                 if filled == lanes::LANES {
                     let out = lanes::lambert_samples(v3, &group);
                     for (lane, &m) in members.iter().enumerate() {
-                        if continue_path(settings, paths, m as usize, out.get(lane)) {
+                        if continue_path(Some(v3), settings, paths, m as usize, out.get(lane)) {
                             live[next] = m;
                             next += 1;
                         }
@@ -428,7 +435,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
             }
             _ => {
                 let bs = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL);
-                if continue_path(settings, paths, i as usize, bs) {
+                if continue_path(v3, settings, paths, i as usize, bs) {
                     live[next] = i;
                     next += 1;
                 }
@@ -438,7 +445,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_samples(v3, &group);
         for (lane, &m) in members[..filled].iter().enumerate() {
-            if continue_path(settings, paths, m as usize, out.get(lane)) {
+            if continue_path(Some(v3), settings, paths, m as usize, out.get(lane)) {
                 live[next] = m;
                 next += 1;
             }
@@ -450,7 +457,13 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
 /// A path's throughput, next ray and Russian roulette after its BSDF sample `bs`: false when
 /// the path ends.
 #[inline(always)]
-fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Option<BsdfSample>) -> bool {
+fn continue_path(
+    v3: Option<X86_64V3>,
+    settings: PathSettings,
+    paths: &mut Paths<'_>,
+    i: usize,
+    bs: Option<BsdfSample>,
+) -> bool {
     let Some(bs) = bs else { return false };
     let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
     let cos = bs.wi.dot(bsdf.frame.z).abs();
@@ -470,7 +483,7 @@ fn continue_path(settings: PathSettings, paths: &mut Paths<'_>, i: usize, bs: Op
         let rr_beta = (*beta * paths.eta_scale[i]).max_element();
         if rr_beta < 1.0 {
             let q = (1.0 - rr_beta).max(0.0);
-            if paths.sampler[i].uniform() < q {
+            if paths.sampler[i].uniform_v3(v3) < q {
                 return false;
             }
             *beta /= 1.0 - q;

@@ -2,7 +2,8 @@
 //! and the material and emitter of the shape hit, from the hit the ray queries return.
 
 use super::{Hit, HitDetail, MeshShading, Ray, SurfaceInteraction, World};
-use crate::math::{round_point, transform_normal, transform_point_error};
+use crate::accel::X86_64V3;
+use crate::math::{round_point_v3, transform_normal, transform_point_error};
 use crate::shapes::barycentric_point;
 use glam::{DMat4, DVec3, Vec2, Vec3};
 
@@ -15,7 +16,7 @@ impl World {
         if self.flat
             && let HitDetail::Triangle(i, b) = hit.detail
         {
-            return self.interaction_flat(ray, hit.t, i, b);
+            return self.interaction_flat(None, ray, hit.t, i, b);
         }
         self.interaction_general(ray, hit)
     }
@@ -23,14 +24,21 @@ impl World {
     /// [`World::interaction`] written into `out`, which it replaces whole: where the record
     /// is stored (the wavefront's) it is built there. Returned by value, the flat case's
     /// record shared its return slot with the general case's out-of-line call, so it was built
-    /// on the stack and copied in with `memcpy`.
+    /// on the stack and copied in with `memcpy`. `v3` is the caller's proof of x86-64-v3, for
+    /// the rounded point's lanes ([`round_point_v3`]).
     // Always inlined into the wavefront's x86-64-v3 batch, its one caller.
     #[inline(always)]
-    pub fn write_interaction(&self, ray: &Ray, hit: &Hit, out: &mut SurfaceInteraction) {
+    pub(crate) fn write_interaction(
+        &self,
+        v3: Option<X86_64V3>,
+        ray: &Ray,
+        hit: &Hit,
+        out: &mut SurfaceInteraction,
+    ) {
         if self.flat
             && let HitDetail::Triangle(i, b) = hit.detail
         {
-            *out = self.interaction_flat(ray, hit.t, i, b);
+            *out = self.interaction_flat(v3, ray, hit.t, i, b);
         } else {
             *out = self.interaction_general(ray, hit);
         }
@@ -43,7 +51,14 @@ impl World {
     /// about half of that function's instructions, and the record's copy where it is inlined)
     /// was a tenth of a Cornell box sample's.
     #[inline(always)]
-    fn interaction_flat(&self, ray: &Ray, t: f32, i: u32, b: [f64; 3]) -> SurfaceInteraction {
+    fn interaction_flat(
+        &self,
+        v3: Option<X86_64V3>,
+        ray: &Ray,
+        t: f32,
+        i: u32,
+        b: [f64; 3],
+    ) -> SurfaceInteraction {
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
         let tri = &blas.triangles[i as usize];
@@ -72,7 +87,16 @@ impl World {
         let dpdu = (tp[1] - tp[0]).as_dvec3().as_vec3();
         let reverse = self.flat_sides[i as usize] & super::REVERSED != 0;
         let shape = Oriented { ng_unit, ns, n_outward: ng_unit, dpdu, st, st_per_length, reverse };
-        self.surface(ray, t, shape, (p64, err64), wants_st, attributes, inst.emitters.get(tri.shape as usize))
+        self.surface(
+            v3,
+            ray,
+            t,
+            shape,
+            (p64, err64),
+            wants_st,
+            attributes,
+            inst.emitters.get(tri.shape as usize),
+        )
     }
 
     /// [`World::interaction`] in any world.
@@ -186,6 +210,7 @@ impl World {
         let (_, reverse) = self.sidedness(inst, blas, shape);
         let oriented = Oriented { ng_unit, ns, n_outward, dpdu, st, st_per_length, reverse };
         self.surface(
+            None,
             ray,
             hit.t,
             oriented,
@@ -202,6 +227,7 @@ impl World {
     #[allow(clippy::too_many_arguments)]
     fn surface(
         &self,
+        v3: Option<X86_64V3>,
         ray: &Ray,
         t: f32,
         shape: Oriented,
@@ -224,7 +250,7 @@ impl World {
         if ns == Vec3::ZERO || !ns.is_finite() {
             ns = ng;
         }
-        let (p, p_error) = round_point(p64, err64);
+        let (p, p_error) = round_point_v3(v3, p64, err64);
         let st_width = if wants_st {
             let pixel = self.footprint.width_at(p64.length());
             let st_width = (pixel * st_per_length) as f32;
