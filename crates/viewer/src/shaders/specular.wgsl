@@ -136,14 +136,21 @@ fn seen_surface_change(p: vec3<f32>, origin: vec3<f32>, dir: vec3<f32>, weight: 
 const GLOSSY_TRACED: u32 = 64u;
 const GLOSSY_SHADED: u32 = 8u;
 // The lobe directions of a moving frame's samples (fs_glossy_gather, one pixel in
-// REDUCED_GLOSSY_STRIDE^2): a quarter, each weighing four. Every pixel's change is then
-// spread from four samples' 16 directions, turned differently at each; the lobes' samples cost
-// about 300 of a 520 ms moving frame on lavapipe with all 64 (docs/viewer-frame-time.md).
-const GLOSSY_TRACED_MOVING: u32 = 16u;
+// REDUCED_GLOSSY_STRIDE^2): an eighth, each weighing eight. Every pixel's change is then
+// spread from four samples' 8 directions, turned differently at each; the lobes' samples cost
+// about 300 of a 520 ms moving frame on lavapipe with all 64, and 8 instead of 16 cost 14 ms
+// less in the room at 512x384 with the moving frame's error there no larger
+// (docs/viewer-frame-time.md).
+const GLOSSY_TRACED_MOVING: u32 = 8u;
 // The directions that meet a sphere a moving frame's sample shades, at most: the sphere's
 // radiance then comes from its radiosity map, smooth over the sphere, and each shaded direction
 // still marches for the light the sphere hides (hidden_radiance).
 const GLOSSY_SHADED_MOVING: u32 = 2u;
+// The directions toward a surface the eye does not see that a moving frame's sample rebuilds
+// the live objects' shadows at, at most (glossy_lobe_survey): each walks the scene's triangles
+// and integrates the lights' samples there, about half a moving frame's lobe samples' cost in
+// the room with all of them.
+const GLOSSY_HIDDEN_MOVING: u32 = 2u;
 
 // Direction `i` of `count` (GLOSSY_TRACED, or fewer while moving) of the Blinn lobe of exponent
 // `e` at normal n (tangents t, b) seen from v, the strata turned by `turn`: xyz the direction,
@@ -367,6 +374,8 @@ fn glossy_lobe_survey(pixel: vec2<i32>, row: u32, moving: bool) -> LobeSurvey {
     var met_mask = vec2<u32>(0u);
     // Which free directions met a surface no march finds (the eye does not see it).
     var hidden_mask = vec2<u32>(0u);
+    var hidden_count = 0u;
+    var hidden_weight = 0.0;
     var shadowed = vec3<f32>(0.0);
     // The lobe's weight times the share of light the live objects take, summed over the free
     // directions that meet a surface the eye does not see.
@@ -390,21 +399,38 @@ fn glossy_lobe_survey(pixel: vec2<i32>, row: u32, moving: bool) -> LobeSurvey {
                 shadowed += d.w * (now - before);
             } else {
                 hidden_mask[i / 32u] |= 1u << (i % 32u);
+                hidden_count += 1u;
+                hidden_weight += d.w;
             }
         }
     }
     // A surface the eye does not see (behind another, or off screen) has no shadowed pixel to
     // read: the scene's triangles find it, and the share of its light the live objects take is
-    // rebuilt there (its radiance taken as the lobe's mean, below).
+    // rebuilt there (its radiance taken as the lobe's mean, below). While moving, every k-th of
+    // those directions stands for all of them by weight, as the shaded directions stand for
+    // the sphere's: each costs a walk through the scene and the lights' samples.
+    let rebuilt_most = select(GLOSSY_TRACED, GLOSSY_HIDDEN_MOVING, moving);
+    let hidden_stride = (hidden_count + rebuilt_most - 1u) / rebuilt_most;
+    var rebuilt_weight = 0.0;
+    var hidden_k = 0u;
     for (var i = 0u; i < traced; i++) {
         if (hidden_mask[i / 32u] & (1u << (i % 32u))) == 0u {
             continue;
         }
+        let chosen = hidden_k % hidden_stride == 0u;
+        hidden_k += 1u;
+        if !chosen {
+            continue;
+        }
         let d = glossy_direction(i, traced, exponent, n, t, b, v, turn);
+        rebuilt_weight += d.w;
         let hit = scene_first_hit(p + n * ray_offset(p), d.xyz, 3.0e38);
         if hit.w > 0.0 {
             hidden_taken += d.w * live_shadow_share(p + hit.w * d.xyz, hit.xyz);
         }
+    }
+    if hidden_stride > 1u {
+        hidden_taken *= hidden_weight / rebuilt_weight;
     }
     if met_count == 0u && all(shadowed == vec3<f32>(0.0)) && all(hidden_taken == vec3<f32>(0.0)) {
         return survey;
