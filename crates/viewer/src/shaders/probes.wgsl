@@ -262,6 +262,10 @@ fn reflection_level_of_exponent(e: f32) -> f32 {
 // Directions of the Blinn lobe a glossy live fragment reads the reflection probes in
 // (sidecar::GLOSSY_SAMPLES).
 const GLOSSY_SAMPLES: u32 = 16u;
+// The same in a moving frame (glossy_reflection_from_probes), each direction read at the mip
+// level of the wider solid angle it stands for: the lobe's eight probe reads per direction cost
+// most of the moving cursor sphere's radiance map on lavapipe.
+const GLOSSY_SAMPLES_MOVING: u32 = 8u;
 
 // Direction `i` of `count` of a Blinn lobe of exponent `e` about unit normal n (tangents t and
 // b) seen from unit direction v, importance-sampled as raytracer::bsdf samples it: a stratified
@@ -505,8 +509,8 @@ fn glossy_reflection_from_probes(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, expon
     }
     var sum = vec3<f32>(0.0);
     var total = 0.0;
-    for (var i = 0u; i < GLOSSY_SAMPLES; i++) {
-        let d = blinn_direction(i, GLOSSY_SAMPLES, 0.0, exponent, n, t, b, v);
+    for (var i = 0u; i < GLOSSY_SAMPLES_MOVING; i++) {
+        let d = blinn_direction(i, GLOSSY_SAMPLES_MOVING, 0.0, exponent, n, t, b, v);
         let cos_h = d.cos_h;
         let o_dot_h = d.o_dot_h;
         let l = d.l;
@@ -518,7 +522,7 @@ fn glossy_reflection_from_probes(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, expon
             total += weight;
             if weight > 0.0 {
                 let pdf = (exponent + 1.0) * pow(cos_h, exponent) / (8.0 * PI * o_dot_h);
-                let omega = 1.0 / (f32(GLOSSY_SAMPLES) * max(pdf, 1e-6));
+                let omega = 1.0 / (f32(GLOSSY_SAMPLES_MOVING) * max(pdf, 1e-6));
                 let level = reflection_level_of_exponent(8.0 * PI / omega);
                 // Where the direction meets the scene, and the radiance of each probe toward it.
                 let hit = probe_hit(nearest_cell, p, l);
