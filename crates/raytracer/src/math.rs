@@ -143,8 +143,9 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// register where `v3` says the CPU has x86-64-v3: both dot products as two horizontal adds
 /// (in the scalar order, `(x + y) + z`), the side's sign flip as one mask, and each
 /// component's step up or down as integer lane operations instead of two branches per
-/// component on the offset's signs (random for a diffuse bounce). Always inlined, for the
-/// wavefront's x86-64-v3 batch; a caller without those target features passes `None`.
+/// component on the offset's sign. Always inlined, for the wavefront's x86-64-v3 batch; a
+/// caller without those target features passes `None`. A NaN result may differ from the
+/// scalar one in sign and payload, which Rust leaves open for NaN arithmetic anyway.
 #[inline(always)]
 pub(crate) fn offset_ray_origin_v3(
     v3: Option<crate::accel::X86_64V3>,
