@@ -9,6 +9,7 @@
 //! [`direct_from_light`] estimate direct lighting with multiple importance sampling, and
 //! [`RayCounters`] counts rays for `--stats`.
 
+use crate::accel::X86_64V3;
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
 use crate::lights::{Light, LightLiSample, LightSampleContext};
 use crate::materials::Material;
@@ -200,9 +201,12 @@ pub enum DirectStrategy {
 /// toward the sample and `bsdf_pdf` its density there, weighted by the power heuristic when
 /// `mis`. Zero when the shadow ray is blocked. The scalar and the wavefront path integrators
 /// both estimate with it, so their images stay bit-identical. Always inlined: the wavefront's
-/// x86-64-v3 batch then compiles it (and the shadow ray's ends) with its own features.
+/// x86-64-v3 batch then compiles it (and the shadow ray's ends) with its own features, and
+/// passes its token `v3` for the ends' offsets in lanes; the scalar integrator passes `None`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn visible_light_estimate(
+    v3: Option<X86_64V3>,
     world: &World,
     si: &SurfaceInteraction,
     ls: &LightLiSample,
@@ -212,8 +216,8 @@ pub(crate) fn visible_light_estimate(
     counters: &mut RayCounters,
 ) -> Vec3 {
     let shadow = match ls.p_light {
-        Some((p, err, n)) => si.spawn_ray_to(p, err, n),
-        None => si.spawn_ray(ls.wi),
+        Some((p, err, n)) => si.spawn_ray_to_v3(v3, p, err, n),
+        None => si.spawn_ray_inlined(v3, ls.wi),
     };
     counters.shadow += 1;
     let tr = world.transmittance(&shadow);
@@ -255,7 +259,8 @@ pub fn direct_from_light(
         };
         let f = f * ls.wi.dot(bsdf.frame.z).abs();
         if f != Vec3::ZERO && ls.li != Vec3::ZERO {
-            total += visible_light_estimate(world, si, &ls, (f, bsdf_pdf), pick_probability, mis, counters);
+            total +=
+                visible_light_estimate(None, world, si, &ls, (f, bsdf_pdf), pick_probability, mis, counters);
         }
     }
     if strategy == DirectStrategy::Both && !light.is_delta() {

@@ -347,7 +347,7 @@ fn light_samples(
                 if filled == lanes::LANES {
                     let out = lanes::lambert_f_pdf(v3, &group);
                     for (lane, (i, picked)) in waiting.iter().enumerate() {
-                        estimate_direct(world, paths, *i, picked, out.get(lane), counters);
+                        estimate_direct(Some(v3), world, paths, *i, picked, out.get(lane), counters);
                     }
                     filled = 0;
                 }
@@ -360,14 +360,14 @@ fn light_samples(
                     (bsdf.f(si.wo, ls.wi, LobeFlags::ALL), 0.0)
                 };
                 let value = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
-                estimate_direct(world, paths, i, &picked, value, counters);
+                estimate_direct(v3, world, paths, i, &picked, value, counters);
             }
         }
     }
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_f_pdf(v3, &group);
         for (lane, (i, picked)) in waiting[..filled].iter().enumerate() {
-            estimate_direct(world, paths, *i, picked, out.get(lane), counters);
+            estimate_direct(Some(v3), world, paths, *i, picked, out.get(lane), counters);
         }
     }
 }
@@ -384,6 +384,7 @@ struct Picked {
 /// toward it (`value`): its shadow ray and `direct_from_light`'s arithmetic, added to `L`.
 #[inline(always)]
 fn estimate_direct(
+    v3: Option<X86_64V3>,
     world: &World,
     paths: &mut Paths<'_>,
     i: usize,
@@ -393,8 +394,16 @@ fn estimate_direct(
 ) {
     let mut total = Vec3::ZERO;
     if value.0 != Vec3::ZERO && picked.ls.li != Vec3::ZERO {
-        total +=
-            visible_light_estimate(world, &paths.si[i], &picked.ls, value, picked.pick, picked.mis, counters);
+        total += visible_light_estimate(
+            v3,
+            world,
+            &paths.si[i],
+            &picked.ls,
+            value,
+            picked.pick,
+            picked.mis,
+            counters,
+        );
     }
     paths.l[i] += paths.beta[i] * total;
 }
@@ -477,7 +486,7 @@ fn continue_path(
         paths.eta_scale[i] *= bs.eta * bs.eta;
     }
     paths.prev[i] = Some((si.p64, bs.pdf, si.attributes));
-    paths.ray[i] = si.spawn_ray_inlined(bs.wi);
+    paths.ray[i] = si.spawn_ray_inlined(v3, bs.wi);
     paths.depth[i] += 1;
     if paths.depth[i] > settings.rr_depth {
         let rr_beta = (*beta * paths.eta_scale[i]).max_element();

@@ -31,7 +31,7 @@ pub use placement::{
 use crate::accel::{Baseline, Bvh, NodeLanes, TraversalRay, X86_64V3};
 use crate::lights::{Light, LightSet};
 use crate::materials::Material;
-use crate::math::offset_ray_origin;
+use crate::math::offset_ray_origin_v3;
 
 use crate::shapes::{
     Quadric, QuadricHit, RayShear, TriangleHit, TriangleRows, hits_front, intersect_triangle,
@@ -224,23 +224,31 @@ pub struct SurfaceInteraction {
 impl SurfaceInteraction {
     /// A ray leaving the surface in direction `d`, from an origin pushed off the surface.
     pub fn spawn_ray(&self, d: Vec3) -> Ray {
-        self.spawn_ray_inlined(d)
+        self.spawn_ray_inlined(None, d)
     }
 
     /// [`SurfaceInteraction::spawn_ray`], inlined where it is called: the wavefront's
-    /// x86-64-v3 copy compiles it with its own features. (Inlined everywhere, it made the
+    /// x86-64-v3 copy compiles it with its own features and passes its token `v3` for the
+    /// origin's offset in lanes ([`offset_ray_origin_v3`]). (Inlined everywhere, it made the
     /// photon mapper's first-hit loop, which calls it only behind partly opaque surfaces, dearer.)
     #[inline(always)]
-    pub(crate) fn spawn_ray_inlined(&self, d: Vec3) -> Ray {
-        Ray { time: self.time, ..Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, d), d) }
+    pub(crate) fn spawn_ray_inlined(&self, v3: Option<X86_64V3>, d: Vec3) -> Ray {
+        Ray { time: self.time, ..Ray::new(offset_ray_origin_v3(v3, self.p, self.p_error, self.ng, d), d) }
     }
 
     /// A shadow-ray segment from this surface to a point `p` (with error `p_error` and normal
     /// `n`, zero for points not on surfaces): origin, direction (unnormalised) and `t_max`.
     #[inline(always)]
     pub fn spawn_ray_to(&self, p: Vec3, p_error: Vec3, n: Vec3) -> Ray {
-        let from = offset_ray_origin(self.p, self.p_error, self.ng, p - self.p);
-        let to = if n == Vec3::ZERO { p } else { offset_ray_origin(p, p_error, n, from - p) };
+        self.spawn_ray_to_v3(None, p, p_error, n)
+    }
+
+    /// [`SurfaceInteraction::spawn_ray_to`], its ends offset in lanes where the wavefront's
+    /// x86-64-v3 batch passes its token `v3` ([`offset_ray_origin_v3`]).
+    #[inline(always)]
+    pub(crate) fn spawn_ray_to_v3(&self, v3: Option<X86_64V3>, p: Vec3, p_error: Vec3, n: Vec3) -> Ray {
+        let from = offset_ray_origin_v3(v3, self.p, self.p_error, self.ng, p - self.p);
+        let to = if n == Vec3::ZERO { p } else { offset_ray_origin_v3(v3, p, p_error, n, from - p) };
         // Stop just short of the end: a relative epsilon (scale-free).
         Ray { origin: from, direction: to - from, t_min: 0.0, t_max: 1.0 - 1e-4, time: self.time }
     }
