@@ -3,10 +3,10 @@
 //! full-screen draw per sphere and kind, scissored to the pixels the sidecar gives a
 //! reflectance or a glossy lobe, replacing the reflected light where the mirror direction (or
 //! one of the lobe's directions) meets the sphere first. While live objects move, the glossy
-//! lobes are traced at one pixel of each block, over a quarter of the lobe's directions with the
+//! lobes are traced at one pixel of each block, over an eighth of the lobe's directions with the
 //! sphere's radiance from its radiosity map, and spread (`reduced_gather.wgsl`
-//! `fs_glossy_gather`, `fs_glossy_spread`; `specular.wgsl` GLOSSY_TRACED_MOVING): tracing them
-//! costs most of a moving frame in a scene with glossy surfaces.
+//! `fs_glossy_gather_from_maps`, `fs_glossy_spread`; `specular.wgsl` GLOSSY_TRACED_MOVING):
+//! tracing them costs most of a moving frame in a scene with glossy surfaces.
 
 use super::Compositor;
 use super::lighting::{FrameUniform, MAX_SHADOW_SPHERES};
