@@ -379,7 +379,7 @@ mod tests {
                 for lanes in [v3, None] {
                     let (mut scalar, mut simd) = (pixel.sample(index), pixel.sample(index));
                     for draw in 0..2 * SOBOL_PAIRS + 6 {
-                        let (a, b) = if (draw + index) % 3 == 0 {
+                        let (a, b) = if (u64::from(draw) + u64::from(index)) % 3 == 0 {
                             (vec![scalar.uniform()], vec![simd.uniform_v3(lanes)])
                         } else {
                             let (a, b) = (scalar.uniform2(), simd.uniform2_v3(lanes));
