@@ -361,7 +361,6 @@ mod tests {
         }
     }
 
-    /// The byte tables give the same points as the definition, one bit at a time.
     /// The SIMD pairs of [`Sampler::uniform2_v3`] and [`Sampler::uniform_v3`] are the scalar
     /// ones bit for bit, through all the Sobol pairs and past them into the PCG stream, for
     /// samples of many pixels and indices (large ones too, whose reversed bits fill all 32),
@@ -396,6 +395,7 @@ mod tests {
         assert_eq!(compared, 5 * 11 * 2 * (2 * SOBOL_PAIRS as usize + 6));
     }
 
+    /// The byte tables give the same points as the definition, one bit at a time.
     #[test]
     fn sobol_tables_match_the_bit_loop() {
         let by_bits = |mut i: u32| {
