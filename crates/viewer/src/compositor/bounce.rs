@@ -50,6 +50,9 @@ pub(super) fn radiosity_atlas(device: &wgpu::Device) -> SphereMapAtlas {
 pub(super) struct Bounce {
     atlas: SphereMapAtlas,
     map_pipeline: wgpu::RenderPipeline,
+    /// The maps of a moving frame, without the own-shadow loss on the spheres' far halves
+    /// (`fs_radiosity_map_moving`).
+    map_pipeline_moving: wgpu::RenderPipeline,
     bounce_pipeline: wgpu::RenderPipeline,
     /// The frame and mesh uniforms the maps were last drawn from (empty: never drawn).
     drawn_from: super::DrawnFrom,
@@ -85,17 +88,21 @@ impl Bounce {
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         })];
-        let map_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("radiosity maps"),
-            layout: Some(setup.with_mesh),
-            vertex: vertex.clone(),
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(fragment("fs_radiosity_map", &map_targets)),
-            multiview_mask: None,
-            cache: None,
-        });
+        let map_pipeline_from = |label, entry| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(setup.with_mesh),
+                vertex: vertex.clone(),
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(fragment(entry, &map_targets)),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let map_pipeline = map_pipeline_from("radiosity maps", "fs_radiosity_map");
+        let map_pipeline_moving = map_pipeline_from("radiosity maps, moving", "fs_radiosity_map_moving");
         // Into the frame's colour target (the mask and depth stay as the backdrop left them).
         let overlay = Overlay {
             module: setup.module,
@@ -104,7 +111,13 @@ impl Bounce {
             depth_format: setup.depth_format,
         };
         let bounce_pipeline = overlay.pipeline(device, "bounce light", setup.frame_only, vertex, "fs_bounce");
-        Bounce { atlas, map_pipeline, bounce_pipeline, drawn_from: super::DrawnFrom::default() }
+        Bounce {
+            atlas,
+            map_pipeline,
+            map_pipeline_moving,
+            bounce_pipeline,
+            drawn_from: super::DrawnFrom::default(),
+        }
     }
 }
 
@@ -161,7 +174,9 @@ impl Compositor {
         {
             let mut pass =
                 super::colour_pass(encoder, "radiosity maps", &maps.atlas.drawn_view, wgpu::LoadOp::Load);
-            pass.set_pipeline(&maps.map_pipeline);
+            // A moving frame (`tone[3]`, frame.rs) leaves out the far halves' own-shadow loss.
+            let moving = uniform.tone[3] == 1.0;
+            pass.set_pipeline(if moving { &maps.map_pipeline_moving } else { &maps.map_pipeline });
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             for row in 0..uniform.layer_info[3].min(MAX_SHADOW_SPHERES as u32) {
                 // The row's material: the cursor sphere's (row 0 when drawn, from the frame

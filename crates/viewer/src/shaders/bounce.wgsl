@@ -119,6 +119,22 @@ fn glossy_toward(row: u32, q: vec3<f32>, m: vec3<f32>, v: vec3<f32>, let_through
 // normal, with its material (the cursor sphere's, or the mesh bound in group 1).
 @fragment
 fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    return radiosity_map_texel(position, true);
+}
+
+// fs_radiosity_map for a moving frame: the own-shadow loss on the half of the sphere turned
+// from the eye, which the loss maps do not cover, is left out rather than gathered per texel.
+// In the room it changes the moving frame by at most 6e-4 (docs/viewer-frame-time.md), and a
+// shader without the gather's code draws the maps in a third of the time on lavapipe, which runs
+// through every branch's code at every fragment.
+@fragment
+fn fs_radiosity_map_moving(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    return radiosity_map_texel(position, false);
+}
+
+// The texel of fs_radiosity_map at `position`; the own-shadow loss where the loss maps do not
+// serve gathered only with `gather_loss` (a constant at each entry point).
+fn radiosity_map_texel(position: vec4<f32>, gather_loss: bool) -> vec4<f32> {
     let texel = vec2<u32>(position.xy);
     let row = texel.y / RADIOSITY_MAP_TEXELS;
     if frame.layer_info.x != 1u || row >= min(frame.layer_info.w, 8u) {
@@ -138,7 +154,7 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     let n = octahedral_direction(uv);
     let p = s.xyz + s.w * n;
     // The own-shadow loss from the sphere's loss map on the half the map covers (as the
-    // sphere's shading reads it), gathered here on the half turned from the eye.
+    // sphere's shading reads it), gathered here on the half turned from the eye (`gather_loss`).
     loss_map_row = loss_map_row_at(row, s.xyz, n);
     if material.colour.w > 0.5 {
         return vec4<f32>(material.colour.rgb, 1.0);
@@ -149,7 +165,7 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     if material.coefficients.z > 0.0 {
         let_through = lights_let_through(p, n, lit.diffuse);
     }
-    return vec4<f32>(diffuse_radiance_lit(material, p, n, lit), let_through);
+    return vec4<f32>(diffuse_radiance_lit_with(material, p, n, lit, gather_loss), let_through);
 }
 
 // The light the highlights of the sphere of row `row` send to the surface at p (unit normal n),

@@ -505,9 +505,15 @@ fn diffuse_radiance(material: Material, p: vec3<f32>, n: vec3<f32>) -> vec3<f32>
 // diffuse_radiance of a lit material, with the lights' direct light at p already integrated
 // (`lit`: direct_light(p, n, n, 1.0, false)).
 fn diffuse_radiance_lit(material: Material, p: vec3<f32>, n: vec3<f32>, lit: DirectLight) -> vec3<f32> {
+    return diffuse_radiance_lit_with(material, p, n, lit, true);
+}
+
+// diffuse_radiance_lit; the own-shadow loss where no loss map serves p gathered only with
+// `gather_loss` (own_shadow_loss_with).
+fn diffuse_radiance_lit_with(material: Material, p: vec3<f32>, n: vec3<f32>, lit: DirectLight, gather_loss: bool) -> vec3<f32> {
     var loss = vec3<f32>(0.0);
     if frame.counts.y == 1u && frame.counts.w == 1u {
-        loss = own_shadow_loss(p, n) / max(frame.tone.x, 1e-30);
+        loss = own_shadow_loss_with(p, n, gather_loss) / max(frame.tone.x, 1e-30);
     }
     let diffuse = lit.diffuse + live_probe_irradiance(p, n, loss);
     return material.colour.rgb * (material.coefficients.x * lit.ambient + material.coefficients.y / PI * diffuse);

@@ -249,6 +249,13 @@ fn loss_map_lookup(row: u32, n: vec3<f32>) -> vec3<f32> {
 // What the live objects' shadows took from the light a live fragment receives (shadow_loss):
 // from its sphere's map where it has one, else gathered here.
 fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return own_shadow_loss_with(p, n, true);
+}
+
+// own_shadow_loss; where no map serves, gathered here only with `gather` (else zero). Callers
+// pass a constant: with `false` the shader holds no gather code at all, which lavapipe would
+// otherwise run through at every fragment (fs_radiosity_map_moving).
+fn own_shadow_loss_with(p: vec3<f32>, n: vec3<f32>, gather: bool) -> vec3<f32> {
     if loss_map_row >= 0 && u32(loss_map_row) < loss_map_rows() {
         let row = u32(loss_map_row);
         let drawn = textureLoad(loss_maps, vec2<i32>(0, i32(row * LOSS_MAP_TEXELS)), 0).w == 1u;
@@ -256,7 +263,10 @@ fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             return loss_map_lookup(row, n);
         }
     }
-    return shadow_loss(p, n);
+    if gather {
+        return shadow_loss(p, n);
+    }
+    return vec3<f32>(0.0);
 }
 
 // One texel of the atlas: the loss at the texel's normal of the sphere of its row.
