@@ -6,6 +6,7 @@
 //! tiling and any `CropWindow`: the pixels of a crop render are bit for bit the same pixels of the
 //! full-frame render (tiles that cover a frame merge exactly).
 
+use crate::accel::X86_64V3;
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::film::{DepthImage, Filter, Image};
 use crate::integrators::{Integrator, IntegratorKind, PrepareContext, RayCounters};
@@ -701,6 +702,42 @@ fn render_tile(
     integrator: &dyn Integrator,
     first_sample: u32,
     active: Option<&[bool]>,
+    tile: (u32, u32, u32, u32),
+) -> (Vec<[f32; 4]>, RayCounters) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(v3) = frame.world.x86_64_v3 {
+        // SAFETY: the token exists only on a CPU with these features.
+        return unsafe { render_tile_v3(v3, frame, integrator, first_sample, active, tile) };
+    }
+    render_tile_inlined(None, frame, integrator, first_sample, active, tile)
+}
+
+/// [`render_tile`] compiled for x86-64-v3, as the wavefront's batch is
+/// ([`crate::wavefront::render_batch`]): the camera ray, the samplers made per sample, their
+/// first pairs (with SIMD, [`Sampler::uniform2_v3`](crate::sampler::Sampler::uniform2_v3)) and
+/// the filtered sums get the VEX encodings. The same bits: Rust never fuses a multiply and an
+/// add by itself, and the SIMD pairs are the scalar ones.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn render_tile_v3(
+    v3: X86_64V3,
+    frame: &Frame,
+    integrator: &dyn Integrator,
+    first_sample: u32,
+    active: Option<&[bool]>,
+    tile: (u32, u32, u32, u32),
+) -> (Vec<[f32; 4]>, RayCounters) {
+    render_tile_inlined(Some(v3), frame, integrator, first_sample, active, tile)
+}
+
+/// The body of [`render_tile`]; `v3` as for [`Sampler::uniform2_v3`](crate::sampler::Sampler::uniform2_v3).
+#[inline(always)]
+fn render_tile_inlined(
+    v3: Option<X86_64V3>,
+    frame: &Frame,
+    integrator: &dyn Integrator,
+    first_sample: u32,
+    active: Option<&[bool]>,
     (x0, y0, x1, y1): (u32, u32, u32, u32),
 ) -> (Vec<[f32; 4]>, RayCounters) {
     let (world, rays, filter, spp, seed) = (frame.world, frame.rays, frame.filter, frame.spp, frame.seed);
@@ -763,13 +800,13 @@ fn render_tile(
             for s in 0..spp as u32 {
                 let mut sampler = pixel_sampler.sample(first_sample.wrapping_add(s));
                 // The first pair of dimensions places the sample in the pixel (stratified).
-                let jitter = sampler.uniform2();
+                let jitter = sampler.uniform2_v3(v3);
                 let x = px as f64 + f64::from(jitter.x);
                 let y = py as f64 + f64::from(jitter.y);
                 // A lens sample only where there is a lens, so pinhole images stay as they were.
-                let lens_u = if rays.has_lens() { sampler.uniform2() } else { Vec2::ZERO };
+                let lens_u = if rays.has_lens() { sampler.uniform2_v3(v3) } else { Vec2::ZERO };
                 // A time sample only where something moves, so still images stay as they were.
-                let time = if world.motion_blur { sampler.uniform() } else { 0.0 };
+                let time = if world.motion_blur { sampler.uniform_v3(v3) } else { 0.0 };
                 let r = match rays.lens_ray_at(DVec2::new(x, y), lens_u, time) {
                     Some((ray, _)) if frame.wavefront.is_some() => {
                         slots.push(samples.len());
