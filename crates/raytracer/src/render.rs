@@ -876,3 +876,88 @@ fn render_tile_inlined(
     }
     (out, counters)
 }
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+
+    /// The tile loop's x86-64-v3 copy gives the baseline copy's pixels and ray counts bit for
+    /// bit, through the scalar path tracer and the wavefront, over a whole frame and a tile
+    /// inside it: a box of matte walls lit by an area quad, seen through a thin lens (the lens
+    /// pair) and, in a second scene, with a moving wall and an open shutter (the time sample).
+    #[test]
+    fn x86_64_v3_tile_matches_the_baseline() {
+        let Some(v3) = X86_64V3::detect() else {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        };
+        let walls = |moving: &str| {
+            format!(
+                "WorldBegin\nSurface \"matte\"\n\
+                 AttributeBegin\nAreaLightSource \"arealight\" 2 \"intensity\" [6]\n\
+                 Polygon \"P\" [-0.3 0.99 0.2 0.3 0.99 0.2 0.3 0.99 0.7 -0.3 0.99 0.7]\nAttributeEnd\n\
+                 Polygon \"P\" [-1 -1 -1 1 -1 -1 1 -1 1 -1 -1 1]\n\
+                 Polygon \"P\" [-1 1 -1 1 1 -1 1 1 1 -1 1 1]\n\
+                 Polygon \"P\" [-1 -1 1 1 -1 1 1 1 1 -1 1 1]\n\
+                 AttributeBegin\nColor [0.7 0.2 0.2]\n{moving}\n\
+                 Polygon \"P\" [-1 -1 -1 -1 1 -1 -1 1 1 -1 -1 1]\nAttributeEnd\nWorldEnd\n"
+            )
+        };
+        let camera = "Format 24 16 1\nProjection \"perspective\" \"fov\" [60]\n";
+        let ribs = [
+            format!("{camera}DepthOfField 2.8 0.4 2.5\nTranslate 0 0 2.5\n{}", walls("")),
+            format!(
+                "{camera}Shutter 0 1\nTranslate 0 0 2.5\n{}",
+                walls("MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.3 0 0\nMotionEnd")
+            ),
+        ];
+        let (mut lens, mut motion, mut wavefronts) = (false, false, 0);
+        for rib in ribs {
+            let scene = rib_parser::load_bytes("tile.rib", rib.into_bytes(), &Default::default())
+                .unwrap_or_else(|e| panic!("{}", e.render()))
+                .scene;
+            let camera = Camera::new(scene.camera.clone()).expect("the camera");
+            let world = World::build(
+                &scene,
+                camera.eye_position(),
+                pixel_footprint(&camera),
+                &mut Diagnostics::default(),
+            )
+            .expect("the world builds");
+            let rays = CameraRays::new(camera, &world.render_from_world)
+                .with_lens(scene.render.depth_of_field.as_ref().map(ThinLens::from_depth_of_field))
+                .with_motion(world.camera_motion.clone());
+            lens |= rays.has_lens();
+            motion |= world.motion_blur;
+            let kind = IntegratorKind::Path { max_depth: 6, rr_depth: 3 };
+            let integrator =
+                kind.prepare(&world, PrepareContext { seed: 5, threads: 1, caustic_paths: false });
+            for wavefront in [None, crate::wavefront::supports(&world, &kind).ok()] {
+                wavefronts += usize::from(wavefront.is_some());
+                let frame = Frame {
+                    world: &world,
+                    rays: &rays,
+                    filter: &Filter::RENDERMAN_DEFAULT,
+                    spp: 3,
+                    seed: 5,
+                    bounds: (0, 0, 24, 16),
+                    progress: None,
+                    wavefront,
+                };
+                for tile in [(0, 0, 24, 16), (5, 3, 13, 11)] {
+                    let bits = |(pixels, counters): (Vec<[f32; 4]>, RayCounters)| {
+                        (pixels.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>(), counters)
+                    };
+                    let baseline =
+                        bits(render_tile_inlined(None, &frame, integrator.as_ref(), 7, None, tile));
+                    // SAFETY: an `X86_64V3` exists only on a CPU with these features.
+                    let lanes =
+                        bits(unsafe { render_tile_v3(v3, &frame, integrator.as_ref(), 7, None, tile) });
+                    assert_eq!(lanes, baseline, "tile {tile:?}, wavefront {}", wavefront.is_some());
+                    assert!(baseline.0.iter().any(|p| p[0] != 0), "the tile is lit");
+                }
+            }
+        }
+        assert!(lens && motion && wavefronts > 0, "lens {lens}, motion {motion}, wavefronts {wavefronts}");
+    }
+}
