@@ -11,6 +11,7 @@
 //! bit: the same hits, `t` and barycentrics, the same rejections.
 
 use super::triangle::{RayShear, TriangleHit, t_error_bound};
+#[cfg(target_arch = "x86_64")]
 use crate::accel::TraversalRay;
 use glam::Vec3;
 
