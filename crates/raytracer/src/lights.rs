@@ -14,7 +14,9 @@
 
 use crate::accel::X86_64V3;
 use crate::environment_light::EnvironmentLight;
-use crate::math::{Frame, offset_ray_origin, round_point, round_point_v3, transform_normal};
+use crate::math::{
+    Frame, offset_ray_origin, positive_and_finite, round_point, round_point_v3, transform_normal,
+};
 use crate::sampling::{
     Distribution1D, UNIFORM_SPHERE_PDF, sample_concentric_disk, sample_cosine_hemisphere,
     sample_uniform_cone, sample_uniform_sphere, sample_uniform_triangle, uniform_cone_pdf,
@@ -312,7 +314,7 @@ impl Light {
                     return None;
                 }
                 let pdf_solid = pdf * d2 / cos_l;
-                if !pdf_solid.is_finite() || pdf_solid <= 0.0 {
+                if !positive_and_finite(pdf_solid) {
                     return None;
                 }
                 Some(LightLiSample {

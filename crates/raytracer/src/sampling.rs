@@ -182,7 +182,22 @@ pub struct Distribution1D {
     weights: Vec<f32>,
     /// `weights[i] / total`.
     pmf: Vec<f32>,
+    /// Per index `i` that the binary search can find, what [`Distribution1D::sample`] returns
+    /// for it, read in one place: see [`Pick`].
+    picks: Vec<Pick>,
     total: f64,
+}
+
+/// The item that the binary search's index `i` stands for, with what the pick needs of it: the
+/// nearest item of non-zero weight, below `i` first (what the search's two loops over zero
+/// weights found per sample before, always the same for the same `i`), its probability and its
+/// cdf interval.
+#[derive(Clone, Copy, Debug, Default)]
+struct Pick {
+    c0: f64,
+    c1: f64,
+    index: usize,
+    p: f32,
 }
 
 impl Distribution1D {
@@ -203,9 +218,22 @@ impl Distribution1D {
                 *c /= total;
             }
         }
-        let pmf =
+        let pmf: Vec<f32> =
             weights.iter().map(|&w| if total > 0.0 { (f64::from(w) / total) as f32 } else { 0.0 }).collect();
-        Distribution1D { cdf, weights, pmf, total }
+        let n = weights.len();
+        let picks = (0..n)
+            .map(|mut i| {
+                // Never return a zero-weight item (possible at the ends through rounding).
+                while weights[i] == 0.0 && i > 0 {
+                    i -= 1;
+                }
+                while weights[i] == 0.0 && i + 1 < n {
+                    i += 1;
+                }
+                Pick { c0: cdf[i], c1: cdf[i + 1], index: i, p: pmf[i] }
+            })
+            .collect();
+        Distribution1D { cdf, weights, pmf, picks, total }
     }
 
     pub fn len(&self) -> usize {
@@ -229,28 +257,19 @@ impl Distribution1D {
         if self.total <= 0.0 {
             return None;
         }
-        let weights = &self.weights[..];
-        let n = weights.len();
+        let n = self.weights.len();
         if n == 1 {
             return Some((0, 1.0, u));
         }
         let u = f64::from(u);
-        let cdf = &self.cdf[..n + 1];
         // One less than the first index whose cdf is > u, at most n - 1 (the cdf does not
         // decrease, so any binary search finds the same index).
-        let mut i = cdf[1..n].partition_point(|&c| c <= u);
-        // Never return a zero-weight item (possible at the ends through rounding).
-        while weights[i] == 0.0 && i > 0 {
-            i -= 1;
-        }
-        while weights[i] == 0.0 && i + 1 < n {
-            i += 1;
-        }
-        let p = self.pmf[i];
-        let (c0, c1) = (cdf[i], cdf[i + 1]);
+        let i = self.cdf[1..n].partition_point(|&c| c <= u);
+        // The item of non-zero weight that `i` stands for, its probability and its interval.
+        let Pick { c0, c1, index, p } = self.picks[i];
         let width = c1 - c0;
         let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, 1.0) } else { 0.5 };
-        Some((i, p, (remapped as f32).min(1.0 - f32::EPSILON / 2.0)))
+        Some((index, p, (remapped as f32).min(1.0 - f32::EPSILON / 2.0)))
     }
 
     /// Probability of item `i`.
@@ -328,7 +347,10 @@ mod tests {
     }
 
     /// Sampling picks the item and remaps `u` exactly as the textbook binary search over the
-    /// cdf does, zero weights (also at the ends) included.
+    /// cdf followed by the two loops over zero weights does (what `sample` ran before the
+    /// picks were made once, in `new`), bit for bit: zero weights (also at the ends, and all
+    /// but one), weights that are negative, subnormal, huge, infinite or NaN, and `u` a zero of
+    /// either sign, subnormal, negative, 1 or above, infinite or NaN.
     #[test]
     fn distribution_sampling_matches_a_plain_binary_search() {
         let reference = |d: &Distribution1D, u: f32| {
@@ -349,15 +371,43 @@ mod tests {
             let r = if width > 0.0 { ((u - d.cdf[i]) / width).clamp(0.0, 1.0) } else { 0.5 };
             (i, d.pmf(i), (r as f32).min(1.0 - f32::EPSILON / 2.0))
         };
+        let awkward_weights =
+            [0.0, -0.0, -1.0, 1e-45, 1e-40, f32::MIN_POSITIVE, 3e38, f32::INFINITY, f32::NAN];
+        let awkward_u = [
+            0.0,
+            -0.0,
+            1e-45,
+            -1e-45,
+            f32::MIN_POSITIVE,
+            -0.25,
+            1.0 - f32::EPSILON / 2.0,
+            1.0,
+            1.5,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+        ];
+        let bits = |s: Option<(usize, f32, f32)>| s.map(|(i, p, u)| (i, p.to_bits(), u.to_bits()));
         let mut rng = Rng::new(3, 1);
-        for n in 2..12 {
-            for _ in 0..50 {
-                let w: Vec<f32> =
-                    (0..n).map(|_| if rng.uniform() < 0.3 { 0.0 } else { rng.uniform() * 10.0 }).collect();
+        for n in 1..12 {
+            for k in 0..200 {
+                let w: Vec<f32> = (0..n)
+                    .map(|_| match rng.uniform() {
+                        x if x < 0.3 => 0.0,
+                        x if k % 2 == 1 && x < 0.45 => {
+                            awkward_weights[(rng.uniform() * 9.0) as usize % awkward_weights.len()]
+                        }
+                        _ => rng.uniform() * 10.0,
+                    })
+                    .collect();
                 let d = Distribution1D::new(&w);
-                for u in (0..64).map(|_| rng.uniform()).chain([0.0, 1.0 - f32::EPSILON / 2.0]) {
+                for u in (0..64).map(|_| rng.uniform()).chain(awkward_u) {
                     match d.sample(u) {
-                        Some(s) => assert_eq!(s, reference(&d, u), "weights {w:?}, u {u}"),
+                        Some(s) if n > 1 => {
+                            assert_eq!(bits(Some(s)), bits(Some(reference(&d, u))), "weights {w:?}, u {u}")
+                        }
+                        Some(s) => assert_eq!(bits(Some(s)), bits(Some((0, 1.0, u)))),
                         None => assert!(d.total() <= 0.0),
                     }
                 }

@@ -9,7 +9,7 @@
 //! the record of the closest hit written through pointers (a hit is 120 bytes), and one call
 //! level. On the Cornell box that work was about a tenth of a ray's instructions.
 
-use super::{Blas, Hit, HitDetail, ONE_SIDED, REVERSED, Ray, World, vertex_shear, vertex_test};
+use super::{Blas, Hit, HitDetail, ONE_SIDED, REVERSED, Ray, World, vertex_test};
 use crate::accel::{Baseline, NodeLanes, TraversalRay, X86_64V3};
 use crate::shapes::{RayShear, TriangleHit};
 #[cfg(target_arch = "x86_64")]
@@ -47,7 +47,7 @@ impl World {
     /// copy is, so that the dispatch before them is a few instructions without a frame.
     #[inline(never)]
     fn intersect_flat_baseline(&self, ray: &Ray) -> Option<Hit> {
-        self.intersect_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
+        self.intersect_flat_inlined(Baseline, ray, (RayShear::for_traversal, vertex_test))
     }
 
     /// [`World::intersect_flat`] compiled for x86-64-v3, with the triangle test on the rows
@@ -59,7 +59,9 @@ impl World {
         // The one BLAS's rows, held here rather than read through `blas` per triangle.
         let rows = &self.blases[self.instances[0].blas as usize].rows[..];
         let triangle = (
-            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2 (and so AVX).
+            |tray: &TraversalRay| unsafe { RowShear::for_traversal_avx(tray) },
             #[inline(always)]
             // SAFETY: the token `v3` exists only on a CPU with AVX2.
             |shear: &RowShear, _: &Blas, i: u32, t_max: f32| unsafe {
@@ -76,12 +78,12 @@ impl World {
         &self,
         lanes: impl NodeLanes,
         ray: &Ray,
-        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
+        (prepare, test): (impl Fn(&TraversalRay) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
     ) -> Option<Hit> {
         let inst = &self.instances[0];
         let blas = &self.blases[inst.blas as usize];
         let mut tray = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
-        let shear = prepare(&RayShear::for_traversal(&tray));
+        let shear = prepare(&tray);
         let (direction, t_min) = (ray.direction, ray.t_min);
         // The closest hit so far: its slot, which in a BLAS of triangles alone is its triangle
         // (`BlasBuilder::finish`), `t` and barycentrics; the hit record is made once, at the end.
@@ -124,7 +126,7 @@ impl World {
     /// copy is, so that the dispatch before them is a few instructions without a frame.
     #[inline(never)]
     fn transmittance_flat_baseline(&self, ray: &Ray) -> Vec3 {
-        self.transmittance_flat_inlined(Baseline, ray, (vertex_shear, vertex_test))
+        self.transmittance_flat_inlined(Baseline, ray, (RayShear::for_traversal, vertex_test))
     }
 
     /// [`World::transmittance_flat`] compiled for x86-64-v3, with the row test as
@@ -135,7 +137,9 @@ impl World {
         // The one BLAS's rows, held here rather than read through `blas` per triangle.
         let rows = &self.blases[self.instances[0].blas as usize].rows[..];
         let triangle = (
-            RowShear::new,
+            #[inline(always)]
+            // SAFETY: the token `v3` exists only on a CPU with AVX2 (and so AVX).
+            |tray: &TraversalRay| unsafe { RowShear::for_traversal_avx(tray) },
             #[inline(always)]
             // SAFETY: the token `v3` exists only on a CPU with AVX2.
             |shear: &RowShear, _: &Blas, i: u32, t_max: f32| unsafe {
@@ -152,7 +156,7 @@ impl World {
         &self,
         lanes: impl NodeLanes,
         ray: &Ray,
-        (prepare, test): (impl Fn(&RayShear) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
+        (prepare, test): (impl Fn(&TraversalRay) -> S, impl Fn(&S, &Blas, u32, f32) -> Option<TriangleHit>),
     ) -> Vec3 {
         let mut tr = Vec3::ONE;
         let inst = &self.instances[0];
@@ -160,7 +164,7 @@ impl World {
         let Some(tray) = TraversalRay::new(ray.origin, ray.direction, ray.t_min, ray.t_max) else {
             return tr;
         };
-        let shear = prepare(&RayShear::for_traversal(&tray));
+        let shear = prepare(&tray);
         let (direction, t_min, t_max) = (ray.direction, ray.t_min, ray.t_max);
         blas.bvh.any_with(
             lanes,
