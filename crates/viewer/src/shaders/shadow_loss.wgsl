@@ -12,6 +12,12 @@
 // fragment as toward the eye.
 
 const SHADOW_GATHER_DIRECTIONS: u32 = 16u;
+// The directions a moving frame's loss maps gather over (fs_loss_map); the frame at rest draws
+// them again over SHADOW_GATHER_DIRECTIONS (the maps are keyed with the moving flag).
+const SHADOW_GATHER_MOVING: u32 = 8u;
+// The directions shadow_loss gathers over: SHADOW_GATHER_DIRECTIONS unless the entry point sets
+// another count.
+var<private> shadow_gather_directions: u32 = SHADOW_GATHER_DIRECTIONS;
 const SHADOW_GATHER_STEPS: u32 = 16u;
 const GOLDEN_ANGLE: f32 = 2.39996323;
 
@@ -126,9 +132,10 @@ fn shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     // Start off the surface, so the march never finds the fragment's own pixel's surface.
     let origin = p + n * (reach * 1e-3);
     var irradiance = vec3<f32>(0.0);
-    for (var i = 0u; i < SHADOW_GATHER_DIRECTIONS; i = i + 1u) {
+    let directions = shadow_gather_directions;
+    for (var i = 0u; i < directions; i = i + 1u) {
         // Cosine-distributed directions on a spiral (uniform in the disc, lifted).
-        let u = (f32(i) + 0.5) / f32(SHADOW_GATHER_DIRECTIONS);
+        let u = (f32(i) + 0.5) / f32(directions);
         let radius = sqrt(u);
         let phi = f32(i) * GOLDEN_ANGLE;
         let cos_w = sqrt(1.0 - u);
@@ -136,7 +143,7 @@ fn shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         irradiance += shadow_loss_along(origin, w, reach);
     }
     // Over cosine-distributed directions: E = pi / N * sum of L.
-    return irradiance * (PI / f32(SHADOW_GATHER_DIRECTIONS));
+    return irradiance * (PI / f32(directions));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -273,6 +280,9 @@ fn own_shadow_loss_with(p: vec3<f32>, n: vec3<f32>, gather: bool) -> vec3<f32> {
 @fragment
 fn fs_loss_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4<u32> {
     let texel = vec2<u32>(position.xy);
+    if frame.tone.w > 0.5 {
+        shadow_gather_directions = SHADOW_GATHER_MOVING;
+    }
     let row = texel.y / LOSS_MAP_TEXELS;
     if row >= loss_map_rows() {
         return vec4<u32>(0u);
