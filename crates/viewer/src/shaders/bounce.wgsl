@@ -122,11 +122,12 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
     return radiosity_map_texel(position, true);
 }
 
-// fs_radiosity_map for a moving frame: the own-shadow loss on the half of the sphere turned
-// from the eye, which the loss maps do not cover, is left out rather than gathered per texel.
-// In the room it changes the moving frame by at most 6e-4 (docs/viewer-frame-time.md), and a
-// shader without the gather's code draws the maps in a third of the time on lavapipe, which runs
-// through every branch's code at every fragment.
+// fs_radiosity_map for a moving frame: the own-shadow loss where no loss map serves (the half of
+// the sphere turned from the eye, or all of it while the eye is inside it) is left out rather
+// than gathered per texel. In the room it changes the moving frame by at most 6e-4
+// (docs/viewer-frame-time.md), and a shader without the gather's code draws the maps in half the
+// time there (in the frame bench, an eighth) on lavapipe, which runs through every branch's code
+// at every fragment.
 @fragment
 fn fs_radiosity_map_moving(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     return radiosity_map_texel(position, false);
