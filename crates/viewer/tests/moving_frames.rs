@@ -475,8 +475,11 @@ fn the_cursor_sphere_settles_row_band_by_row_band_into_its_exact_shading() {
             first_exact.get_or_insert(frame);
         } else {
             assert!(first_exact.is_none(), "frame {frame} at rest differs after an exact one");
+            // Within 1e-5 of it: a frame whose band of exact rows ends at the sphere's outline
+            // mixes exact and moving rows in its blended edges (3.5e-6 above the moving frame
+            // with bands of 4 rows, 2026-11-29).
             assert!(
-                error <= moving_error * (1.0 + 1e-6),
+                error <= moving_error * (1.0 + 1e-5),
                 "frame {frame} at rest: relMSE {error:.3e} near the sphere, the moving frame's {moving_error:.3e}"
             );
         }

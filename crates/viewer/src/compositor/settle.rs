@@ -38,9 +38,12 @@ use super::settle_sphere::SphereSettle;
 use std::cell::{Cell, RefCell};
 
 /// The pixels a settling frame draws the bounce light, the loss and its removal in exactly, at
-/// most (one row at least): 8 rows at 512^2 (on lavapipe the loss costs 40 to 70 us of CPU a
-/// pixel at a load of 5, so 0.15 to 0.3 s a frame; 64 frames for the whole frame).
-pub const SETTLE_PIXELS: u32 = 1 << 12;
+/// most (one row at least): 4 rows at 512^2, 128 frames for the whole frame. On lavapipe the
+/// loss costs 25 to 50 us of CPU a pixel in the frame bench's room (its clusters refined near
+/// the receiver and where the sphere stands between), so a band of 4 rows costs 60 to 100 ms
+/// of CPU besides the frame's other 35 to 60; with 8 rows the floor's bands cost up to 250 ms,
+/// twice the plain frame (docs/viewer-frame-time.md).
+pub const SETTLE_PIXELS: u32 = 1 << 11;
 
 /// The pixels of the layered shadows' scissor a settling frame draws them in exactly, at most
 /// (one row at least): a quarter of the frame at 512^2 (about 0.5 s in full on lavapipe).
