@@ -719,16 +719,19 @@ impl World {
         if world.flat {
             let triangles = &world.blases[world.instances[0].blas as usize].triangles;
             let (inst, blas) = (&world.instances[0], &world.blases[world.instances[0].blas as usize]);
-            world.flat_sides = triangles
-                .iter()
-                .map(|t| {
-                    let (one_sided, reversed) = world.sidedness(inst, blas, t.shape);
-                    (if one_sided { super::ONE_SIDED } else { 0 })
-                        | (if reversed { super::REVERSED } else { 0 })
-                })
-                .collect();
             world.flat_normals =
                 triangles.iter().map(|t| super::interaction::triangle_unit_normal(t.p)).collect();
+            world.flat_sides = triangles
+                .iter()
+                .zip(&world.flat_normals)
+                .map(|(t, &n)| {
+                    let (one_sided, reversed) = world.sidedness(inst, blas, t.shape);
+                    let degenerate = n == Vec3::ZERO || !n.is_finite();
+                    (if one_sided { super::ONE_SIDED } else { 0 })
+                        | (if reversed { super::REVERSED } else { 0 })
+                        | (if degenerate { super::DEGENERATE } else { 0 })
+                })
+                .collect();
         }
         Ok(world)
     }

@@ -67,31 +67,37 @@ impl World {
         let wants_st = self.material(attributes).reads_texture_coordinates();
         let tp = tri.p;
         let (p64, err64) = barycentric_point(b, tp[0], tp[1], tp[2]);
-        let mesh =
-            s.mesh.map(|m| (&blas.meshes[m as usize], blas.meshes[m as usize].triangles[tri.index as usize]));
+        let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
         let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
+        // The mesh's vertex indices are read only where its normals or `st` are.
         let ns_blas = match mesh {
-            Some((MeshShading { normals: Some(normals), .. }, v)) => vertex_normal(normals, v, bw),
+            Some(MeshShading { normals: Some(normals), triangles, .. }) => {
+                vertex_normal(normals, triangles[tri.index as usize], bw)
+            }
             _ => None,
         };
         let (mut st, mut st_per_length) = (Vec2::ZERO, 0.0f64);
         if wants_st {
-            let sts = mesh.and_then(|(m, v)| m.st.as_deref().map(|sts| (sts, v)));
+            let sts = mesh.and_then(|m| m.st.as_deref().map(|sts| (sts, m.triangles[tri.index as usize])));
             (st, st_per_length) = triangle_st(sts, bw, triangle_normal(tp));
         }
         let ng_unit = self.flat_normals[i as usize];
-        let ns = match ns_blas {
-            Some(n) => n.normalize_or_zero().as_vec3(),
-            None => ng_unit,
-        };
+        let ns = ns_blas.map(|n| n.normalize_or_zero().as_vec3());
         let dpdu = (tp[1] - tp[0]).as_dvec3().as_vec3();
-        let reverse = self.flat_sides[i as usize] & super::REVERSED != 0;
-        let shape = Oriented { ng_unit, ns, n_outward: ng_unit, dpdu, st, st_per_length, reverse };
+        let sides = self.flat_sides[i as usize];
+        let reverse = sides & super::REVERSED != 0;
+        let normals = if sides & super::DEGENERATE != 0 {
+            let shape = Oriented { ng_unit, ns: ns.unwrap_or(ng_unit), n_outward: ng_unit, reverse };
+            shape.orient(ray)
+        } else {
+            Oriented::orient_proper(ng_unit, ns, reverse)
+        };
         self.surface(
             v3,
             ray,
             t,
-            shape,
+            normals,
+            (dpdu, st, st_per_length),
             (p64, err64),
             wants_st,
             attributes,
@@ -208,12 +214,13 @@ impl World {
             None => dpdu_blas.as_vec3(),
         };
         let (_, reverse) = self.sidedness(inst, blas, shape);
-        let oriented = Oriented { ng_unit, ns, n_outward, dpdu, st, st_per_length, reverse };
+        let oriented = Oriented { ng_unit, ns, n_outward, reverse };
         self.surface(
             None,
             ray,
             hit.t,
-            oriented,
+            oriented.orient(ray),
+            (dpdu, st, st_per_length),
             (p64, err64),
             wants_st,
             attributes,
@@ -221,8 +228,8 @@ impl World {
         )
     }
 
-    /// The end of [`World::interaction`] for both kinds of world: the normals' orientation,
-    /// the rounded point, the texture footprint and the record.
+    /// The end of [`World::interaction`] for both kinds of world, once the normals are
+    /// oriented ([`Oriented`]): the rounded point, the texture footprint and the record.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn surface(
@@ -230,26 +237,13 @@ impl World {
         v3: Option<X86_64V3>,
         ray: &Ray,
         t: f32,
-        shape: Oriented,
+        Normals { ng, ns, n_outward }: Normals,
+        (dpdu, st, st_per_length): (Vec3, Vec2, f64),
         (p64, err64): (DVec3, DVec3),
         wants_st: bool,
         attributes: rib_parser::scene::AttributesId,
         emitter: Option<&u32>,
     ) -> SurfaceInteraction {
-        let Oriented { ng_unit: mut ng, mut ns, n_outward, dpdu, st, st_per_length, reverse } = shape;
-        if reverse {
-            ng = -ng;
-            ns = -ns;
-        }
-        if ns.dot(ng) < 0.0 {
-            ns = -ns;
-        }
-        if ng == Vec3::ZERO || !ng.is_finite() {
-            ng = -ray.direction.normalize_or(Vec3::Z);
-        }
-        if ns == Vec3::ZERO || !ns.is_finite() {
-            ns = ng;
-        }
         let (p, p_error) = round_point_v3(v3, p64, err64);
         let st_width = if wants_st {
             let pixel = self.footprint.width_at(p64.length());
@@ -267,7 +261,7 @@ impl World {
             t,
             ng,
             ns,
-            n_outward: if n_outward == Vec3::ZERO { ng } else { n_outward },
+            n_outward,
             dpdu,
             st,
             st_width,
@@ -317,15 +311,120 @@ fn triangle_st(sts: Option<(&[Vec2], [u32; 3])>, bw: [f32; 3], ng: DVec3) -> (Ve
     }
 }
 
-/// A hit's normals and surface directions before [`World::surface`] orients them: the unit
-/// geometric normal as the shape has it, the unit shading and outward normals, and whether
-/// the shape's orientation is reversed.
+/// A hit's normals before [`Oriented::orient`]: the unit geometric normal as the shape has it,
+/// the unit shading and outward normals, and whether the shape's orientation is reversed.
 struct Oriented {
     ng_unit: Vec3,
     ns: Vec3,
     n_outward: Vec3,
-    dpdu: Vec3,
-    st: Vec2,
-    st_per_length: f64,
     reverse: bool,
+}
+
+/// A hit's normals as the record holds them: the geometric normal on the front side, the
+/// shading normal in its hemisphere and the outward normal.
+struct Normals {
+    ng: Vec3,
+    ns: Vec3,
+    n_outward: Vec3,
+}
+
+impl Oriented {
+    /// The orientation rules: the shape's reversal, the shading normal into the geometric
+    /// normal's hemisphere, and stand-ins where a normal is zero or not finite (the geometric
+    /// normal: against the ray; the shading and outward normals: the geometric normal).
+    #[inline(always)]
+    fn orient(self, ray: &Ray) -> Normals {
+        let Oriented { ng_unit: mut ng, mut ns, n_outward, reverse } = self;
+        if reverse {
+            ng = -ng;
+            ns = -ns;
+        }
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        if ng == Vec3::ZERO || !ng.is_finite() {
+            ng = -ray.direction.normalize_or(Vec3::Z);
+        }
+        if ns == Vec3::ZERO || !ns.is_finite() {
+            ns = ng;
+        }
+        Normals { ng, ns, n_outward: if n_outward == Vec3::ZERO { ng } else { n_outward } }
+    }
+
+    /// [`Oriented::orient`] of a flat world's triangle whose unit geometric normal `ng_unit`
+    /// (its outward normal too) is neither zero nor infinite nor NaN, as
+    /// [`World::flat_sides`]' [`DEGENERATE`](super::DEGENERATE) bit tells: that normal's
+    /// stand-ins are then never taken, and without the mesh's shading normal `ns` (the
+    /// geometric one serves), the shading normal is the geometric one, whose dot product with
+    /// itself is not negative. The same bits as `orient` without those tests.
+    #[inline(always)]
+    fn orient_proper(ng_unit: Vec3, ns: Option<Vec3>, reverse: bool) -> Normals {
+        let ng = if reverse { -ng_unit } else { ng_unit };
+        let ns = match ns {
+            None => ng,
+            Some(mut ns) => {
+                if reverse {
+                    ns = -ns;
+                }
+                if ns.dot(ng) < 0.0 {
+                    ns = -ns;
+                }
+                if ns == Vec3::ZERO || !ns.is_finite() { ng } else { ns }
+            }
+        };
+        Normals { ng, ns, n_outward: ng_unit }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`Oriented::orient_proper`] is [`Oriented::orient`] bit for bit wherever the flat
+    /// world's [`DEGENERATE`](super::super::DEGENERATE) bit is clear (the geometric normal
+    /// neither zero nor infinite nor NaN): unit normals and others of every scale and sign, zero
+    /// components of both signs, subnormals, `f32::MAX`, and shading normals that are absent,
+    /// zero, opposite, infinite or NaN, with and without the reversal.
+    #[test]
+    fn orientation_without_stand_ins_matches_the_rules() {
+        let special =
+            [0.0, -0.0, 1e-40, -1e-40, 1.0, -1.0, f32::MAX, -f32::MAX, f32::INFINITY, f32::NAN, -f32::NAN];
+        let mut rng = crate::sampling::Rng::new(5, 11);
+        let mut value = |k: usize| {
+            if k.is_multiple_of(3) {
+                special[(k / 3) % special.len()]
+            } else {
+                (rng.uniform() - 0.5) * 10f32.powi((rng.uniform() * 60.0) as i32 - 30)
+            }
+        };
+        let bits = |n: Normals| [n.ng, n.ns, n.n_outward].map(|v| v.to_array().map(f32::to_bits));
+        let ray = Ray::new(Vec3::ZERO, Vec3::new(0.3, -0.4, 0.5));
+        let (mut proper, mut shading) = (0, 0);
+        for k in 0..60_000 {
+            let mut ng_unit = Vec3::new(value(k), value(k + 1), value(k + 2));
+            if k.is_multiple_of(2) {
+                ng_unit = ng_unit.normalize_or_zero();
+            }
+            if ng_unit == Vec3::ZERO || !ng_unit.is_finite() {
+                continue;
+            }
+            proper += 1;
+            let ns = match k % 5 {
+                0 => None,
+                1 => Some(-ng_unit),
+                _ => Some(Vec3::new(value(k + 4), value(k + 5), value(k + 7))),
+            };
+            shading += usize::from(ns.is_some());
+            for reverse in [false, true] {
+                let rules =
+                    Oriented { ng_unit, ns: ns.unwrap_or(ng_unit), n_outward: ng_unit, reverse }.orient(&ray);
+                assert_eq!(
+                    bits(Oriented::orient_proper(ng_unit, ns, reverse)),
+                    bits(rules),
+                    "{ng_unit:?} {ns:?}"
+                );
+            }
+        }
+        assert!(proper > 20_000 && shading > 10_000, "{proper} {shading}");
+    }
 }

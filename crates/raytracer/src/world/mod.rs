@@ -312,7 +312,8 @@ pub struct World {
     /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
     flat: bool,
     /// The flat BLAS's triangles' sidedness in slot order, [`World::sidedness`] of each as
-    /// [`ONE_SIDED`] and [`REVERSED`] bits, read on every hit (empty when the world is not flat).
+    /// [`ONE_SIDED`] and [`REVERSED`] bits, and [`DEGENERATE`] where its unit normal is no
+    /// proper normal; read on every hit (empty when the world is not flat).
     flat_sides: Vec<u8>,
     /// The flat BLAS's triangles' unit geometric normals in slot order, as the surface
     /// interaction computes them from the vertices (an `f64` cross product and normalisation
@@ -324,6 +325,10 @@ pub struct World {
 const ONE_SIDED: u8 = 1;
 /// [`World::flat_sides`]: the triangle's orientation is reversed.
 const REVERSED: u8 = 2;
+/// [`World::flat_sides`]: the triangle's unit geometric normal ([`World::flat_normals`]) is
+/// zero, infinite or NaN (a degenerate triangle's is zero), so the surface interaction's
+/// orientation rules may stand in for it.
+const DEGENERATE: u8 = 4;
 
 impl World {
     /// A camera sample over the background colour (alpha, the coverage, is kept).
