@@ -90,38 +90,57 @@ pub(crate) fn round_point_v3(
     extra_error: DVec3,
 ) -> (Vec3, Vec3) {
     #[cfg(target_arch = "x86_64")]
-    if v3.is_some() {
+    if let Some(v3) = v3 {
         use std::arch::x86_64::*;
         // SAFETY: `v3` exists only on a CPU with AVX2; no memory is touched.
-        unsafe {
-            let pd = _mm256_setr_pd(p.x, p.y, p.z, 0.0);
-            let magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
-            let pf = _mm256_cvtpd_ps(pd);
-            let rounding = _mm256_and_pd(_mm256_sub_pd(pd, _mm256_cvtps_pd(pf)), magnitude);
-            let err = _mm256_add_pd(
-                _mm256_add_pd(rounding, _mm256_setr_pd(extra_error.x, extra_error.y, extra_error.z, 0.0)),
-                _mm256_mul_pd(_mm256_and_pd(pd, magnitude), _mm256_set1_pd(4.0 * f64::EPSILON)),
-            );
-            // `next_float_up` of each lane's bits: +1 below infinity, infinity kept, -0 to the
-            // smallest subnormal, -1 for the rest (negative values and NaNs).
-            let bits = _mm_castps_si128(_mm256_cvtpd_ps(err));
-            let infinity = _mm_set1_epi32(0x7f80_0000);
-            let below = _mm_cmpeq_epi32(_mm_min_epu32(bits, _mm_set1_epi32(0x7f7f_ffff)), bits);
-            let at_infinity = _mm_cmpeq_epi32(bits, infinity);
-            // -1, plus 2 below infinity (each mask is -1 where it holds), plus 1 at infinity.
-            let step =
-                _mm_sub_epi32(_mm_sub_epi32(_mm_set1_epi32(-1), _mm_add_epi32(below, below)), at_infinity);
-            let negative_zero = _mm_cmpeq_epi32(bits, _mm_set1_epi32(i32::MIN));
-            let up = _mm_blendv_epi8(_mm_add_epi32(bits, step), _mm_set1_epi32(1), negative_zero);
-            let bound = _mm_add_ps(_mm_castsi128_ps(up), _mm_set1_ps(f32::MIN_POSITIVE));
-            let [x, y, z, _] = std::mem::transmute::<__m128, [f32; 4]>(pf);
-            let [ex, ey, ez, _] = std::mem::transmute::<__m128, [f32; 4]>(bound);
-            return (Vec3::new(x, y, z), Vec3::new(ex, ey, ez));
-        }
+        let (pd, extra) = unsafe {
+            (
+                _mm256_setr_pd(p.x, p.y, p.z, 0.0),
+                _mm256_setr_pd(extra_error.x, extra_error.y, extra_error.z, 0.0),
+            )
+        };
+        return round_point_lanes(v3, pd, extra);
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = v3;
     round_point(p, extra_error)
+}
+
+/// [`round_point_v3`]'s lanes: the point `pd` and the error bound `extra_error` in lanes 0 to 2
+/// of AVX registers (lane 3 is ignored), the rounded point and its bound out as [`round_point`]
+/// gives them.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn round_point_lanes(
+    _v3: crate::accel::X86_64V3,
+    pd: std::arch::x86_64::__m256d,
+    extra_error: std::arch::x86_64::__m256d,
+) -> (Vec3, Vec3) {
+    use std::arch::x86_64::*;
+    // SAFETY: `_v3` exists only on a CPU with AVX2; no memory is touched.
+    unsafe {
+        let magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        let pf = _mm256_cvtpd_ps(pd);
+        let rounding = _mm256_and_pd(_mm256_sub_pd(pd, _mm256_cvtps_pd(pf)), magnitude);
+        let err = _mm256_add_pd(
+            _mm256_add_pd(rounding, extra_error),
+            _mm256_mul_pd(_mm256_and_pd(pd, magnitude), _mm256_set1_pd(4.0 * f64::EPSILON)),
+        );
+        // `next_float_up` of each lane's bits: +1 below infinity, infinity kept, -0 to the
+        // smallest subnormal, -1 for the rest (negative values and NaNs).
+        let bits = _mm_castps_si128(_mm256_cvtpd_ps(err));
+        let infinity = _mm_set1_epi32(0x7f80_0000);
+        let below = _mm_cmpeq_epi32(_mm_min_epu32(bits, _mm_set1_epi32(0x7f7f_ffff)), bits);
+        let at_infinity = _mm_cmpeq_epi32(bits, infinity);
+        // -1, plus 2 below infinity (each mask is -1 where it holds), plus 1 at infinity.
+        let step = _mm_sub_epi32(_mm_sub_epi32(_mm_set1_epi32(-1), _mm_add_epi32(below, below)), at_infinity);
+        let negative_zero = _mm_cmpeq_epi32(bits, _mm_set1_epi32(i32::MIN));
+        let up = _mm_blendv_epi8(_mm_add_epi32(bits, step), _mm_set1_epi32(1), negative_zero);
+        let bound = _mm_add_ps(_mm_castsi128_ps(up), _mm_set1_ps(f32::MIN_POSITIVE));
+        let [x, y, z, _] = std::mem::transmute::<__m128, [f32; 4]>(pf);
+        let [ex, ey, ez, _] = std::mem::transmute::<__m128, [f32; 4]>(bound);
+        (Vec3::new(x, y, z), Vec3::new(ex, ey, ez))
+    }
 }
 
 /// Pushes `p` (with per-component error bound `p_error`) along the geometric normal `n` to the

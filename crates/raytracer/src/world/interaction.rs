@@ -3,8 +3,8 @@
 
 use super::{Hit, HitDetail, MeshShading, Ray, SurfaceInteraction, World};
 use crate::accel::X86_64V3;
-use crate::math::{round_point_v3, transform_normal, transform_point_error};
-use crate::shapes::barycentric_point;
+use crate::math::{round_point, transform_normal, transform_point_error};
+use crate::shapes::{barycentric_point, barycentric_point_rounded_v3};
 use glam::{DMat4, DVec3, Vec2, Vec3};
 
 impl World {
@@ -25,7 +25,7 @@ impl World {
     /// is stored (the wavefront's) it is built there. Returned by value, the flat case's
     /// record shared its return slot with the general case's out-of-line call, so it was built
     /// on the stack and copied in with `memcpy`. `v3` is the caller's proof of x86-64-v3, for
-    /// the rounded point's lanes ([`round_point_v3`]).
+    /// the hit point's lanes ([`barycentric_point_rounded_v3`]).
     // Always inlined into the wavefront's x86-64-v3 batch, its one caller.
     #[inline(always)]
     pub(crate) fn write_interaction(
@@ -66,7 +66,7 @@ impl World {
         let attributes = inst.attributes.unwrap_or(s.attributes);
         let wants_st = self.material(attributes).reads_texture_coordinates();
         let tp = tri.p;
-        let (p64, err64) = barycentric_point(b, tp[0], tp[1], tp[2]);
+        let (p64, p, p_error) = barycentric_point_rounded_v3(v3, b, tp);
         let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
         let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
         // The mesh's vertex indices are read only where its normals or `st` are.
@@ -93,12 +93,11 @@ impl World {
             Oriented::orient_proper(ng_unit, ns, reverse)
         };
         self.surface(
-            v3,
             ray,
             t,
             normals,
             (dpdu, st, st_per_length),
-            (p64, err64),
+            (p64, p, p_error),
             wants_st,
             attributes,
             inst.emitters.get(tri.shape as usize),
@@ -215,13 +214,13 @@ impl World {
         };
         let (_, reverse) = self.sidedness(inst, blas, shape);
         let oriented = Oriented { ng_unit, ns, n_outward, reverse };
+        let (p, p_error) = round_point(p64, err64);
         self.surface(
-            None,
             ray,
             hit.t,
             oriented.orient(ray),
             (dpdu, st, st_per_length),
-            (p64, err64),
+            (p64, p, p_error),
             wants_st,
             attributes,
             inst.emitters.get(shape as usize),
@@ -229,22 +228,20 @@ impl World {
     }
 
     /// The end of [`World::interaction`] for both kinds of world, once the normals are
-    /// oriented ([`Oriented`]): the rounded point, the texture footprint and the record.
+    /// oriented ([`Oriented`]) and the point rounded: the texture footprint and the record.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn surface(
         &self,
-        v3: Option<X86_64V3>,
         ray: &Ray,
         t: f32,
         Normals { ng, ns, n_outward }: Normals,
         (dpdu, st, st_per_length): (Vec3, Vec2, f64),
-        (p64, err64): (DVec3, DVec3),
+        (p64, p, p_error): (DVec3, Vec3, Vec3),
         wants_st: bool,
         attributes: rib_parser::scene::AttributesId,
         emitter: Option<&u32>,
     ) -> SurfaceInteraction {
-        let (p, p_error) = round_point_v3(v3, p64, err64);
         let st_width = if wants_st {
             let pixel = self.footprint.width_at(p64.length());
             let st_width = (pixel * st_per_length) as f32;
