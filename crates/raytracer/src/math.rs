@@ -79,36 +79,12 @@ pub fn round_point(p: DVec3, extra_error: DVec3) -> (Vec3, Vec3) {
 }
 
 /// [`round_point`], the same bits, with its three components in the lanes of AVX registers
-/// where `v3` says the CPU has x86-64-v3 (the `f64` arithmetic and both conversions one
-/// instruction for all three, the bound's step up without a branch per component). Always
-/// inlined, for the wavefront's x86-64-v3 batch; a caller without those target features passes
-/// `None` (the intrinsics would be calls).
-#[inline(always)]
-pub(crate) fn round_point_v3(
-    v3: Option<crate::accel::X86_64V3>,
-    p: DVec3,
-    extra_error: DVec3,
-) -> (Vec3, Vec3) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(v3) = v3 {
-        use std::arch::x86_64::*;
-        // SAFETY: `v3` exists only on a CPU with AVX2; no memory is touched.
-        let (pd, extra) = unsafe {
-            (
-                _mm256_setr_pd(p.x, p.y, p.z, 0.0),
-                _mm256_setr_pd(extra_error.x, extra_error.y, extra_error.z, 0.0),
-            )
-        };
-        return round_point_lanes(v3, pd, extra);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = v3;
-    round_point(p, extra_error)
-}
-
-/// [`round_point_v3`]'s lanes: the point `pd` and the error bound `extra_error` in lanes 0 to 2
-/// of AVX registers (lane 3 is ignored), the rounded point and its bound out as [`round_point`]
-/// gives them.
+/// (the `f64` arithmetic and both conversions one instruction for all three, the bound's step
+/// up without a branch per component): the point `pd` and the error bound `extra_error` in
+/// lanes 0 to 2 (lane 3 is ignored), the rounded point and its bound out as `round_point` gives
+/// them. `_v3` says the CPU has x86-64-v3. Always inlined, for the wavefront's x86-64-v3 batch
+/// (through [`barycentric_point_rounded_v3`](crate::shapes::barycentric_point_rounded_v3)); a
+/// caller without those target features would make the intrinsics calls.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(crate) fn round_point_lanes(
@@ -392,7 +368,7 @@ mod tests {
         }
     }
 
-    /// [`round_point_v3`] is [`round_point`] bit for bit, with and without x86-64-v3: on
+    /// [`round_point_lanes`] is [`round_point`] bit for bit: on
     /// points of every scale and sign, zeros of both signs, subnormals, infinities and NaNs,
     /// with error bounds that overflow `f32`, are NaN or are negative (which the bound's step
     /// up treats as the bits say).
@@ -400,7 +376,7 @@ mod tests {
     fn round_point_in_lanes_matches() {
         let v3 = crate::accel::X86_64V3::detect();
         if v3.is_none() {
-            eprintln!("round_point_v3's lanes are not tested: this CPU lacks x86-64-v3");
+            eprintln!("round_point_lanes is not tested: this CPU lacks x86-64-v3");
         }
         let special = [
             0.0,
@@ -433,8 +409,14 @@ mod tests {
             let expected = round_point(p, extra);
             let bits =
                 |(a, b): (Vec3, Vec3)| (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
-            for lanes in [v3, None] {
-                assert_eq!(bits(round_point_v3(lanes, p, extra)), bits(expected), "{p:?} {extra:?}");
+            #[cfg(target_arch = "x86_64")]
+            if let Some(v3) = v3 {
+                use std::arch::x86_64::_mm256_setr_pd;
+                // SAFETY: `v3` exists only on a CPU with AVX2.
+                let (pd, extra) = unsafe {
+                    (_mm256_setr_pd(p.x, p.y, p.z, 0.0), _mm256_setr_pd(extra.x, extra.y, extra.z, 0.0))
+                };
+                assert_eq!(bits(round_point_lanes(v3, pd, extra)), bits(expected), "{p:?} {extra:?}");
             }
         }
     }
