@@ -334,10 +334,10 @@ impl Light {
         match shape {
             EmitterShape::Triangles { triangles, normals, by_area, area } => {
                 let (i, _, u0) = by_area.sample(u.x)?;
-                let [p0, p1, p2] = triangles[i];
+                let tp = &triangles[i];
                 let b = sample_uniform_triangle(Vec2::new(u0, u.y));
                 let b = [f64::from(b[0]), f64::from(b[1]), f64::from(b[2])];
-                let (_, p, p_err) = crate::shapes::barycentric_point_rounded_v3(v3, b, [p0, p1, p2]);
+                let (_, p, p_err) = crate::shapes::barycentric_point_rounded_v3(v3, b, tp);
                 Some((p, p_err, normals[i], 1.0 / area))
             }
             EmitterShape::Quadric { quadric, render_from_object, object_from_render, det, flip, .. } => {

@@ -227,17 +227,22 @@ pub fn barycentric_point(b: [f64; 3], p0: Vec3, p1: Vec3, p2: Vec3) -> (DVec3, D
 pub(crate) fn barycentric_point_rounded_v3(
     v3: Option<crate::accel::X86_64V3>,
     b: [f64; 3],
-    tp: [Vec3; 3],
+    tp: &[Vec3; 3],
 ) -> (DVec3, Vec3, Vec3) {
     #[cfg(target_arch = "x86_64")]
     if let Some(v3) = v3 {
         use std::arch::x86_64::*;
-        // SAFETY: `v3` exists only on a CPU with AVX2; no memory is touched.
+        // SAFETY: `v3` exists only on a CPU with AVX2. The loads read 16 bytes at byte offsets
+        // 0, 12 and 20 of the 36 of `tp` (`Vec3` is three `f32`, `repr(C)`).
         let (p, err) = unsafe {
-            let term = |q: Vec3, b: f64| {
-                _mm256_mul_pd(_mm256_cvtps_pd(_mm_setr_ps(q.x, q.y, q.z, 0.0)), _mm256_set1_pd(b))
-            };
-            let (t0, t1, t2) = (term(tp[0], b[0]), term(tp[1], b[1]), term(tp[2], b[2]));
+            let base = tp.as_ptr().cast::<f32>();
+            // Each vertex in lanes 0 to 2; lane 3 holds a neighbour's component, and its
+            // results are never read.
+            let q0 = _mm_loadu_ps(base);
+            let q1 = _mm_loadu_ps(base.add(3));
+            let q2 = _mm_permute_ps::<0b00_11_10_01>(_mm_loadu_ps(base.add(5)));
+            let term = |q: __m128, b: f64| _mm256_mul_pd(_mm256_cvtps_pd(q), _mm256_set1_pd(b));
+            let (t0, t1, t2) = (term(q0, b[0]), term(q1, b[1]), term(q2, b[2]));
             let p = _mm256_add_pd(_mm256_add_pd(t0, t1), t2);
             let magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
             let abs_sum = _mm256_add_pd(
@@ -374,7 +379,7 @@ mod tests {
             let (pf, bound) = crate::math::round_point(p, err);
             for lanes in [v3, None] {
                 assert_eq!(
-                    bits(barycentric_point_rounded_v3(lanes, b, tp)),
+                    bits(barycentric_point_rounded_v3(lanes, b, &tp)),
                     bits((p, pf, bound)),
                     "{tp:?} {b:?}"
                 );

@@ -66,7 +66,7 @@ impl World {
         let attributes = inst.attributes.unwrap_or(s.attributes);
         let wants_st = self.material(attributes).reads_texture_coordinates();
         let tp = tri.p;
-        let (p64, p, p_error) = barycentric_point_rounded_v3(v3, b, tp);
+        let (p64, p, p_error) = barycentric_point_rounded_v3(v3, b, &tri.p);
         let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
         let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
         // The mesh's vertex indices are read only where its normals or `st` are.
