@@ -64,10 +64,16 @@ impl World {
         let tri = &blas.triangles[i as usize];
         let s = &blas.shapes[tri.shape as usize];
         let attributes = inst.attributes.unwrap_or(s.attributes);
-        let wants_st = self.material(attributes).reads_texture_coordinates();
+        let sides = self.flat_sides[i as usize];
+        // The material's and the mesh's flags, read at build.
+        let wants_st = sides & super::TEXTURE_COORDINATES != 0;
         let tp = tri.p;
         let (p64, p, p_error) = barycentric_point_rounded_v3(v3, b, &tri.p);
-        let mesh = s.mesh.map(|m| &blas.meshes[m as usize]);
+        let mesh = if sides & (super::SHADING_NORMALS | super::TEXTURE_COORDINATES) != 0 {
+            s.mesh.map(|m| &blas.meshes[m as usize])
+        } else {
+            None
+        };
         let bw = [b[0] as f32, b[1] as f32, b[2] as f32];
         // The mesh's vertex indices are read only where its normals or `st` are.
         let ns_blas = match mesh {
@@ -84,7 +90,6 @@ impl World {
         let ng_unit = self.flat_normals[i as usize];
         let ns = ns_blas.map(|n| n.normalize_or_zero().as_vec3());
         let dpdu = (tp[1] - tp[0]).as_dvec3().as_vec3();
-        let sides = self.flat_sides[i as usize];
         let reverse = sides & super::REVERSED != 0;
         let normals = if sides & super::DEGENERATE != 0 {
             let shape = Oriented { ng_unit, ns: ns.unwrap_or(ng_unit), n_outward: ng_unit, reverse };
@@ -423,5 +428,87 @@ mod tests {
             }
         }
         assert!(proper > 20_000 && shading > 10_000, "{proper} {shading}");
+    }
+
+    /// A flat world's surface interaction ([`World::interaction_flat`], with the flags of
+    /// [`World::flat_sides`]) is the general one bit for bit, with and without x86-64-v3
+    /// ([`World::write_interaction`]): on every triangle of polygons plain, with vertex normals
+    /// (one set of which cancels along an edge), with `st` under a textured material and
+    /// without, one-sided and reversed, and degenerate (collinear, tiny, huge: a zero unit
+    /// normal), at barycentrics inside, on the edges and at the corners, from rays of every
+    /// direction.
+    #[test]
+    fn flat_interaction_matches_the_general_one() {
+        use crate::diagnostics::Diagnostics;
+        use crate::world::{DEGENERATE, PixelFootprint, SHADING_NORMALS, TEXTURE_COORDINATES};
+        let dir = tempfile::tempdir().unwrap();
+        let texture = dir.path().join("checker.png");
+        image::RgbImage::from_fn(4, 4, |x, y| image::Rgb(if (x + y) % 2 == 0 { [200; 3] } else { [50; 3] }))
+            .save(&texture)
+            .unwrap();
+        let painted = format!("Surface \"paintedplastic\" \"texturename\" [\"{}\"]\n", texture.display());
+        let mut rib = String::from("WorldBegin\n");
+        for i in 0..36 {
+            let (x, z) = ((i % 6) as f32 - 3.0, (i / 6) as f32 - 3.0);
+            let p = format!("\"P\" [{x} -1 {z} {} -0.5 {z} {x} 1 {}]", x + 1.5, z + 0.7);
+            let (attributes, extra) = match i % 6 {
+                0 => ("", ""),
+                1 => ("", " \"N\" [0 0 1 0.3 0.2 0.9 -0.1 0.5 0.8]"),
+                2 => ("", " \"N\" [0 0 1 0 0 -1 0 0 1]"),
+                3 => (painted.as_str(), " \"st\" [0 0 1 0 0.5 1]"),
+                4 => (painted.as_str(), ""),
+                _ => ("Sides 1\nReverseOrientation\n", ""),
+            };
+            rib += &format!("AttributeBegin\n{attributes}Polygon {p}{extra}\nAttributeEnd\n");
+        }
+        rib += "WorldEnd\n";
+        let scene = rib_parser::load_bytes("flat.rib", rib.into_bytes(), &Default::default())
+            .unwrap_or_else(|e| panic!("{}", e.render()))
+            .scene;
+        let eye = glam::DVec3::new(0.3, 0.2, -7.0);
+        let mut world = World::build(&scene, eye, PixelFootprint::Unknown, &mut Diagnostics::default())
+            .expect("the world builds");
+        assert!(world.flat, "a world of polygons alone is flat");
+        // Degenerate triangles (the build drops them from the scene): three points on a line,
+        // and normals whose `f32` cross product underflows to zero or overflows.
+        let blas = world.instances[0].blas as usize;
+        for (k, p) in [[0.0, 1.0, 2.0], [0.0, 1e-23, 1e-23], [0.0, 1e20, 1e20]].into_iter().enumerate() {
+            let t = &mut world.blases[blas].triangles[5 * k];
+            t.p = [Vec3::new(p[0], 0.0, 5.0), Vec3::new(p[1], 0.0, 5.0), Vec3::new(0.0, p[2], 5.0)];
+            if k == 0 {
+                t.p[2] = Vec3::new(p[2], 0.0, 5.0);
+            }
+        }
+        world.set_flat_tables();
+        let count = |bit: u8| world.flat_sides.iter().filter(|&&s| s & bit != 0).count();
+        let flags = [DEGENERATE, SHADING_NORMALS, TEXTURE_COORDINATES].map(count);
+        assert!(flags.iter().all(|&n| n > 0), "degenerate, with normals, with st: {flags:?}");
+        let v3 = crate::accel::X86_64V3::detect();
+        let triangles = world.flat_sides.len();
+        let mut rng = crate::sampling::Rng::new(7, 3);
+        for k in 0..20_000 {
+            let (b1, b2) = (f64::from(rng.uniform()), f64::from(rng.uniform()));
+            let b = match k % 4 {
+                0 if b1 + b2 <= 1.0 => [1.0 - b1 - b2, b1, b2],
+                0 | 1 => [0.0, b1, 1.0 - b1],
+                2 => [0.0, 0.0, 1.0],
+                _ => [1.0 - b1, b1 * 0.5, b1 * 0.5],
+            };
+            let origin = (Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5) * 12.0;
+            let direction =
+                crate::sampling::sample_uniform_sphere(rng.uniform2()) * (0.01 + 3.0 * rng.uniform());
+            let ray = Ray { time: rng.uniform(), ..Ray::new(origin, direction) };
+            let detail = HitDetail::Triangle((k % triangles) as u32, b);
+            let hit = Hit { t: 5.0 * rng.uniform(), instance: 0, detail, csg_entering: None };
+            let mut records = Vec::new();
+            for (flat, v3) in [(true, v3), (false, v3), (true, None), (false, None)] {
+                world.flat = flat;
+                let mut out = world.interaction(&ray, &hit);
+                records.push(format!("{out:?}"));
+                world.write_interaction(v3, &ray, &hit, &mut out);
+                records.push(format!("{out:?}"));
+            }
+            assert!(records.iter().all(|r| *r == records[0]), "hit {k}: {records:#?}");
+        }
     }
 }

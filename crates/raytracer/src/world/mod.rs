@@ -312,8 +312,9 @@ pub struct World {
     /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
     flat: bool,
     /// The flat BLAS's triangles' sidedness in slot order, [`World::sidedness`] of each as
-    /// [`ONE_SIDED`] and [`REVERSED`] bits, and [`DEGENERATE`] where its unit normal is no
-    /// proper normal; read on every hit (empty when the world is not flat).
+    /// [`ONE_SIDED`] and [`REVERSED`] bits, [`DEGENERATE`] where its unit normal is no proper
+    /// normal, and the [`SHADING_NORMALS`] and [`TEXTURE_COORDINATES`] its surface interaction
+    /// needs; read on every hit (empty when the world is not flat).
     flat_sides: Vec<u8>,
     /// The flat BLAS's triangles' unit geometric normals in slot order, as the surface
     /// interaction computes them from the vertices (an `f64` cross product and normalisation
@@ -329,6 +330,12 @@ const REVERSED: u8 = 2;
 /// zero, infinite or NaN (a degenerate triangle's is zero), so the surface interaction's
 /// orientation rules may stand in for it.
 const DEGENERATE: u8 = 4;
+/// [`World::flat_sides`]: the triangle's mesh has vertex normals (a shading normal to
+/// interpolate); without the bit its mesh is not read.
+const SHADING_NORMALS: u8 = 8;
+/// [`World::flat_sides`]: the triangle's material reads texture coordinates
+/// ([`Material::reads_texture_coordinates`]).
+const TEXTURE_COORDINATES: u8 = 16;
 
 impl World {
     /// A camera sample over the background colour (alpha, the coverage, is kept).
