@@ -316,17 +316,30 @@ pub struct World {
     /// normal, and the [`SHADING_NORMALS`] and [`TEXTURE_COORDINATES`] its surface interaction
     /// needs; read on every hit (empty when the world is not flat).
     flat_sides: Vec<u8>,
-    /// The flat BLAS's triangles' unit geometric normals in slot order, as the surface
-    /// interaction computes them from the vertices (an `f64` cross product and normalisation
-    /// per hit before); empty when the world is not flat.
-    flat_normals: Vec<Vec3>,
+    /// What the surface interaction reads of the flat BLAS's triangles besides their
+    /// vertices, in slot order (one bounds check for the three); empty when the world is not
+    /// flat.
+    flat_surfaces: Vec<FlatSurface>,
+}
+
+/// [`World::flat_surfaces`]: a flat world's triangle as its surface interaction reads it.
+#[derive(Clone, Copy, Debug)]
+struct FlatSurface {
+    /// The unit geometric normal, as the surface interaction computes it from the vertices (an
+    /// `f64` cross product and normalisation per hit before).
+    ng_unit: Vec3,
+    /// The triangle's shape's attributes, or the instance's where it overrides them.
+    attributes: AttributesId,
+    /// The instance's emitter entry for the triangle's shape: the area light's index, or
+    /// `u32::MAX` for none (also where the instance has no entry).
+    emitter: u32,
 }
 
 /// [`World::flat_sides`]: the triangle's surface is one-sided.
 const ONE_SIDED: u8 = 1;
 /// [`World::flat_sides`]: the triangle's orientation is reversed.
 const REVERSED: u8 = 2;
-/// [`World::flat_sides`]: the triangle's unit geometric normal ([`World::flat_normals`]) is
+/// [`World::flat_sides`]: the triangle's unit geometric normal ([`FlatSurface::ng_unit`]) is
 /// zero, infinite or NaN (a degenerate triangle's is zero), so the surface interaction's
 /// orientation rules may stand in for it.
 const DEGENERATE: u8 = 4;
