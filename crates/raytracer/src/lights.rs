@@ -14,9 +14,7 @@
 
 use crate::accel::X86_64V3;
 use crate::environment_light::EnvironmentLight;
-use crate::math::{
-    Frame, offset_ray_origin, positive_and_finite, round_point, round_point_v3, transform_normal,
-};
+use crate::math::{Frame, offset_ray_origin, positive_and_finite, round_point, transform_normal};
 use crate::sampling::{
     Distribution1D, UNIFORM_SPHERE_PDF, sample_concentric_disk, sample_cosine_hemisphere,
     sample_uniform_cone, sample_uniform_sphere, sample_uniform_triangle, uniform_cone_pdf,
@@ -236,7 +234,7 @@ impl Light {
 
     /// [`Light::sample_li`], inlined where it is called: the wavefront's x86-64-v3 copy
     /// compiles it with its own features, and rounds an area light's point in lanes where `v3`
-    /// says it may ([`round_point_v3`]).
+    /// says it may ([`barycentric_point_rounded_v3`](crate::shapes::barycentric_point_rounded_v3)).
     #[inline(always)]
     pub(crate) fn sample_li_inlined(
         &self,
@@ -336,11 +334,10 @@ impl Light {
         match shape {
             EmitterShape::Triangles { triangles, normals, by_area, area } => {
                 let (i, _, u0) = by_area.sample(u.x)?;
-                let [p0, p1, p2] = triangles[i];
+                let tp = &triangles[i];
                 let b = sample_uniform_triangle(Vec2::new(u0, u.y));
                 let b = [f64::from(b[0]), f64::from(b[1]), f64::from(b[2])];
-                let (p64, err) = crate::shapes::barycentric_point(b, p0, p1, p2);
-                let (p, p_err) = round_point_v3(v3, p64, err);
+                let (_, p, p_err) = crate::shapes::barycentric_point_rounded_v3(v3, b, tp);
                 Some((p, p_err, normals[i], 1.0 / area))
             }
             EmitterShape::Quadric { quadric, render_from_object, object_from_render, det, flip, .. } => {

@@ -79,49 +79,44 @@ pub fn round_point(p: DVec3, extra_error: DVec3) -> (Vec3, Vec3) {
 }
 
 /// [`round_point`], the same bits, with its three components in the lanes of AVX registers
-/// where `v3` says the CPU has x86-64-v3 (the `f64` arithmetic and both conversions one
-/// instruction for all three, the bound's step up without a branch per component). Always
-/// inlined, for the wavefront's x86-64-v3 batch; a caller without those target features passes
-/// `None` (the intrinsics would be calls).
+/// (the `f64` arithmetic and both conversions one instruction for all three, the bound's step
+/// up without a branch per component): the point `pd` and the error bound `extra_error` in
+/// lanes 0 to 2 (lane 3 is ignored), the rounded point and its bound out as `round_point` gives
+/// them. `_v3` says the CPU has x86-64-v3. Always inlined, for the wavefront's x86-64-v3 batch
+/// (through [`barycentric_point_rounded_v3`](crate::shapes::barycentric_point_rounded_v3)); a
+/// caller without those target features would make the intrinsics calls.
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) fn round_point_v3(
-    v3: Option<crate::accel::X86_64V3>,
-    p: DVec3,
-    extra_error: DVec3,
+pub(crate) fn round_point_lanes(
+    _v3: crate::accel::X86_64V3,
+    pd: std::arch::x86_64::__m256d,
+    extra_error: std::arch::x86_64::__m256d,
 ) -> (Vec3, Vec3) {
-    #[cfg(target_arch = "x86_64")]
-    if v3.is_some() {
-        use std::arch::x86_64::*;
-        // SAFETY: `v3` exists only on a CPU with AVX2; no memory is touched.
-        unsafe {
-            let pd = _mm256_setr_pd(p.x, p.y, p.z, 0.0);
-            let magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
-            let pf = _mm256_cvtpd_ps(pd);
-            let rounding = _mm256_and_pd(_mm256_sub_pd(pd, _mm256_cvtps_pd(pf)), magnitude);
-            let err = _mm256_add_pd(
-                _mm256_add_pd(rounding, _mm256_setr_pd(extra_error.x, extra_error.y, extra_error.z, 0.0)),
-                _mm256_mul_pd(_mm256_and_pd(pd, magnitude), _mm256_set1_pd(4.0 * f64::EPSILON)),
-            );
-            // `next_float_up` of each lane's bits: +1 below infinity, infinity kept, -0 to the
-            // smallest subnormal, -1 for the rest (negative values and NaNs).
-            let bits = _mm_castps_si128(_mm256_cvtpd_ps(err));
-            let infinity = _mm_set1_epi32(0x7f80_0000);
-            let below = _mm_cmpeq_epi32(_mm_min_epu32(bits, _mm_set1_epi32(0x7f7f_ffff)), bits);
-            let at_infinity = _mm_cmpeq_epi32(bits, infinity);
-            // -1, plus 2 below infinity (each mask is -1 where it holds), plus 1 at infinity.
-            let step =
-                _mm_sub_epi32(_mm_sub_epi32(_mm_set1_epi32(-1), _mm_add_epi32(below, below)), at_infinity);
-            let negative_zero = _mm_cmpeq_epi32(bits, _mm_set1_epi32(i32::MIN));
-            let up = _mm_blendv_epi8(_mm_add_epi32(bits, step), _mm_set1_epi32(1), negative_zero);
-            let bound = _mm_add_ps(_mm_castsi128_ps(up), _mm_set1_ps(f32::MIN_POSITIVE));
-            let [x, y, z, _] = std::mem::transmute::<__m128, [f32; 4]>(pf);
-            let [ex, ey, ez, _] = std::mem::transmute::<__m128, [f32; 4]>(bound);
-            return (Vec3::new(x, y, z), Vec3::new(ex, ey, ez));
-        }
+    use std::arch::x86_64::*;
+    // SAFETY: `_v3` exists only on a CPU with AVX2; no memory is touched.
+    unsafe {
+        let magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        let pf = _mm256_cvtpd_ps(pd);
+        let rounding = _mm256_and_pd(_mm256_sub_pd(pd, _mm256_cvtps_pd(pf)), magnitude);
+        let err = _mm256_add_pd(
+            _mm256_add_pd(rounding, extra_error),
+            _mm256_mul_pd(_mm256_and_pd(pd, magnitude), _mm256_set1_pd(4.0 * f64::EPSILON)),
+        );
+        // `next_float_up` of each lane's bits: +1 below infinity, infinity kept, -0 to the
+        // smallest subnormal, -1 for the rest (negative values and NaNs).
+        let bits = _mm_castps_si128(_mm256_cvtpd_ps(err));
+        let infinity = _mm_set1_epi32(0x7f80_0000);
+        let below = _mm_cmpeq_epi32(_mm_min_epu32(bits, _mm_set1_epi32(0x7f7f_ffff)), bits);
+        let at_infinity = _mm_cmpeq_epi32(bits, infinity);
+        // -1, plus 2 below infinity (each mask is -1 where it holds), plus 1 at infinity.
+        let step = _mm_sub_epi32(_mm_sub_epi32(_mm_set1_epi32(-1), _mm_add_epi32(below, below)), at_infinity);
+        let negative_zero = _mm_cmpeq_epi32(bits, _mm_set1_epi32(i32::MIN));
+        let up = _mm_blendv_epi8(_mm_add_epi32(bits, step), _mm_set1_epi32(1), negative_zero);
+        let bound = _mm_add_ps(_mm_castsi128_ps(up), _mm_set1_ps(f32::MIN_POSITIVE));
+        let [x, y, z, _] = std::mem::transmute::<__m128, [f32; 4]>(pf);
+        let [ex, ey, ez, _] = std::mem::transmute::<__m128, [f32; 4]>(bound);
+        (Vec3::new(x, y, z), Vec3::new(ex, ey, ez))
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = v3;
-    round_point(p, extra_error)
 }
 
 /// Pushes `p` (with per-component error bound `p_error`) along the geometric normal `n` to the
@@ -373,7 +368,7 @@ mod tests {
         }
     }
 
-    /// [`round_point_v3`] is [`round_point`] bit for bit, with and without x86-64-v3: on
+    /// [`round_point_lanes`] is [`round_point`] bit for bit: on
     /// points of every scale and sign, zeros of both signs, subnormals, infinities and NaNs,
     /// with error bounds that overflow `f32`, are NaN or are negative (which the bound's step
     /// up treats as the bits say).
@@ -381,7 +376,7 @@ mod tests {
     fn round_point_in_lanes_matches() {
         let v3 = crate::accel::X86_64V3::detect();
         if v3.is_none() {
-            eprintln!("round_point_v3's lanes are not tested: this CPU lacks x86-64-v3");
+            eprintln!("round_point_lanes is not tested: this CPU lacks x86-64-v3");
         }
         let special = [
             0.0,
@@ -414,8 +409,14 @@ mod tests {
             let expected = round_point(p, extra);
             let bits =
                 |(a, b): (Vec3, Vec3)| (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
-            for lanes in [v3, None] {
-                assert_eq!(bits(round_point_v3(lanes, p, extra)), bits(expected), "{p:?} {extra:?}");
+            #[cfg(target_arch = "x86_64")]
+            if let Some(v3) = v3 {
+                use std::arch::x86_64::_mm256_setr_pd;
+                // SAFETY: `v3` exists only on a CPU with AVX2.
+                let (pd, extra) = unsafe {
+                    (_mm256_setr_pd(p.x, p.y, p.z, 0.0), _mm256_setr_pd(extra.x, extra.y, extra.z, 0.0))
+                };
+                assert_eq!(bits(round_point_lanes(v3, pd, extra)), bits(expected), "{p:?} {extra:?}");
             }
         }
     }

@@ -216,6 +216,53 @@ pub fn barycentric_point(b: [f64; 3], p0: Vec3, p1: Vec3, p2: Vec3) -> (DVec3, D
     (p, abs_sum * (8.0 * f64::EPSILON))
 }
 
+/// [`barycentric_point`] of a triangle's vertices `tp`, rounded to `f32` with its error bound
+/// ([`round_point`](crate::math::round_point)): the point in `f64`, the rounded point and the
+/// bound, the same bits. Where `v3` says the CPU has x86-64-v3, the three components are the
+/// lanes of AVX registers from the vertices to the bound ([`round_point_lanes`]
+/// (crate::math::round_point_lanes)), the same IEEE operations in the same order per lane.
+/// Always inlined, for the wavefront's x86-64-v3 batch; a caller without those target
+/// features passes `None` (the intrinsics would be calls).
+#[inline(always)]
+pub(crate) fn barycentric_point_rounded_v3(
+    v3: Option<crate::accel::X86_64V3>,
+    b: [f64; 3],
+    tp: &[Vec3; 3],
+) -> (DVec3, Vec3, Vec3) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(v3) = v3 {
+        use std::arch::x86_64::*;
+        // SAFETY: `v3` exists only on a CPU with AVX2. The loads read 16 bytes at byte offsets
+        // 0, 12 and 20 of the 36 of `tp` (`Vec3` is three `f32`, `repr(C)`).
+        let (p, err) = unsafe {
+            let base = tp.as_ptr().cast::<f32>();
+            // Each vertex in lanes 0 to 2; lane 3 holds a neighbour's component, and its
+            // results are never read.
+            let q0 = _mm_loadu_ps(base);
+            let q1 = _mm_loadu_ps(base.add(3));
+            let q2 = _mm_permute_ps::<0b00_11_10_01>(_mm_loadu_ps(base.add(5)));
+            let term = |q: __m128, b: f64| _mm256_mul_pd(_mm256_cvtps_pd(q), _mm256_set1_pd(b));
+            let (t0, t1, t2) = (term(q0, b[0]), term(q1, b[1]), term(q2, b[2]));
+            let p = _mm256_add_pd(_mm256_add_pd(t0, t1), t2);
+            let magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+            let abs_sum = _mm256_add_pd(
+                _mm256_add_pd(_mm256_and_pd(t0, magnitude), _mm256_and_pd(t1, magnitude)),
+                _mm256_and_pd(t2, magnitude),
+            );
+            (p, _mm256_mul_pd(abs_sum, _mm256_set1_pd(8.0 * f64::EPSILON)))
+        };
+        // SAFETY: an `__m256d` is four `f64`.
+        let [x, y, z, _] = unsafe { std::mem::transmute::<__m256d, [f64; 4]>(p) };
+        let (pf, bound) = crate::math::round_point_lanes(v3, p, err);
+        return (DVec3::new(x, y, z), pf, bound);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = v3;
+    let (p, err) = barycentric_point(b, tp[0], tp[1], tp[2]);
+    let (pf, bound) = crate::math::round_point(p, err);
+    (p, pf, bound)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -279,6 +326,64 @@ mod tests {
                 (a.kz, a.origin_permuted, a.sx.to_bits(), a.sy.to_bits(), a.sz.to_bits()),
                 (b.kz, b.origin_permuted, b.sx.to_bits(), b.sy.to_bits(), b.sz.to_bits())
             );
+        }
+    }
+
+    /// [`barycentric_point_rounded_v3`] is [`barycentric_point`] then
+    /// [`round_point`](crate::math::round_point) bit for bit, with and without x86-64-v3: on
+    /// vertices of every scale and sign, zeros of both signs, subnormals, `±f32::MAX`,
+    /// infinities and NaNs, with barycentrics that sum to one and others (negative, huge,
+    /// subnormal, infinite, NaN). A NaN compares equal to any NaN: the lanes and the scalar code
+    /// may carry different NaN payloads, as Rust does not specify them.
+    #[test]
+    fn rounded_barycentric_point_in_lanes_matches() {
+        let v3 = crate::accel::X86_64V3::detect();
+        if v3.is_none() {
+            eprintln!("barycentric_point_rounded_v3's lanes are not tested: this CPU lacks x86-64-v3");
+        }
+        let special = [
+            0.0,
+            -0.0,
+            1e-40,
+            -1e-40,
+            1.0,
+            -1.0,
+            f32::MAX,
+            -f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let special_b = [0.0, -0.0, 1e-310, -0.5, 1.5, 1e300, f64::INFINITY, f64::NAN];
+        let mut rng = crate::sampling::Rng::new(3, 9);
+        let mut value = |k: usize| {
+            if k.is_multiple_of(5) {
+                special[(k / 5) % special.len()]
+            } else {
+                (rng.uniform() - 0.5) * 10f32.powi((rng.uniform() * 70.0) as i32 - 35)
+            }
+        };
+        let f32_bits = |x: f32| if x.is_nan() { u32::MAX } else { x.to_bits() };
+        let f64_bits = |x: f64| if x.is_nan() { u64::MAX } else { x.to_bits() };
+        let bits = |(p, pf, e): (DVec3, Vec3, Vec3)| {
+            (p.to_array().map(f64_bits), pf.to_array().map(f32_bits), e.to_array().map(f32_bits))
+        };
+        for k in 0..30_000 {
+            let tp = [0, 3, 6].map(|j| Vec3::new(value(k + j), value(k + j + 1), value(k + j + 2)));
+            let (b1, b2) = (f64::from(value(k + 9)).abs().min(1.0), f64::from(value(k + 10)).abs().min(1.0));
+            let mut b = [1.0 - b1 - b2, b1, b2];
+            if k.is_multiple_of(7) {
+                b[k % 3] = special_b[(k / 7) % special_b.len()];
+            }
+            let (p, err) = barycentric_point(b, tp[0], tp[1], tp[2]);
+            let (pf, bound) = crate::math::round_point(p, err);
+            for lanes in [v3, None] {
+                assert_eq!(
+                    bits(barycentric_point_rounded_v3(lanes, b, &tp)),
+                    bits((p, pf, bound)),
+                    "{tp:?} {b:?}"
+                );
+            }
         }
     }
 }

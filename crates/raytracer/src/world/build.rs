@@ -705,7 +705,7 @@ impl World {
             x86_64_v3: crate::accel::X86_64V3::detect(),
             flat: false,
             flat_sides: Vec::new(),
-            flat_normals: Vec::new(),
+            flat_surfaces: Vec::new(),
         };
         world.flat = world.is_flat();
         // The x86-64-v3 queries test triangles stored as rows (`shapes/triangle_rows.rs`). A
@@ -717,19 +717,39 @@ impl World {
             }
         }
         if world.flat {
-            let triangles = &world.blases[world.instances[0].blas as usize].triangles;
-            let (inst, blas) = (&world.instances[0], &world.blases[world.instances[0].blas as usize]);
-            world.flat_sides = triangles
-                .iter()
-                .map(|t| {
-                    let (one_sided, reversed) = world.sidedness(inst, blas, t.shape);
-                    (if one_sided { super::ONE_SIDED } else { 0 })
-                        | (if reversed { super::REVERSED } else { 0 })
-                })
-                .collect();
-            world.flat_normals =
-                triangles.iter().map(|t| super::interaction::triangle_unit_normal(t.p)).collect();
+            world.set_flat_tables();
         }
         Ok(world)
+    }
+
+    /// A flat world's per-triangle tables, [`World::flat_surfaces`] and [`World::flat_sides`],
+    /// from its one BLAS's triangles.
+    pub(super) fn set_flat_tables(&mut self) {
+        let (inst, blas) = (&self.instances[0], &self.blases[self.instances[0].blas as usize]);
+        let triangles = &blas.triangles;
+        self.flat_surfaces = triangles
+            .iter()
+            .map(|t| FlatSurface {
+                ng_unit: super::interaction::triangle_unit_normal(t.p),
+                attributes: inst.attributes.unwrap_or(blas.shapes[t.shape as usize].attributes),
+                emitter: inst.emitters.get(t.shape as usize).copied().unwrap_or(u32::MAX),
+            })
+            .collect();
+        self.flat_sides = triangles
+            .iter()
+            .zip(&self.flat_surfaces)
+            .map(|(t, &FlatSurface { ng_unit: n, .. })| {
+                let (one_sided, reversed) = self.sidedness(inst, blas, t.shape);
+                let degenerate = n == Vec3::ZERO || !n.is_finite();
+                let s = &blas.shapes[t.shape as usize];
+                let normals = s.mesh.is_some_and(|m| blas.meshes[m as usize].normals.is_some());
+                let st = self.material(inst.attributes.unwrap_or(s.attributes)).reads_texture_coordinates();
+                (if one_sided { super::ONE_SIDED } else { 0 })
+                    | (if reversed { super::REVERSED } else { 0 })
+                    | (if degenerate { super::DEGENERATE } else { 0 })
+                    | (if normals { super::SHADING_NORMALS } else { 0 })
+                    | (if st { super::TEXTURE_COORDINATES } else { 0 })
+            })
+            .collect();
     }
 }

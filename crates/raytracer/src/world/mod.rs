@@ -312,18 +312,43 @@ pub struct World {
     /// take the paths of `flat.rs`, which skip the general queries' per-ray work.
     flat: bool,
     /// The flat BLAS's triangles' sidedness in slot order, [`World::sidedness`] of each as
-    /// [`ONE_SIDED`] and [`REVERSED`] bits, read on every hit (empty when the world is not flat).
+    /// [`ONE_SIDED`] and [`REVERSED`] bits, [`DEGENERATE`] where its unit normal is no proper
+    /// normal, and the [`SHADING_NORMALS`] and [`TEXTURE_COORDINATES`] its surface interaction
+    /// needs; read on every hit (empty when the world is not flat).
     flat_sides: Vec<u8>,
-    /// The flat BLAS's triangles' unit geometric normals in slot order, as the surface
-    /// interaction computes them from the vertices (an `f64` cross product and normalisation
-    /// per hit before); empty when the world is not flat.
-    flat_normals: Vec<Vec3>,
+    /// What the surface interaction reads of the flat BLAS's triangles besides their
+    /// vertices, in slot order (one bounds check for the three); empty when the world is not
+    /// flat.
+    flat_surfaces: Vec<FlatSurface>,
+}
+
+/// [`World::flat_surfaces`]: a flat world's triangle as its surface interaction reads it.
+#[derive(Clone, Copy, Debug)]
+struct FlatSurface {
+    /// The unit geometric normal, as the surface interaction computes it from the vertices (an
+    /// `f64` cross product and normalisation per hit before).
+    ng_unit: Vec3,
+    /// The triangle's shape's attributes, or the instance's where it overrides them.
+    attributes: AttributesId,
+    /// The instance's emitter entry for the triangle's shape: the area light's index, or
+    /// `u32::MAX` for none (also where the instance has no entry).
+    emitter: u32,
 }
 
 /// [`World::flat_sides`]: the triangle's surface is one-sided.
 const ONE_SIDED: u8 = 1;
 /// [`World::flat_sides`]: the triangle's orientation is reversed.
 const REVERSED: u8 = 2;
+/// [`World::flat_sides`]: the triangle's unit geometric normal ([`FlatSurface::ng_unit`]) is
+/// zero, infinite or NaN (a degenerate triangle's is zero), so the surface interaction's
+/// orientation rules may stand in for it.
+const DEGENERATE: u8 = 4;
+/// [`World::flat_sides`]: the triangle's mesh has vertex normals (a shading normal to
+/// interpolate); without the bit its mesh is not read.
+const SHADING_NORMALS: u8 = 8;
+/// [`World::flat_sides`]: the triangle's material reads texture coordinates
+/// ([`Material::reads_texture_coordinates`]).
+const TEXTURE_COORDINATES: u8 = 16;
 
 impl World {
     /// A camera sample over the background colour (alpha, the coverage, is kept).
