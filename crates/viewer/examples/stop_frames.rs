@@ -20,13 +20,14 @@ use rooms::{
 use std::time::Duration;
 use viewer::{Backends, Compositor, CompositorSettings, Gpu};
 
-fn cpu_ms(from: Duration) -> f64 {
-    let now = viewer::compositor::process_cpu_time().expect("the process's CPU time (Unix)");
-    now.saturating_sub(from).as_secs_f64() * 1e3
-}
-
+/// The process's CPU time, every thread counted (lavapipe's rasteriser threads do the GPU's work).
 fn cpu_now() -> Duration {
     viewer::compositor::process_cpu_time().expect("the process's CPU time (Unix)")
+}
+
+/// The CPU time since `from`, in ms.
+fn cpu_ms(from: Duration) -> f64 {
+    cpu_now().saturating_sub(from).as_secs_f64() * 1e3
 }
 
 fn main() {

@@ -219,8 +219,9 @@ pub fn barycentric_point(b: [f64; 3], p0: Vec3, p1: Vec3, p2: Vec3) -> (DVec3, D
 /// [`barycentric_point`] of a triangle's vertices `tp`, rounded to `f32` with its error bound
 /// ([`round_point`](crate::math::round_point)): the point in `f64`, the rounded point and the
 /// bound, the same bits. Where `v3` says the CPU has x86-64-v3, the three components are the
-/// lanes of AVX registers from the vertices to the bound ([`round_point_lanes`]
-/// (crate::math::round_point_lanes)), the same IEEE operations in the same order per lane.
+/// lanes of AVX registers from the vertices to the bound
+/// ([`round_point_lanes`](crate::math::round_point_lanes)), the same IEEE operations in the
+/// same order per lane.
 /// Always inlined, for the wavefront's x86-64-v3 batch; a caller without those target
 /// features passes `None` (the intrinsics would be calls).
 #[inline(always)]
