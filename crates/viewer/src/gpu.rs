@@ -57,7 +57,12 @@ impl Gpu {
         let mut candidates: Vec<wgpu::Adapter> = adapters
             .into_iter()
             .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
-            .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
+            // Vertex storage: the vertex shaders read the frame's parameters from a storage buffer
+            // (composite.wgsl).
+            .filter(|a| {
+                let flags = a.get_downlevel_capabilities().flags;
+                flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS | wgpu::DownlevelFlags::VERTEX_STORAGE)
+            })
             .collect();
         candidates.sort_by_key(|a| {
             let info = a.get_info();
@@ -77,7 +82,7 @@ impl Gpu {
         });
         let adapter = candidates.into_iter().next().ok_or_else(|| {
             ViewerError::NoAdapter(format!(
-                "no {:?} adapter with compute shaders; install a Vulkan driver (e.g. mesa-vulkan-drivers for lavapipe)",
+                "no {:?} adapter with compute shaders and storage buffers in vertex shaders; install a Vulkan driver (e.g. mesa-vulkan-drivers for lavapipe)",
                 backends.0
             ))
         })?;

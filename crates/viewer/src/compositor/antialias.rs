@@ -249,7 +249,7 @@ impl Antialias {
             &wgpu::util::BufferInitDescriptor {
                 label: Some("resolve uniform"),
                 contents: bytemuck::bytes_of(&uniform),
-                usage: wgpu::BufferUsages::UNIFORM,
+                usage: wgpu::BufferUsages::STORAGE,
             },
         );
         let texture_entry = |binding: u32, multisampled: bool| wgpu::BindGroupLayoutEntry {
@@ -269,7 +269,7 @@ impl Antialias {
                     binding: 0,
                     visibility: wgpu::ShaderStages::FRAGMENT,
                     ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
                         has_dynamic_offset: false,
                         min_binding_size: None,
                     },

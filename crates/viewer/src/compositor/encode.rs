@@ -39,7 +39,7 @@ impl EncodePass {
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("encode uniform"),
             size: std::mem::size_of::<EncodeUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&uniform));
@@ -60,7 +60,7 @@ impl EncodePass {
                     binding: 0,
                     visibility: wgpu::ShaderStages::FRAGMENT,
                     ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
                         has_dynamic_offset: false,
                         min_binding_size: None,
                     },

@@ -175,7 +175,7 @@ pub(super) fn upload(
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("area light samples"),
         size: std::mem::size_of::<SampleUniform>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&samples));

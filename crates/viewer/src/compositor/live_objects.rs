@@ -30,7 +30,7 @@ impl Compositor {
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("mesh uniforms"),
             size,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         })
     }

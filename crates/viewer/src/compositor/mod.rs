@@ -322,7 +322,7 @@ impl Compositor {
         let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame uniform"),
             size: std::mem::size_of::<FrameUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let frame_layout = bindings::frame_layout(device);
@@ -444,7 +444,7 @@ impl Compositor {
                 binding: 0,
                 visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
                 ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
                     has_dynamic_offset: true,
                     min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<MeshUniform>() as u64),
                 },
@@ -453,7 +453,7 @@ impl Compositor {
         });
         let mesh_uniform_stride = align_up(
             std::mem::size_of::<MeshUniform>() as u64,
-            u64::from(limits.min_uniform_buffer_offset_alignment),
+            u64::from(limits.min_storage_buffer_offset_alignment),
         );
         let mesh_uniform_capacity = 4;
         let mesh_uniform = Self::make_mesh_uniform(device, mesh_uniform_capacity * mesh_uniform_stride);

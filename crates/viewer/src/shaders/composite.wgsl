@@ -110,12 +110,16 @@ struct AreaSamples {
     samples: array<vec4<f32>, 512>,
 }
 
-@group(0) @binding(0) var<uniform> frame: Frame;
+// The frame's parameters, like every buffer the viewer's shaders read, are a read-only storage
+// buffer, not a uniform one: lavapipe of Mesa 22.3 specialises a pipeline on its uniform
+// values when that halves its code, then compiles the pipeline again at every bind without
+// freeing it (ARCHITECTURE.md, "No uniform buffers").
+@group(0) @binding(0) var<storage, read> frame: Frame;
 @group(0) @binding(1) var backdrop_colour: texture_2d<f32>;
 @group(0) @binding(2) var backdrop_window_depth: texture_2d<f32>;
 @group(0) @binding(3) var backdrop_radial_depth: texture_2d<f32>;
 @group(0) @binding(4) var light_layers: texture_2d_array<f32>;
-@group(0) @binding(5) var<uniform> area_samples: AreaSamples;
+@group(0) @binding(5) var<storage, read> area_samples: AreaSamples;
 // The reflection probes: prefiltered radiance (a layer per probe, a mip level per roughness
 // level) and the distance to the first surface per level-0 texel.
 @group(0) @binding(6) var reflection_radiance: texture_2d_array<f32>;
@@ -150,7 +154,7 @@ struct MeshUniform {
     loss_map: vec4<i32>,
 }
 
-@group(1) @binding(0) var<uniform> mesh: MeshUniform;
+@group(1) @binding(0) var<storage, read> mesh: MeshUniform;
 
 struct BackdropOut {
     @location(0) colour: vec4<f32>,

@@ -9,7 +9,7 @@ struct Encoding {
     size: vec4<u32>,
 }
 
-@group(0) @binding(0) var<uniform> encoding: Encoding;
+@group(0) @binding(0) var<storage, read> encoding: Encoding;
 @group(0) @binding(1) var frame_linear: texture_2d<f32>;
 @group(0) @binding(2) var backdrop_linear: texture_2d<f32>;
 @group(0) @binding(3) var backdrop_display: texture_2d<f32>;

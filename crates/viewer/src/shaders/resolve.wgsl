@@ -14,7 +14,7 @@ struct Resolve {
     widths: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> resolve: Resolve;
+@group(0) @binding(0) var<storage, read> resolve: Resolve;
 @group(0) @binding(1) var centre_frame: texture_2d<f32>;
 @group(0) @binding(2) var backdrop_shadowed: texture_2d<f32>;
 @group(0) @binding(3) var live_samples: texture_multisampled_2d<f32>;
