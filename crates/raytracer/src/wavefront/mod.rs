@@ -215,11 +215,15 @@ fn render_batch_inlined(
 /// call `keep` out of line).
 #[inline(always)]
 fn retain_live(live: &mut Vec<u32>, mut keep: impl FnMut(usize) -> bool) {
+    // A slice, whose length stays in a register: the stages' stores kept the compiler from
+    // knowing that the vector's length did not change, so each read and write was checked.
+    let paths = live.as_mut_slice();
     let mut kept = 0;
-    for k in 0..live.len() {
-        let i = live[k];
+    for k in 0..paths.len() {
+        let i = paths[k];
         if keep(i as usize) {
-            live[kept] = i;
+            // `kept <= k`: the slot has been read.
+            paths[kept.min(k)] = i;
             kept += 1;
         }
     }
