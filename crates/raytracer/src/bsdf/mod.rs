@@ -111,7 +111,7 @@ impl BsdfSample {
 /// The lobes past `count` are left over from an earlier BSDF written in the same place
 /// ([`Bsdf::reset`]) and never read; equality compares the frame, the normal and the lobes in
 /// use.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Bsdf {
     pub frame: Frame,
     /// Geometric normal, on the same side as `frame.z`.

@@ -77,32 +77,24 @@ pub fn supports(world: &World, kind: &IntegratorKind) -> Result<PathSettings, &'
 /// A path's previous vertex, for the MIS weight of an emitter its BSDF sample hits.
 type PreviousVertex = Option<(DVec3, f32, AttributesId)>;
 
-/// The state of a batch's paths: one record per path, and the samplers. The samplers are the
-/// caller's: moved in, each (about 130 bytes) was copied with `memcpy` twice per camera sample.
-/// A record rather than an array per field: a stage looks its path up once, where an array
-/// per field cost a bounds check per field (the compiler cannot know the arrays are as long
-/// as each other).
+/// The state of a batch's paths, one entry per path. The samplers are the caller's: moved
+/// in, each (about 130 bytes) was copied with `memcpy` twice per camera sample.
 struct Paths<'s> {
-    path: Vec<Path>,
+    ray: Vec<Ray>,
     sampler: &'s mut [Sampler],
-}
-
-/// One path's state.
-struct Path {
-    ray: Ray,
-    beta: Vec3,
-    l: Vec3,
-    alpha: f32,
-    specular_bounce: bool,
-    eta_scale: f32,
-    prev: PreviousVertex,
-    depth: u32,
+    beta: Vec<Vec3>,
+    l: Vec<Vec3>,
+    alpha: Vec<f32>,
+    specular_bounce: Vec<bool>,
+    eta_scale: Vec<f32>,
+    prev: Vec<PreviousVertex>,
+    depth: Vec<u32>,
     /// The surface the path's ray found and its BSDF, during a bounce: stage 1 writes the
     /// surface of every path it keeps, stage 2 the BSDF of every path it keeps, so a live path's
     /// are always its own bounce's. Plain records, not `Option`s: a record made in place of an
     /// `Option` was built on the stack and copied in (two `memcpy`s per vertex).
-    si: SurfaceInteraction,
-    bsdf: Bsdf,
+    si: Vec<SurfaceInteraction>,
+    bsdf: Vec<Bsdf>,
 }
 
 /// What [`Paths::si`] holds before a path's first hit (never read).
@@ -177,25 +169,19 @@ fn render_batch_inlined(
 ) -> Vec<Radiance> {
     let n = rays.len();
     assert_eq!(samplers.len(), n, "one sampler per camera ray");
-    // A loop of pushes, not `collect`: std's loop is compiled without the batch's features,
-    // and copied each record's BSDF with a call to `memcpy`.
-    let (no_surface, no_bsdf) = (no_surface(), Bsdf::new(crate::math::Frame::from_z(Vec3::Z), Vec3::Z));
-    let mut path = Vec::with_capacity(n);
-    for &ray in rays {
-        path.push(Path {
-            ray,
-            beta: Vec3::ONE,
-            l: Vec3::ZERO,
-            alpha: 0.0,
-            specular_bounce: true,
-            eta_scale: 1.0,
-            prev: None,
-            depth: 0,
-            si: no_surface,
-            bsdf: no_bsdf,
-        });
-    }
-    let mut paths = Paths { path, sampler: samplers };
+    let mut paths = Paths {
+        ray: rays.to_vec(),
+        sampler: samplers,
+        beta: vec![Vec3::ONE; n],
+        l: vec![Vec3::ZERO; n],
+        alpha: vec![0.0; n],
+        specular_bounce: vec![true; n],
+        eta_scale: vec![1.0; n],
+        prev: vec![None; n],
+        depth: vec![0; n],
+        si: vec![no_surface(); n],
+        bsdf: vec![Bsdf::new(crate::math::Frame::from_z(Vec3::Z), Vec3::Z); n],
+    };
     let mut live: Vec<u32> = (0..n as u32).collect();
     // Whether every light set's ambient light is finite: a surface without emission, ambient
     // or environment terms then adds `+0` ([`crate::integrators::no_surface_terms`]).
@@ -207,8 +193,8 @@ fn render_batch_inlined(
         bsdf_samples(v3, settings, &mut paths, &mut live);
     }
     let mut radiance = Vec::with_capacity(n);
-    for path in &paths.path {
-        radiance.push(Radiance { rgb: crate::integrators::sanitize(path.l), alpha: path.alpha });
+    for i in 0..n {
+        radiance.push(Radiance { rgb: crate::integrators::sanitize(paths.l[i]), alpha: paths.alpha[i] });
     }
     radiance
 }
@@ -247,30 +233,29 @@ fn closest_hits(
         live,
         #[inline(always)]
         |i| {
-            let path = &mut paths.path[i];
-            let depth = path.depth;
+            let depth = paths.depth[i];
             if depth == 0 {
                 counters.camera += 1;
             } else {
                 counters.bounce += 1;
             }
-            let ray = path.ray;
+            let ray = paths.ray[i];
             match world.intersect(&ray) {
                 Some(hit) => {
-                    world.write_interaction(v3, &ray, &hit, &mut path.si);
+                    world.write_interaction(v3, &ray, &hit, &mut paths.si[i]);
                     // An opaque surface stops the ray with weight one (the scalar path's product).
-                    path.beta *= Vec3::ONE;
+                    paths.beta[i] *= Vec3::ONE;
                     true
                 }
                 None => {
-                    let through = path.beta * Vec3::ONE;
-                    path.l += escaped_with_mis(
+                    let through = paths.beta[i] * Vec3::ONE;
+                    paths.l[i] += escaped_with_mis(
                         world,
                         ray.direction,
                         through,
                         depth,
-                        path.specular_bounce,
-                        path.prev,
+                        paths.specular_bounce[i],
+                        paths.prev[i],
                     );
                     false
                 }
@@ -294,22 +279,21 @@ fn emission_and_bsdf(
         live,
         #[inline(always)]
         |i| {
-            let path = &mut paths.path[i];
-            let si = &path.si;
-            let depth = path.depth;
-            let beta = path.beta;
+            let si = &paths.si[i];
+            let depth = paths.depth[i];
+            let beta = paths.beta[i];
             let material = world.material(si.attributes);
             if depth == 0 {
-                path.alpha = 1.0;
+                paths.alpha[i] = 1.0;
             }
-            let l = &mut path.l;
+            let l = &mut paths.l[i];
             if let Some(e) = si.emitter {
                 let light = &world.lights[e as usize];
                 let le = light.emitted(si.ng, si.wo);
                 if le != Vec3::ZERO {
-                    match path.prev {
+                    match paths.prev[i] {
                         None => *l += beta * le,
-                        Some(_) if path.specular_bounce => *l += beta * le,
+                        Some(_) if paths.specular_bounce[i] => *l += beta * le,
                         Some((p_prev, pdf_bsdf, attrs)) => {
                             let pick = world.light_set(attrs).pmf(e);
                             if pick > 0.0 {
@@ -327,7 +311,7 @@ fn emission_and_bsdf(
                 surface_terms(world, si, material)
             };
             *l += beta * terms;
-            let bsdf = &mut path.bsdf;
+            let bsdf = &mut paths.bsdf[i];
             material.write_bsdf(bsdf, si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
             !(bsdf.is_black() || depth >= settings.max_depth)
         },
@@ -358,20 +342,19 @@ fn light_samples(
     let mut filled = 0;
     for &i in live {
         let i = i as usize;
-        let path = &mut paths.path[i];
-        let (si, bsdf) = (&path.si, &path.bsdf);
+        let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
         if !bsdf.has_non_specular() {
             continue;
         }
         let sampler = &mut paths.sampler[i];
         let Some((light, pick)) = world.light_set(si.attributes).pick(sampler.uniform_v3(v3)) else {
             // Zero too when no light was sampled: the scalar integrator's sum, bit for bit.
-            path.l += path.beta * Vec3::ZERO;
+            paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
         let light = &world.lights[light as usize];
         let Some(ls) = light.sample_li_inlined(v3, &light_context(si), sampler.uniform2_v3(v3)) else {
-            path.l += path.beta * Vec3::ZERO;
+            paths.l[i] += paths.beta[i] * Vec3::ZERO;
             continue;
         };
         let picked = Picked { pick, mis: !light.is_delta(), ls };
@@ -383,14 +366,7 @@ fn light_samples(
                 if filled == lanes::LANES {
                     let out = lanes::lambert_f_pdf(v3, &group);
                     for (lane, (i, picked)) in waiting.iter().enumerate() {
-                        estimate_direct(
-                            Some(v3),
-                            world,
-                            &mut paths.path[*i],
-                            picked,
-                            out.get(lane),
-                            counters,
-                        );
+                        estimate_direct(Some(v3), world, paths, *i, picked, out.get(lane), counters);
                     }
                     filled = 0;
                 }
@@ -403,14 +379,14 @@ fn light_samples(
                     (bsdf.f(si.wo, ls.wi, LobeFlags::ALL), 0.0)
                 };
                 let value = (f * ls.wi.dot(bsdf.frame.z).abs(), pdf);
-                estimate_direct(v3, world, path, &picked, value, counters);
+                estimate_direct(v3, world, paths, i, &picked, value, counters);
             }
         }
     }
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_f_pdf(v3, &group);
         for (lane, (i, picked)) in waiting[..filled].iter().enumerate() {
-            estimate_direct(Some(v3), world, &mut paths.path[*i], picked, out.get(lane), counters);
+            estimate_direct(Some(v3), world, paths, *i, picked, out.get(lane), counters);
         }
     }
 }
@@ -423,23 +399,32 @@ struct Picked {
     ls: LightLiSample,
 }
 
-/// A path's direct light from its light sample, given the BSDF's `f |cos|` and density
+/// Path `i`'s direct light from its light sample, given the BSDF's `f |cos|` and density
 /// toward it (`value`): its shadow ray and `direct_from_light`'s arithmetic, added to `L`.
 #[inline(always)]
 fn estimate_direct(
     v3: Option<X86_64V3>,
     world: &World,
-    path: &mut Path,
+    paths: &mut Paths<'_>,
+    i: usize,
     picked: &Picked,
     value: (Vec3, f32),
     counters: &mut RayCounters,
 ) {
     let mut total = Vec3::ZERO;
     if value.0 != Vec3::ZERO && picked.ls.li != Vec3::ZERO {
-        total +=
-            visible_light_estimate(v3, world, &path.si, &picked.ls, value, picked.pick, picked.mis, counters);
+        total += visible_light_estimate(
+            v3,
+            world,
+            &paths.si[i],
+            &picked.ls,
+            value,
+            picked.pick,
+            picked.mis,
+            counters,
+        );
     }
-    path.l += path.beta * total;
+    paths.l[i] += paths.beta[i] * total;
 }
 
 /// Stage 4: the BSDF sample that continues each path, its throughput, the next ray, and
@@ -456,8 +441,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
     let mut next = 0;
     for k in 0..live.len() {
         let i = live[k];
-        let path = &paths.path[i as usize];
-        let (si, bsdf) = (&path.si, &path.bsdf);
+        let (si, bsdf) = (&paths.si[i as usize], &paths.bsdf[i as usize]);
         let sampler = &mut paths.sampler[i as usize];
         let u_lobe = sampler.uniform_v3(v3);
         let u = sampler.uniform2_v3(v3);
@@ -469,8 +453,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
                 if filled == lanes::LANES {
                     let out = lanes::lambert_samples(v3, &group);
                     for (lane, &m) in members.iter().enumerate() {
-                        let (path, sampler) = (&mut paths.path[m as usize], &mut paths.sampler[m as usize]);
-                        if continue_path(Some(v3), settings, path, sampler, out.get(lane)) {
+                        if continue_path(Some(v3), settings, paths, m as usize, out.get(lane)) {
                             live[next] = m;
                             next += 1;
                         }
@@ -480,8 +463,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
             }
             _ => {
                 let bs = bsdf.sample(si.wo, u_lobe, u, TransportMode::Radiance, LobeFlags::ALL);
-                let (path, sampler) = (&mut paths.path[i as usize], &mut paths.sampler[i as usize]);
-                if continue_path(v3, settings, path, sampler, bs) {
+                if continue_path(v3, settings, paths, i as usize, bs) {
                     live[next] = i;
                     next += 1;
                 }
@@ -491,8 +473,7 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
     if let (Some(v3), true) = (v3, filled > 0) {
         let out = lanes::lambert_samples(v3, &group);
         for (lane, &m) in members[..filled].iter().enumerate() {
-            let (path, sampler) = (&mut paths.path[m as usize], &mut paths.sampler[m as usize]);
-            if continue_path(Some(v3), settings, path, sampler, out.get(lane)) {
+            if continue_path(Some(v3), settings, paths, m as usize, out.get(lane)) {
                 live[next] = m;
                 next += 1;
             }
@@ -507,30 +488,30 @@ fn bsdf_samples(v3: Option<X86_64V3>, settings: PathSettings, paths: &mut Paths<
 fn continue_path(
     v3: Option<X86_64V3>,
     settings: PathSettings,
-    path: &mut Path,
-    sampler: &mut Sampler,
+    paths: &mut Paths<'_>,
+    i: usize,
     bs: Option<BsdfSample>,
 ) -> bool {
     let Some(bs) = bs else { return false };
-    let (si, bsdf) = (&path.si, &path.bsdf);
+    let (si, bsdf) = (&paths.si[i], &paths.bsdf[i]);
     let cos = bs.wi.dot(bsdf.frame.z).abs();
-    let beta = &mut path.beta;
+    let beta = &mut paths.beta[i];
     *beta *= bs.f * (cos / bs.pdf);
     if !beta.is_finite() || *beta == Vec3::ZERO {
         return false;
     }
-    path.specular_bounce = bs.is_specular();
+    paths.specular_bounce[i] = bs.is_specular();
     if bs.flags.intersects(LobeFlags::TRANSMISSION) {
-        path.eta_scale *= bs.eta * bs.eta;
+        paths.eta_scale[i] *= bs.eta * bs.eta;
     }
-    path.prev = Some((si.p64, bs.pdf, si.attributes));
-    path.ray = si.spawn_ray_inlined(v3, bs.wi);
-    path.depth += 1;
-    if path.depth > settings.rr_depth {
-        let rr_beta = (*beta * path.eta_scale).max_element();
+    paths.prev[i] = Some((si.p64, bs.pdf, si.attributes));
+    paths.ray[i] = si.spawn_ray_inlined(v3, bs.wi);
+    paths.depth[i] += 1;
+    if paths.depth[i] > settings.rr_depth {
+        let rr_beta = (*beta * paths.eta_scale[i]).max_element();
         if rr_beta < 1.0 {
             let q = (1.0 - rr_beta).max(0.0);
-            if sampler.uniform_v3(v3) < q {
+            if paths.sampler[i].uniform_v3(v3) < q {
                 return false;
             }
             *beta /= 1.0 - q;
