@@ -147,9 +147,6 @@ impl Bsdf {
         }
     }
 
-    /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped). Inline:
-    /// the wavefront's x86-64-v3 batch (`wavefront::render_batch`) compiles it with its own
-    /// features rather than calling baseline code.
     /// Makes this the BSDF of no lobes in `frame` with geometric normal `ng`, as
     /// [`Bsdf::new`] would, without writing the lobes' storage: every read stops at the lobes
     /// in use. Where a record is written in place once per path vertex (the wavefront's), the
@@ -161,6 +158,9 @@ impl Bsdf {
         self.count = 0;
     }
 
+    /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped). Inline:
+    /// the wavefront's x86-64-v3 batch (`wavefront::render_batch`) compiles it with its own
+    /// features rather than calling baseline code.
     #[inline]
     pub fn add(&mut self, lobe: Lobe) {
         let weight = lobe.sampling_weight();
