@@ -329,15 +329,22 @@ pub fn sample_one_light(
     direct_from_light(world, si, bsdf, light, p, mask, sampler, counters, DirectStrategy::LightWithMisWeight)
 }
 
+/// [`surface_terms`] of a material without them under the ambient light `ambient`: the sum
+/// with its three terms zero, bit for bit. NaN under an infinite ambient light, as before;
+/// under a finite one, `+0` in every channel, which the wavefront takes without looking the
+/// light set up (`surface_terms_are_zero_under_a_finite_ambient_light`).
+#[inline(always)]
+pub(crate) fn no_surface_terms(ambient: Vec3) -> Vec3 {
+    Vec3::ZERO + Vec3::ZERO * ambient + Vec3::ZERO
+}
+
 /// Emission, self-emission and ambient light at a surface reached by a ray (all but the
 /// emission of lights, which the integrators weight themselves).
 #[inline]
 pub fn surface_terms(world: &World, si: &SurfaceInteraction, material: &Material) -> Vec3 {
     let set = world.light_set(si.attributes);
     if !material.has_surface_terms() {
-        // The sum below with its three terms zero, bit for bit (NaN under an infinite ambient
-        // light, as before).
-        return Vec3::ZERO + Vec3::ZERO * set.ambient + Vec3::ZERO;
+        return no_surface_terms(set.ambient);
     }
     material.self_emission(si.ns, si.wo, si.st, si.st_width)
         + material.ambient_reflectance(si.st, si.st_width) * set.ambient

@@ -293,7 +293,14 @@ impl Light {
                     EmitterShape::Quadric { sphere: Some((centre, radius)), flip, .. }
                         if ctx.p64.distance_squared(*centre) > radius * radius * (1.0 + 1e-6) =>
                     {
-                        return self.sample_sphere_cone(ctx, *centre, *radius, *flip, u);
+                        // A context of its own for the call, made of the two fields it reads:
+                        // a reference to `ctx` would let the call read all of it, and the
+                        // inlined callers would then store every field of every context they
+                        // build, whatever the light (the wavefront's light stage, once per
+                        // light sample).
+                        let cone =
+                            LightSampleContext { p: ctx.p, p_error: Vec3::ZERO, n: Vec3::ZERO, p64: ctx.p64 };
+                        return self.sample_sphere_cone(&cone, *centre, *radius, *flip, u);
                     }
                     _ => self.sample_area(v3, u)?,
                 };
@@ -766,6 +773,79 @@ mod tests {
                 "{light:?}: {mc} vs {power}"
             );
         }
+    }
+
+    /// A sphere light seen from outside is sampled by its cone, which [`Light::sample_li`]
+    /// calls with a context of the reference point alone: the samples are those of the full
+    /// context, bit for bit, whatever its error bounds and normal (zero, random, infinite or
+    /// NaN). Fails if the cone ever reads more of the context than the points it is given.
+    #[test]
+    fn sphere_cone_gets_all_it_reads_of_the_context() {
+        let q = crate::shapes::Quadric::new(&rib_parser::scene::Shape::Sphere {
+            radius: 0.5,
+            z_min: -0.5,
+            z_max: 0.5,
+            theta_max_degrees: 360.0,
+        })
+        .unwrap();
+        let centre = DVec3::new(0.3, 1.0, -0.2);
+        let m = DMat4::from_translation(centre);
+        let inv = m.inverse();
+        let mut rng = Rng::new(17, 5);
+        let mut sampled = 0;
+        for flip in [false, true] {
+            let light = Light::Area {
+                shape: EmitterShape::Quadric {
+                    quadric: q,
+                    render_from_object: m,
+                    object_from_render: inv,
+                    det: 1.0,
+                    flip,
+                    sphere: Some((centre, 0.5)),
+                    area: quadric_area(&q, &inv, 1.0),
+                },
+                radiance: Vec3::new(1.0, 2.0, 0.5),
+                two_sided: flip,
+            };
+            let odd = [Vec3::ZERO, Vec3::INFINITY, Vec3::NAN, Vec3::new(-0.0, f32::MIN_POSITIVE, 1e30)];
+            for k in 0..20_000 {
+                let p = (crate::sampling::sample_uniform_sphere(rng.uniform2())
+                    * (0.6 + 4.0 * rng.uniform()))
+                .as_dvec3()
+                    + centre;
+                let random = || crate::sampling::sample_uniform_sphere(Rng::new(k, 1).uniform2());
+                let (p_error, n) = if k % 5 == 0 {
+                    (odd[k as usize % 4], odd[(k as usize / 5) % 4])
+                } else {
+                    (random() * 1e-3, random())
+                };
+                let ctx = LightSampleContext { p: p.as_vec3(), p_error, n, p64: p };
+                let u = rng.uniform2();
+                let Light::Area { shape: EmitterShape::Quadric { sphere: Some((c, r)), flip, .. }, .. } =
+                    &light
+                else {
+                    unreachable!()
+                };
+                let bits = |s: Option<LightLiSample>| {
+                    s.map(|s| {
+                        let (pl, err, n) = s.p_light.unwrap();
+                        [s.li, s.wi, pl, err, n]
+                            .map(|v| v.to_array().map(f32::to_bits))
+                            .concat()
+                            .into_iter()
+                            .chain([s.pdf.to_bits(), u32::from(s.is_delta)])
+                            .collect::<Vec<_>>()
+                    })
+                };
+                let through_sample_li = light.sample_li(&ctx, u);
+                if ctx.p64.distance_squared(*c) > r * r * (1.0 + 1e-6) {
+                    let direct = light.sample_sphere_cone(&ctx, *c, *r, *flip, u);
+                    assert_eq!(bits(through_sample_li), bits(direct), "{ctx:?} {u}");
+                    sampled += usize::from(direct.is_some());
+                }
+            }
+        }
+        assert!(sampled > 20_000, "{sampled} samples compared");
     }
 
     #[test]

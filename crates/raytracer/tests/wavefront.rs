@@ -23,6 +23,12 @@ fn cornell() -> Scene {
 /// A room of matte quads in four colours lit by an area quad, a point light, a spot light and
 /// a distant light (two-sided geometry, light from both sides of the walls).
 fn lit_room() -> Scene {
+    lit_room_with(None)
+}
+
+/// The lit room, with an ambient light of this intensity where one is given, and then the
+/// tilted panel's material with `Ka` (the others have none).
+fn lit_room_with(ambient: Option<f32>) -> Scene {
     let mut b =
         SceneBuilder::perspective(40, 30, 60.0, DVec3::new(0.2, 0.3, -2.5), DVec3::new(0.0, -0.1, 0.0));
     b.light(
@@ -56,7 +62,15 @@ fn lit_room() -> Scene {
         Vec3::new(0.2, 0.6, 0.3),
         Vec3::new(0.3, 0.3, 0.9),
     ];
-    let ids: Vec<_> = walls.iter().map(|&c| b.matte(c)).collect();
+    let mut ids: Vec<_> = walls.iter().map(|&c| b.matte(c)).collect();
+    if let Some(intensity) = ambient {
+        b.light(LightKind::Ambient { intensity, color: Vec3::new(0.3, 0.2, 0.4) }, "ambientlight");
+        ids[2] = b.attributes(Attributes {
+            color: walls[2],
+            surface: Some(shader("matte", &[("Kd", 1.0), ("Ka", 0.5)])),
+            ..Attributes::default()
+        });
+    }
     let quad = |y0: f32, y1: f32, x0: f32, x1: f32, z0: f32, z1: f32| {
         [Vec3::new(x0, y0, z0), Vec3::new(x1, y0, z0), Vec3::new(x1, y1, z1), Vec3::new(x0, y1, z1)]
     };
@@ -155,6 +169,16 @@ fn cornell_box_is_bit_identical() {
 #[test]
 fn lit_room_with_every_light_kind_is_bit_identical() {
     assert_same_images(&lit_room(), 8);
+}
+
+/// Under a finite ambient light, surfaces without ambient reflection take the wavefront's
+/// stand-in for their surface terms (`+0`, without the light set's lookup), and one with `Ka`
+/// the general terms: the image is the scalar integrator's, bit for bit, with the ambient
+/// light positive and negative.
+#[test]
+fn lit_room_under_ambient_light_is_bit_identical() {
+    assert_same_images(&lit_room_with(Some(0.4)), 4);
+    assert_same_images(&lit_room_with(Some(-0.3)), 2);
 }
 
 /// A sphere (a quadric: not a flat world) keeps the scalar integrator.

@@ -108,7 +108,10 @@ impl BsdfSample {
 
 /// Up to four lobes in a shading frame, plus the geometric normal used to tell reflection from
 /// transmission.
-#[derive(Clone, Debug, PartialEq)]
+/// The lobes past `count` are left over from an earlier BSDF written in the same place
+/// ([`Bsdf::reset`]) and never read; equality compares the frame, the normal and the lobes in
+/// use.
+#[derive(Clone, Debug)]
 pub struct Bsdf {
     pub frame: Frame,
     /// Geometric normal, on the same side as `frame.z`.
@@ -119,6 +122,16 @@ pub struct Bsdf {
     lobe_flags: [LobeFlags; 4],
     lobe_weights: [f32; 4],
     count: usize,
+}
+
+impl PartialEq for Bsdf {
+    fn eq(&self, other: &Bsdf) -> bool {
+        self.frame == other.frame
+            && self.ng == other.ng
+            && self.lobes() == other.lobes()
+            && self.flags_of_lobes() == other.flags_of_lobes()
+            && self.lobe_weights[..self.count] == other.lobe_weights[..other.count]
+    }
 }
 
 impl Bsdf {
@@ -132,6 +145,17 @@ impl Bsdf {
             lobe_weights: [0.0; 4],
             count: 0,
         }
+    }
+
+    /// Makes this the BSDF of no lobes in `frame` with geometric normal `ng`, as
+    /// [`Bsdf::new`] would, without writing the lobes' storage: every read stops at the lobes
+    /// in use. Where a record is written in place once per path vertex (the wavefront's), the
+    /// new BSDF zeroed four lobes only for the first [`Bsdf::add`] to write over one.
+    #[inline]
+    pub fn reset(&mut self, frame: Frame, ng: Vec3) {
+        self.frame = frame;
+        self.ng = ng;
+        self.count = 0;
     }
 
     /// Adds a lobe (lobes beyond four, and lobes that cannot scatter, are dropped). Inline:

@@ -183,9 +183,12 @@ fn render_batch_inlined(
         bsdf: vec![Bsdf::new(crate::math::Frame::from_z(Vec3::Z), Vec3::Z); n],
     };
     let mut live: Vec<u32> = (0..n as u32).collect();
+    // Whether every light set's ambient light is finite: a surface without emission, ambient
+    // or environment terms then adds `+0` ([`crate::integrators::no_surface_terms`]).
+    let ambient_finite = world.light_sets.iter().all(|set| set.ambient.is_finite());
     while !live.is_empty() {
         closest_hits(v3, world, &mut paths, &mut live, counters);
-        emission_and_bsdf(world, settings, &mut paths, &mut live);
+        emission_and_bsdf(world, settings, ambient_finite, &mut paths, &mut live);
         light_samples(v3, world, &mut paths, &live, counters);
         bsdf_samples(v3, settings, &mut paths, &mut live);
     }
@@ -201,11 +204,15 @@ fn render_batch_inlined(
 /// call `keep` out of line).
 #[inline(always)]
 fn retain_live(live: &mut Vec<u32>, mut keep: impl FnMut(usize) -> bool) {
+    // A slice, whose length stays in a register: the stages' stores kept the compiler from
+    // knowing that the vector's length did not change, so each read and write was checked.
+    let paths = live.as_mut_slice();
     let mut kept = 0;
-    for k in 0..live.len() {
-        let i = live[k];
+    for k in 0..paths.len() {
+        let i = paths[k];
         if keep(i as usize) {
-            live[kept] = i;
+            // `kept <= k`: the slot has been read.
+            paths[kept.min(k)] = i;
             kept += 1;
         }
     }
@@ -261,7 +268,13 @@ fn closest_hits(
 /// vertex's light sample), the surface's own terms, and its BSDF; paths whose BSDF is black or
 /// whose depth is at the limit end.
 #[inline(always)]
-fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths<'_>, live: &mut Vec<u32>) {
+fn emission_and_bsdf(
+    world: &World,
+    settings: PathSettings,
+    ambient_finite: bool,
+    paths: &mut Paths<'_>,
+    live: &mut Vec<u32>,
+) {
     retain_live(
         live,
         #[inline(always)]
@@ -291,7 +304,13 @@ fn emission_and_bsdf(world: &World, settings: PathSettings, paths: &mut Paths<'_
                     }
                 }
             }
-            *l += beta * surface_terms(world, si, material);
+            // Without the light set's lookup where the terms are known to be `+0`.
+            let terms = if ambient_finite && !material.has_surface_terms() {
+                Vec3::ZERO
+            } else {
+                surface_terms(world, si, material)
+            };
+            *l += beta * terms;
             let bsdf = &mut paths.bsdf[i];
             material.write_bsdf(bsdf, si.wo, si.ng, si.ns, si.n_outward, si.dpdu, si.st, si.st_width);
             !(bsdf.is_black() || depth >= settings.max_depth)
@@ -509,6 +528,32 @@ mod tests {
     use crate::sampler::PixelSampler;
     use crate::world::{PixelFootprint, Ray, World};
     use glam::{DVec3, Vec3};
+
+    /// The stand-in for the surface terms of a material without them under finite ambient
+    /// light, `+0`, is [`crate::integrators::no_surface_terms`]'s sum bit for bit: ambient
+    /// lights of every sign and scale, zeros of both signs, subnormals and `±f32::MAX`. Under
+    /// an infinite or NaN one the sum is NaN, and the batch takes it.
+    #[test]
+    fn surface_terms_are_zero_under_a_finite_ambient_light() {
+        use crate::integrators::no_surface_terms;
+        let mut rng = crate::sampling::Rng::new(5, 13);
+        let special = [0.0, -0.0, f32::MIN_POSITIVE, -1e-45, 1e-45, f32::MAX, f32::MIN, 1.0, -3.5];
+        for k in 0..30_000 {
+            let mut c = || {
+                if k % 3 == 0 {
+                    special[(rng.uniform() * special.len() as f32) as usize % special.len()]
+                } else {
+                    (rng.uniform() - 0.5) * 10f32.powi((rng.uniform() * 76.0) as i32 - 38)
+                }
+            };
+            let ambient = Vec3::new(c(), c(), c());
+            assert!(ambient.is_finite());
+            assert_eq!(no_surface_terms(ambient).to_array().map(f32::to_bits), [0; 3], "{ambient}");
+        }
+        for odd in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            assert!(no_surface_terms(Vec3::new(0.5, odd, 0.0)).y.is_nan());
+        }
+    }
 
     /// The batch's x86-64-v3 copy (its stages inlined, the Lambert lanes on) gives the baseline
     /// copy's radiance, coverage, ray counts and sampler states bit for bit, in a box of matte
