@@ -27,7 +27,8 @@ pub(super) struct SpecularReflections {
     glossy_gather: wgpu::RenderPipeline,
     /// The same where the frame draws the spheres' radiosity maps (the bounce light on): the
     /// spheres in the lobes shaded from their maps, by an entry point without the exact
-    /// shading's code, which lavapipe would run in every fragment.
+    /// shading's code, which lavapipe would run with its lanes off (shaders/specular.wgsl,
+    /// glossy_change_from_maps).
     glossy_gather_from_maps: wgpu::RenderPipeline,
     glossy_spread: wgpu::RenderPipeline,
     /// The frame's rectangle of pixels with a specular reflection as the pass last left it

@@ -125,9 +125,9 @@ fn fs_radiosity_map(@builtin(position) position: vec4<f32>) -> @location(0) vec4
 // fs_radiosity_map for a moving frame: the own-shadow loss where no loss map serves (the half of
 // the sphere turned from the eye, or all of it while the eye is inside it) is left out rather
 // than gathered per texel. In the room it changes the moving frame by at most 6e-4
-// (docs/viewer-frame-time.md), and a shader without the gather's code draws the maps in half the
-// time there (in the frame bench, an eighth) on lavapipe, which runs through every branch's code
-// at every fragment.
+// (docs/viewer-frame-time.md), and a shader without the gather's code drew the maps in half the
+// time there (in the frame bench, an eighth) on lavapipe, measured while lavapipe still compiled
+// each pipeline again at every bind (docs/viewer-frame-time.md, "The leak fixed").
 @fragment
 fn fs_radiosity_map_moving(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     return radiosity_map_texel(position, false);
@@ -386,8 +386,10 @@ fn fs_bounce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
 }
 
 // with_bounce_light without the light a sphere hides taken from behind it (off by default): a
-// moving frame's spreading pass takes it when that is off (compositor/reduced_gather.rs), since
-// lavapipe runs an untaken branch's code, each loop's body once, for every group of fragments.
+// moving frame's spreading pass takes it when that is off (compositor/reduced_gather.rs): lavapipe
+// runs an untaken branch's code with its lanes off, each loop's body once, for every group of
+// fragments (what that costs was measured while lavapipe still compiled each pipeline again at
+// every bind (docs/viewer-frame-time.md, "The leak fixed")).
 fn with_bounce_light_alone(pixel: vec2<i32>, r: Receiver, irradiance: vec3<f32>) -> vec4<f32> {
     let added = r.albedo / PI * irradiance * frame.tone.x;
     if all(added == vec3<f32>(0.0)) {

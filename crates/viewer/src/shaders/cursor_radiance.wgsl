@@ -61,11 +61,13 @@ fn fs_cursor_radiance_map(@builtin(position) position: vec4<f32>) -> @location(0
 // shade_with(material, p, n_in, view_dir, map_row, false) in a moving frame, the only frame
 // that draws the radiosity maps (row 0, the cursor sphere's, for its radiance map; a sphere's
 // own row in a glossy lobe, glossy_change_from_maps): the diffuse radiance from the map, the
-// highlights without the scene's shadow rays scaled by its share let through, and the
-// reflection probes' lobe without traced directions (frame.tone.w, glossy_lobe). The same sums, without the code of the exact
-// shading's branches: lavapipe runs the code of a branch no fragment of a group takes (the
-// traced lobe's walk through the scene, once per lobe direction), so the map's entry point
-// holds only what a moving frame runs.
+// highlights without the scene's shadow rays scaled by its share let through, and the reflection
+// probes' lobe without traced directions (frame.tone.w, glossy_lobe). The same sums, without the
+// code of the exact shading's branches: lavapipe runs the code of a branch no fragment of a
+// group takes with its lanes off (the traced lobe's walk through the scene, once per lobe
+// direction), so the map's entry point holds only what a moving frame runs (what that saves was
+// measured while lavapipe still compiled each pipeline again at every bind:
+// docs/viewer-frame-time.md, "The leak fixed").
 fn cursor_map_shading(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_dir: vec3<f32>, map_row: u32) -> vec3<f32> {
     if material.colour.w > 0.5 {
         return material.colour.rgb;
@@ -90,8 +92,10 @@ fn cursor_map_shading(material: Material, p: vec3<f32>, n_in: vec3<f32>, view_di
 
 // fs_sphere for a moving frame that reads the cursor sphere's radiance map, which
 // compositor/frame.rs draws only where the eye sees the sphere's outside alone: the same hit
-// and depth, the colour from the map. An entry point of its own, without shade_with: lavapipe
-// runs the code of a branch no fragment of a group takes, each loop's body once.
+// and depth, the colour from the map. An entry point of its own, without shade_with: lavapipe runs
+// the code of a branch no fragment of a group takes with its lanes off, each loop's body once
+// (what that costs was measured while lavapipe still compiled each pipeline again at every bind
+// (docs/viewer-frame-time.md, "The leak fixed")).
 @fragment
 fn fs_sphere_mapped(@builtin(position) position: vec4<f32>) -> LiveOut {
     let hit = sphere_hit(position.xy);

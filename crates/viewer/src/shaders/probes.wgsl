@@ -477,8 +477,10 @@ fn glossy_reflection(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32, tr
 // glossy_reflection without traced hits, for entry points that never trace the lobe's
 // directions (the moving cursor sphere's radiance map): the same sums in one pass over the
 // directions, without the traced directions' code or the arrays that carry each direction
-// between passes. lavapipe runs the code of a branch no fragment of a group takes, so the
-// traced branches cost a frame that never takes them as much as one that does.
+// between passes. lavapipe runs the code of a branch no fragment of a group takes with its
+// lanes off, each loop's body once; that the traced branches then cost a frame that never takes
+// them as much as one that does was measured while lavapipe still compiled
+// each pipeline again at every bind (docs/viewer-frame-time.md, "The leak fixed").
 fn glossy_reflection_from_probes(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, exponent: f32) -> vec3<f32> {
     let cos_o = max(dot(n, v), 1e-3);
     let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);

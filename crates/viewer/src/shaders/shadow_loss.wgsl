@@ -261,7 +261,7 @@ fn own_shadow_loss(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 
 // own_shadow_loss; where no map serves, gathered here only with `gather` (else zero). Callers
 // pass a constant: with `false` the shader holds no gather code at all, which lavapipe would
-// otherwise run through at every fragment (fs_radiosity_map_moving).
+// otherwise run through with its lanes off (fs_radiosity_map_moving).
 fn own_shadow_loss_with(p: vec3<f32>, n: vec3<f32>, gather: bool) -> vec3<f32> {
     if loss_map_row >= 0 && u32(loss_map_row) < loss_map_rows() {
         let row = u32(loss_map_row);

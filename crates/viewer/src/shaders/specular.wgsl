@@ -279,9 +279,10 @@ fn glossy_change(pixel: vec2<i32>, row: u32, moving: bool) -> vec4<f32> {
 // glossy_change(pixel, row, true) in a moving frame with the bounce light on, which draws the
 // spheres' radiosity maps first: the sphere in the lobe shaded from its map as the moving cursor
 // sphere's own is (cursor_map_shading), the same sums as shade_with's `map_row`. A function of
-// its own, for an entry point of its own (fs_glossy_gather_from_maps) without shade_with's
-// code: lavapipe runs the code of a branch no fragment of a group takes, and a branch on a
-// constant argument kept that cost (docs/viewer-frame-time.md).
+// its own, for an entry point of its own (fs_glossy_gather_from_maps) without shade_with's code:
+// lavapipe runs the code of a branch no fragment of a group takes with its lanes off, and a branch
+// on a constant argument kept that cost (both measured while lavapipe still compiled each pipeline
+// again at every bind (docs/viewer-frame-time.md, "The leak fixed")).
 fn glossy_change_from_maps(pixel: vec2<i32>, row: u32) -> vec4<f32> {
     let survey = glossy_lobe_survey(pixel, row, true);
     if !survey.changes {
