@@ -695,19 +695,24 @@ mod tests {
         assert!((pdf - s.pdf).abs() < 1e-4 * s.pdf);
     }
 
+    /// A whole sphere of radius 0.5 about its object-space origin.
+    fn sphere_of_radius_half() -> crate::shapes::Quadric {
+        crate::shapes::Quadric::new(&rib_parser::scene::Shape::Sphere {
+            radius: 0.5,
+            z_min: -0.5,
+            z_max: 0.5,
+            theta_max_degrees: 360.0,
+        })
+        .unwrap()
+    }
+
     /// Photons carry `Le |cos| / (pdf_pos pdf_dir)`: their mean over many emissions must be the
     /// light's power, for every kind of light (what a photon mapper relies on).
     #[test]
     fn emission_sampling_carries_the_power() {
         let spot =
             Light::spot(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.2), Vec3::new(2.0, 1.0, 0.5), 0.5, 0.1, 1.5);
-        let q = crate::shapes::Quadric::new(&rib_parser::scene::Shape::Sphere {
-            radius: 0.5,
-            z_min: -0.5,
-            z_max: 0.5,
-            theta_max_degrees: 360.0,
-        })
-        .unwrap();
+        let q = sphere_of_radius_half();
         let m = DMat4::from_scale_rotation_translation(
             DVec3::new(1.0, 2.0, 0.5),
             glam::DQuat::from_rotation_x(0.3),
@@ -781,13 +786,7 @@ mod tests {
     /// NaN). Fails if the cone ever reads more of the context than the points it is given.
     #[test]
     fn sphere_cone_gets_all_it_reads_of_the_context() {
-        let q = crate::shapes::Quadric::new(&rib_parser::scene::Shape::Sphere {
-            radius: 0.5,
-            z_min: -0.5,
-            z_max: 0.5,
-            theta_max_degrees: 360.0,
-        })
-        .unwrap();
+        let q = sphere_of_radius_half();
         let centre = DVec3::new(0.3, 1.0, -0.2);
         let m = DMat4::from_translation(centre);
         let inv = m.inverse();
