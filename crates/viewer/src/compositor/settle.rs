@@ -41,8 +41,10 @@ use std::cell::{Cell, RefCell};
 /// most (one row at least): 4 rows at 512^2, 128 frames for the whole frame. On lavapipe the
 /// loss costs 25 to 50 us of CPU a pixel in the frame bench's room (its clusters refined near
 /// the receiver and where the sphere stands between), so a band of 4 rows costs 60 to 100 ms
-/// of CPU besides the frame's other 35 to 60; with 8 rows the floor's bands cost up to 250 ms,
-/// twice the plain frame (docs/viewer-frame-time.md).
+/// of CPU besides the frame's other 35 to 60; with 8 rows the floor's bands cost up to 250 ms
+/// (docs/viewer-frame-time.md). The plain frame then cost 118 to 154 ms, half of it a pipeline
+/// lavapipe compiled every frame; it is 80 ms since the storage buffers, and a frame after a
+/// stop with a band of 4 rows of the loss costs 90 to 190 ms.
 pub const SETTLE_PIXELS: u32 = 1 << 11;
 
 /// The pixels of the layered shadows' scissor a settling frame draws them in exactly, at most
